@@ -1,0 +1,24 @@
+"""Open loop: a constant (or time-profiled) armature voltage (seed 000 Fig. 4, left column)."""
+from __future__ import annotations
+
+from .base import Controller
+
+
+class ConstantVoltage(Controller):
+    """V_a = ``voltage`` [V] (scalar or (nsim,) array); optional linear ramp over ``t_ramp`` s."""
+
+    def __init__(self, voltage, t_ramp=0.0):
+        self.voltage = voltage
+        self.t_ramp = t_ramp
+
+    def reset(self):
+        pass
+
+    def __call__(self, t, y):
+        if self.t_ramp > 0 and t < self.t_ramp:
+            return self.voltage * (t / self.t_ramp)
+        return self.voltage
+
+
+def from_params(params, drive=None, mechanism=None):
+    return ConstantVoltage(float(params["voltage"]), t_ramp=float(params.get("t_ramp", 0.0)))

@@ -1,0 +1,104 @@
+"""Speed PID on the motor shaft (seed 000, Eqs 14-16) with optional time-varying K_p·t.
+
+    V_a(t) = K_p(t)·(φ̇_ref − φ̇) + K_i·(φ_ref − φ − φ_w) + K_d·(φ̈_ref − φ̈)          (Eq 16)
+
+K_p(t) = K_p (Eq 14) or K_p·min(t, t_ramp_max) (Eq 15, ``kp_ramp=True``; ``t_ramp_max`` bounds
+the ramp — the unbounded Eq 15 gain eventually destabilises any fixed-step integrator).
+
+The integral term is written as the paper writes it: the integral of the speed error is the
+angle error φ_ref − φ, available exactly from the measurement, so the PID has no integrator
+state to discretise and behaves identically in both backends.  The derivative term uses the
+measured shaft acceleration ``y.omega_dot`` (the acceleration at the current state, see
+:class:`controllers.base.Measurement`), not a differenced signal.
+
+Output saturation and anti-windup: with ``v_limit`` set, the output is clipped to ±v_limit and
+the integral is *conditionally frozen* (clamping): during a control step in which the unclipped
+output exceeds the limit and the step's integral increment pushes it further out, that increment
+is moved into the windup offset φ_w instead of the integral.  Without saturation φ_w stays 0 and
+the law is exactly Eq 16.  ``v_limit=None`` disables both (the backend's drive limiter still
+applies).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .base import Controller
+from .reference import ConstantSpeed
+
+
+class PID(Controller):
+    def __init__(self, kp, ki, kd, reference=None, omega0=None, kp_ramp=False,
+                 t_ramp_max=math.inf, v_limit=None):
+        if reference is None:
+            if omega0 is None:
+                raise ValueError("PID needs a reference or omega0 (motor speed set-point, rad/s)")
+            reference = ConstantSpeed(omega0)
+        self.kp, self.ki, self.kd = kp, ki, kd
+        self.kp_ramp = bool(kp_ramp)
+        self.t_ramp_max = t_ramp_max
+        self.v_limit = v_limit
+        self.reference = reference
+        self.reset()
+
+    def reset(self):
+        self._offset = 0.0
+        self._epos_prev = None
+        if hasattr(self.reference, "reset"):
+            self.reference.reset()
+
+    def gain_p(self, t):
+        """Proportional gain at time t [V·s/rad]."""
+        if self.kp_ramp:
+            return self.kp * (t if t < self.t_ramp_max else self.t_ramp_max)
+        return self.kp
+
+    def __call__(self, t, y):
+        phi_r, omega_r, acc_r = self.reference(t, y)
+        e = omega_r - y.omega
+        epos = phi_r - y.phi
+        if self._epos_prev is None:
+            self._epos_prev = epos
+        u = (self.gain_p(t) * e + self.ki * (epos - self._offset)
+             + self.kd * (acc_r - y.omega_dot))
+        vl = self.v_limit
+        if vl is not None:
+            d = epos - self._epos_prev
+            if isinstance(u, float):
+                if (u > vl and d > 0) or (u < -vl and d < 0):
+                    self._offset += d
+                    u -= self.ki * d
+                u = vl if u > vl else (-vl if u < -vl else u)
+            else:
+                frozen = ((u > vl) & (d > 0)) | ((u < -vl) & (d < 0))
+                self._offset = self._offset + np.where(frozen, d, 0.0)
+                u = np.clip(u - np.where(frozen, self.ki * d, 0.0), -vl, vl)
+        self._epos_prev = epos
+        return u
+
+
+def from_params(params, drive=None, mechanism=None):
+    """Scenario table → PID.  Keys: kp, ki, kd, omega0 (motor side, rad/s), kp_ramp,
+    t_ramp_max, v_limit; or a ``reference`` sub-table {type = "<module in controllers.references>"}."""
+    p = dict(params)
+    ref = p.pop("reference", None)
+    reference = None
+    if isinstance(ref, dict):
+        import importlib
+        r = dict(ref)
+        typ = r.pop("type")
+        reference = importlib.import_module(f"controllers.references.{typ}").from_params(
+            r, drive=drive, mechanism=mechanism)
+    v_limit = p.pop("v_limit", None)
+    return PID(float(p.pop("kp")), float(p.pop("ki")), float(p.pop("kd")), reference=reference,
+               omega0=p.pop("omega0", None), kp_ramp=bool(p.pop("kp_ramp", False)),
+               t_ramp_max=float(p.pop("t_ramp_max", math.inf)),
+               v_limit=None if v_limit in (None, 0, "none") else float(v_limit),
+               **_no_extra(p))
+
+
+def _no_extra(p):
+    if p:
+        raise ValueError(f"unknown PID parameters: {sorted(p)}")
+    return {}

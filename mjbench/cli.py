@@ -1,0 +1,39 @@
+"""``mjbench`` command line: one entry point, subcommands discovered in ``mjbench.commands``."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from .errors import MjbenchError
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="mjbench", description=(
+        "MuJoCo testbed for motor-driven mechanisms under feedback control. "
+        "Scenarios are built-in names (see `mjbench list`) or TOML files."))
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    from . import commands
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        mod = importlib.import_module(f"mjbench.commands.{info.name}")
+        if hasattr(mod, "register"):
+            mod.register(sub)
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except MjbenchError as e:
+        print(f"mjbench: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("mjbench: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

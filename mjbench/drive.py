@@ -1,0 +1,171 @@
+"""DC motor + gearbox (seed 000, Eqs 6-9), shared by every backend.
+
+State: the armature current I [A].  Inputs: armature voltage V_a [V] and motor speed φ̇ [rad/s].
+Output: the torque the drive applies to the mechanism's input coordinate (crank) [N·m]:
+
+    T_c + J_eq·α̈ = z·(k_m·I − T_0·sgn φ̇ − λ·φ̇),   φ̇ = z·α̇          (Eq 9, T_r of Eq 6)
+
+The reflected inertia J_eq = J_b + (J_m + J_a)·z² is *not* part of ``crank_torque``: each backend
+adds it to the mechanism's inertia (MuJoCo joint ``armature``; J_eq + J(α) in Eq 11).
+
+Electrical equation (Eq 7):  L·dI/dt = V_a − R·I − k_m·φ̇.
+
+Integration scheme (``current_step``): over one co-simulation step h the voltage is held (ZOH, it
+comes from a sampled controller) and φ̇ is taken as the mean of its values at both ends of the
+step; the linear ODE is then solved exactly, I₊ = I_ss + (I − I_ss)·exp(−h·R/L), with
+I_ss = (V − k_m·φ̇)/R.  The only approximation is the speed's variation within the step, a local
+error O(h²·k_m·|φ̈|/L) — second order because the mean speed is used — so the scheme is
+unconditionally stable for any h (no stiffness limit from L/R) and accurate to ≈1e-7 A per
+0.1 ms step for the seed-000 motor.  L = 0 gives the algebraic current I = I_ss.
+
+Every method accepts scalars or NumPy arrays of shape (nsim,) alike (parameters too).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from .errors import ParameterError
+
+
+@dataclass
+class DCMotorDrive:
+    """Permanent-magnet DC motor with a gear reducer (seed 000 notation, SI units).
+
+    R [Ω], L [H], k_m [N·m/A = V·s/rad] (torque = back-EMF constant), J_m, J_a, J_b [kg·m²]
+    (motor, pinion on the motor shaft, gear on the crank shaft), z = φ̇/α̇ (gear ratio, motor
+    turns per crank turn), T_0 [N·m] constant and λ [N·m·s/rad] viscous friction on the motor
+    shaft (Eq 6), v_max [V] voltage limiter (symmetric, ``inf`` = none), i_max [A] optional
+    current limit of the amplifier (``inf`` = none; the current is clipped after each step).
+    """
+
+    R: float = 1.0
+    L: float = 9e-3
+    k_m: float = 0.48
+    J_m: float = 13e-4
+    J_a: float = 9.8e-5
+    J_b: float = 9.8e-5
+    z: float = 1.0
+    T_0: float = 0.0
+    lam: float = 0.08
+    v_max: float = math.inf
+    i_max: float = math.inf
+
+    def __post_init__(self):
+        self.validate()
+        self._h = None
+
+    # ---------------------------------------------------------------- parameters
+    def validate(self):
+        def bad(name, why):
+            raise ParameterError(f"drive.{name} = {getattr(self, name)!r}: {why}")
+
+        for f in fields(self):
+            v = np.asarray(getattr(self, f.name), dtype=float)
+            if not np.all(np.isfinite(v)) and f.name not in ("v_max", "i_max"):
+                bad(f.name, "must be finite")
+            if np.any(np.isnan(v)):
+                bad(f.name, "must not be NaN")
+        for name in ("R", "k_m", "z", "v_max", "i_max"):
+            if np.any(np.asarray(getattr(self, name)) <= 0):
+                bad(name, "must be > 0")
+        for name in ("L", "J_m", "J_a", "J_b", "T_0", "lam"):
+            if np.any(np.asarray(getattr(self, name)) < 0):
+                bad(name, "must be >= 0")
+
+    @property
+    def J_eq(self):
+        """Drive inertia reflected on the crank, J_eq = J_b + (J_m + J_a)·z² [kg·m²] (Eq 9)."""
+        return self.J_b + (self.J_m + self.J_a) * self.z ** 2
+
+    @property
+    def tau_e(self):
+        """Electrical time constant L/R [s]."""
+        return self.L / self.R
+
+    # ---------------------------------------------------------------- equations
+    def limit(self, V):
+        """Voltage limiter of Fig. 3: clip to ±v_max."""
+        if self.v_max == math.inf:
+            return V
+        if isinstance(V, float):
+            return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
+        return np.clip(V, -self.v_max, self.v_max)
+
+    def di_dt(self, I, V, omega_m):
+        """dI/dt of Eq 7 [A/s] for motor speed ``omega_m`` = φ̇ [rad/s]."""
+        return (V - self.R * I - self.k_m * omega_m) / self.L
+
+    def prepare(self, h: float):
+        """Cache the step-dependent constants for a fixed step h [s] (decay and mean weights)."""
+        self._h = h
+        L, R = np.asarray(self.L, dtype=float), np.asarray(self.R, dtype=float)
+        if np.all(L > 0):
+            x = h * R / L
+            decay = np.exp(-x)
+            w = (1.0 - decay) / x  # mean of exp(-s/tau) over [0, h]
+        else:
+            decay, w = np.zeros_like(R), np.zeros_like(R)
+        self._decay = float(decay) if decay.ndim == 0 else decay
+        self._w = float(w) if w.ndim == 0 else w
+        return self
+
+    def current_mean(self, I, V, omega_m, h: float):
+        """Time average of the exact current over a step h (V and φ̇ held) [A]: the constant
+        current whose torque impulse over the step equals the true one."""
+        if h != self._h:
+            self.prepare(h)
+        i_ss = (V - self.k_m * omega_m) / self.R
+        return i_ss + (I - i_ss) * self._w
+
+    def current_step(self, I, V, omega_m_mean, h: float):
+        """Exact current update over a step h with V held and φ̇ = ``omega_m_mean`` (see module doc)."""
+        if h != self._h:
+            self.prepare(h)
+        i_ss = (V - self.k_m * omega_m_mean) / self.R
+        I_new = i_ss + (I - i_ss) * self._decay
+        if self.i_max != math.inf:
+            I_new = np.clip(I_new, -self.i_max, self.i_max)
+            if I_new.ndim == 0:
+                I_new = float(I_new)
+        return I_new
+
+    def friction_torque_motor(self, omega_m):
+        """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""
+        if isinstance(omega_m, float):
+            sgn = (omega_m > 0) - (omega_m < 0)
+        else:
+            sgn = np.sign(omega_m)
+        return self.T_0 * sgn + self.lam * omega_m
+
+    def crank_torque(self, I, crank_speed, viscous=True):
+        """Drive torque on the crank, z·(k_m·I − T_r(z·α̇)) [N·m] (Eq 9 without the J_eq·α̈ term).
+
+        ``viscous=False`` leaves out the viscous part −z²·λ·α̇, for a backend that models it as
+        joint damping (``crank_damping``; MuJoCo then integrates it within every step)."""
+        if viscous:
+            return self.z * (self.k_m * I - self.friction_torque_motor(self.z * crank_speed))
+        omega_m = self.z * crank_speed
+        if isinstance(omega_m, float):
+            sgn = (omega_m > 0) - (omega_m < 0)
+        else:
+            sgn = np.sign(omega_m)
+        return self.z * (self.k_m * I - self.T_0 * sgn)
+
+    @property
+    def crank_damping(self):
+        """Viscous friction reflected on the crank, z²·λ [N·m·s/rad]."""
+        return self.z ** 2 * self.lam
+
+    def power_elec(self, V, I):
+        """Electrical power at the armature terminals, V_a·I [W] (Fig. 4h)."""
+        return V * I
+
+    def power_mech(self, I, omega_m):
+        """Mechanical power converted by the motor, T_m·φ̇ = k_m·I·φ̇ [W] (Fig. 4g)."""
+        return self.k_m * I * omega_m
+
+    def as_dict(self):
+        return {f.name: getattr(self, f.name) for f in fields(self)}

@@ -1,0 +1,26 @@
+"""Exceptions raised by mjbench.  Every message names the parameter, or the time and state."""
+
+
+class MjbenchError(Exception):
+    """Base class of every error mjbench raises on purpose."""
+
+
+class ParameterError(MjbenchError, ValueError):
+    """A parameter is missing, non-physical or of the wrong type (the message names it)."""
+
+
+class GeometryError(MjbenchError, ValueError):
+    """A mechanism cannot be assembled, or its input link cannot make the full turn."""
+
+
+class SimulationDiverged(MjbenchError, RuntimeError):
+    """A simulation produced a non-finite or runaway state (the message gives time and state)."""
+
+    def __init__(self, message, t=None, state=None):
+        super().__init__(message)
+        self.t = t
+        self.state = state
+
+
+class ScenarioError(MjbenchError, ValueError):
+    """A scenario file or a --set override is malformed or names an unknown key."""

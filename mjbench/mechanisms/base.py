@@ -1,0 +1,86 @@
+"""The small interface every mechanism offers (seed 000 notation generalised).
+
+A mechanism has one degree of freedom, the *input coordinate* ``q`` (the crank angle α of
+seed 000, the motor-side platform angle of seeds 001/003 ...), driven through the gearbox by the
+drive.  Everything a backend needs is here:
+
+* reduced (Eksergian) dynamics, seed 000 Eq 5:
+      ½ J'(q) q̇² + J(q) q̈ + E_p'(q) = T_c + Q_ext(q, q̇, t)
+  ``reduced(q)`` returns (J, dJ/dq, dE_p/dq) and ``external_torque`` the extra generalised force;
+* kinematics for plots / video (``points``) and the constraint residual (``closure_error``);
+* an MJCF builder (``build_spec``) whose input joint is named ``INPUT_JOINT`` and carries the
+  reflected drive inertia as ``armature``; ``initial_qpos`` assembles the model at q0;
+* ``multibody_load(model, data, t)`` writes any external load into ``data.qfrc_applied``.
+
+Subclasses implement the abstract methods.  All kinematic functions accept scalars or NumPy arrays.
+"""
+from __future__ import annotations
+
+import abc
+
+import numpy as np
+
+INPUT_JOINT = "crank"  #: name of the driven joint in every generated MJCF model
+
+
+class Mechanism(abc.ABC):
+    """Abstract single-DOF mechanism driven at its input coordinate q (rad)."""
+
+    name: str = "mechanism"
+
+    # --- reduced dynamics --------------------------------------------------------------------
+    @abc.abstractmethod
+    def reduced(self, q):
+        """Return ``(J, dJ_dq, dEp_dq)``: equivalent inertia about q [kg·m²], its derivative
+        [kg·m²/rad] and the derivative of the potential energy [N·m] (seed 000 Eqs 2-5)."""
+
+    @abc.abstractmethod
+    def potential_energy(self, q):
+        """Gravitational (and elastic) potential energy E_p(q) [J]."""
+
+    def kinetic_energy(self, q, qd):
+        """E_k = ½ J(q) q̇² [J] (seed 000 Eq 2), mechanism only (no drive inertia)."""
+        J, _, _ = self.reduced(q)
+        return 0.5 * J * qd * qd
+
+    def external_torque(self, q, qd, t):
+        """Generalised external force on q [N·m] besides gravity and the drive (default 0)."""
+        return 0.0 * q
+
+    # --- multibody ---------------------------------------------------------------------------
+    @abc.abstractmethod
+    def build_spec(self, armature: float = 0.0, options=None):
+        """Return a ``mujoco.MjSpec`` of the mechanism.  The driven joint is named
+        ``INPUT_JOINT``; ``armature`` [kg·m²] is added to it (reflected drive inertia J_eq)."""
+
+    @abc.abstractmethod
+    def initial_qpos(self, model, q0: float) -> np.ndarray:
+        """Full ``qpos`` vector of ``model`` with the loop assembled at input angle q0."""
+
+    def input_from_qpos(self, model, qpos) -> float:
+        """Input coordinate q from a multibody configuration (default: the input joint)."""
+        return float(qpos[model.joint(INPUT_JOINT).qposadr[0]])
+
+    def closure_error(self, model, data) -> float:
+        """Largest loop-closure violation [m] in the multibody state (default: equality residuals)."""
+        if data.nefc == 0:
+            return 0.0
+        import mujoco  # local: keep the kinematics importable without MuJoCo
+        eq_rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+        return float(np.max(np.abs(data.efc_pos[eq_rows]))) if eq_rows.any() else 0.0
+
+    def multibody_load(self, model, data, t: float) -> None:
+        """Write external loads of the mechanism into ``data.qfrc_applied`` (default none)."""
+
+    # --- kinematics for plots / video ----------------------------------------------------------
+    @abc.abstractmethod
+    def points(self, q) -> dict:
+        """Named points of the mechanism in its plane, ``{name: (x, y)}`` [m], for drawings."""
+
+    def trace_point(self, q):
+        """(x, y) [m] of the point whose path a video traces (coupler point, slider ...)."""
+        return None
+
+    def describe(self) -> dict:
+        """Parameters as a plain dict (for manifests)."""
+        return {k: v for k, v in vars(self).items() if not k.startswith("_")}

@@ -1,0 +1,90 @@
+"""Simulation results: preallocated columns, SI units in the names, written atomically."""
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+
+#: columns every backend records, in CSV order (name, meaning)
+COLUMNS = (
+    ("t_s", "time"),
+    ("crank_angle_rad", "input (crank) angle α, unwrapped"),
+    ("crank_speed_rad_s", "crank speed α̇"),
+    ("crank_accel_rad_s2", "crank acceleration α̈ at the sample's state"),
+    ("motor_speed_rad_s", "motor speed φ̇ = z·α̇"),
+    ("current_A", "armature current I"),
+    ("voltage_V", "armature voltage V_a after the limiter"),
+    ("torque_crank_Nm", "drive torque on the crank (Eq 9 without J_eq·α̈)"),
+    ("power_mech_W", "mechanical power converted by the motor k_m·I·φ̇"),
+    ("power_elec_W", "electrical power V_a·I"),
+    ("closure_error_m", "largest loop-closure violation (multibody; 0 for the reduced model)"),
+)
+NAMES = tuple(c[0] for c in COLUMNS)
+INDEX = {n: i for i, n in enumerate(NAMES)}
+
+
+class Trajectory:
+    """Decimated samples of one simulation: ``data`` is (n, ncol); columns by name or attribute."""
+
+    def __init__(self, n: int, backend: str, meta: dict | None = None):
+        self.data = np.full((n, len(NAMES)), np.nan)
+        self.n = 0
+        self.backend = backend
+        self.meta = dict(meta or {})
+
+    # buffer access used by the backends' loops
+    def row(self):
+        r = self.data[self.n]
+        self.n += 1
+        return r
+
+    def trim(self):
+        self.data = self.data[: self.n]
+        return self
+
+    def __getitem__(self, name):
+        return self.data[: self.n, INDEX[name]]
+
+    t = property(lambda s: s["t_s"])
+    q = property(lambda s: s["crank_angle_rad"])
+    qd = property(lambda s: s["crank_speed_rad_s"])
+    qdd = property(lambda s: s["crank_accel_rad_s2"])
+    omega = property(lambda s: s["motor_speed_rad_s"])
+    current = property(lambda s: s["current_A"])
+    voltage = property(lambda s: s["voltage_V"])
+    p_mech = property(lambda s: s["power_mech_W"])
+    p_elec = property(lambda s: s["power_elec_W"])
+    closure = property(lambda s: s["closure_error_m"])
+
+    def write_csv(self, path):
+        """Write the CSV completely or not at all (temp file + atomic rename)."""
+        header = ",".join(NAMES)
+        atomic_write(path, lambda f: np.savetxt(f, self.data[: self.n], delimiter=",", header=header,
+                                                comments="", fmt="%.10g"))
+
+    @classmethod
+    def read_csv(cls, path, backend="csv"):
+        arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        tr = cls(len(arr), backend)
+        tr.data[:] = arr
+        tr.n = len(arr)
+        return tr
+
+
+def atomic_write(path, writer, mode="w"):
+    """Call writer(file) on a temporary file in the target folder, then rename it into place."""
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))
+    try:
+        with os.fdopen(fd, mode) as f:
+            writer(f)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
