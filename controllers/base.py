@@ -14,8 +14,9 @@ class Measurement:
 
     t [s]; q, qd, qdd: input (crank) angle [rad], speed [rad/s], acceleration [rad/s²];
     phi, omega, omega_dot: the same on the motor shaft (× gear ratio z); current [A].
-    ``qdd`` is the acceleration *at the current state* (MuJoCo: ``qacc`` of the step just
-    computed; reduced model: F(α, α̇, I) of Eq 10), so a derivative term needs no differencing.
+    ``qdd`` is the backward difference (α̇_n − α̇_{n−1})/h over the last control period, as a
+    digital controller differencing its speed signal sees it; both backends define it the same
+    way (0 at the first sample).
     """
 
     __slots__ = ("t", "q", "qd", "qdd", "phi", "omega", "omega_dot", "current", "z")

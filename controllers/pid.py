@@ -7,9 +7,10 @@ the ramp — the unbounded Eq 15 gain eventually destabilises any fixed-step int
 
 The integral term is written as the paper writes it: the integral of the speed error is the
 angle error φ_ref − φ, available exactly from the measurement, so the PID has no integrator
-state to discretise and behaves identically in both backends.  The derivative term uses the
-measured shaft acceleration ``y.omega_dot`` (the acceleration at the current state, see
-:class:`controllers.base.Measurement`), not a differenced signal.
+state to discretise and behaves identically in both backends.  The derivative term uses
+``y.omega_dot``, the backward difference of the shaft speed over one control period (see
+:class:`controllers.base.Measurement`): the seed needs φ̈ (Eqs 16-19) without saying how it is
+measured; a digital drive differences its speed signal.
 
 Output saturation and anti-windup: with ``v_limit`` set, the output is clipped to ±v_limit and
 the integral is *conditionally frozen* (clamping): during a control step in which the unclipped

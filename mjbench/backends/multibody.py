@@ -2,14 +2,14 @@
 
 One co-simulation step of length h (default 0.1 ms), state (q, v) in MuJoCo and I in Python:
 
-1. ``qfrc_applied[crank] = z·(k_m·I_n − T_0·sgn φ̇)``; viscous friction z²λ is the crank joint's
-   ``damping`` and J_eq its ``armature`` (so MuJoCo integrates both exactly inside the step);
-2. ``mj_forward`` → measurement (t_n, α_n, α̇_n, α̈_n), α̈_n = ``qacc`` at the current state;
-3. controller → V_n, limiter;
-4. the torque for the rest of the step uses the step-mean current Ī (exact for V_n held and φ̇_n),
-   then the integrator runs (``mj_RungeKutta`` for RK4: its first stage is step 2's forward, so
-   the co-step costs no more MuJoCo work than a bare ``mj_step``; ``mj_Euler``/``mj_implicit``
-   otherwise);
+1. measurement (t_n, α_n, α̇_n, α̈_n) with α̈_n = (α̇_n − α̇_{n−1})/h, the backward difference a
+   digital controller sees (the reduced backend uses the same definition);
+2. controller → V_n, limiter;
+3. ``qfrc_applied[crank] = z·(k_m·Ī − T_0·sgn φ̇)`` with Ī the exact mean current over the step
+   (V_n held, φ̇_n); viscous friction z²λ is the crank joint's ``damping`` and J_eq its
+   ``armature``, so MuJoCo integrates both inside the step;
+4. one plain ``mj_step`` (the same call ``mujoco.batch`` makes, so batched runs are identical,
+   and the co-step costs no more MuJoCo work than a bare step loop);
 5. I_{n+1} by the exact exponential update with the mean of φ̇_n and φ̇_{n+1} (see drive.py).
 
 Integrator choice (``options["integrator"]``): RK4 (default) keeps the loop-closure residual
@@ -82,16 +82,9 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
     drive.prepare(h)
 
     integ = m.opt.integrator
-    if integ == mujoco.mjtIntegrator.mjINT_RK4:
-        advance = lambda: mujoco.mj_RungeKutta(m, d, 4)  # noqa: E731
-    elif integ == mujoco.mjtIntegrator.mjINT_EULER:
-        advance = lambda: mujoco.mj_Euler(m, d)  # noqa: E731
-    else:
-        advance = lambda: mujoco.mj_implicit(m, d)  # noqa: E731
-
     jnt = m.joint(INPUT_JOINT)
     qa, va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
-    qpos, qvel, qacc, qfrc = d.qpos, d.qvel, d.qacc, d.qfrc_applied
+    qpos, qvel, qfrc = d.qpos, d.qvel, d.qfrc_applied
     z = float(drive.z) if np.ndim(drive.z) == 0 else drive.z
     y = Measurement(z=z)
     nsteps = int(round(t_end / h))
@@ -107,16 +100,15 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
     I = float(machine.I0)
     bad_qacc = int(mujoco.mjtWarning.mjWARN_BADQACC)
     tick = progress.update if progress is not None else None
+    step = mujoco.mj_step
+    inv_h = 1.0 / h
+    mujoco.mj_forward(m, d)
+    qd_prev = float(qvel[va])
 
     for n in range(nsteps + 1):
         t = n * h
-        d.time = t
         q, qd = float(qpos[qa]), float(qvel[va])
-        qfrc[va] = torque(I, qd, False)
-        if has_load:
-            load(m, d, t)
-        mujoco.mj_forward(m, d)
-        qdd = float(qacc[va])
+        qdd = (qd - qd_prev) * inv_h  # backward difference, as a digital controller sees it
         V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
         if n % decim == 0:
             if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V)) \
@@ -130,9 +122,11 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
                 tick(decim)
         if n == nsteps:
             break
-        Ibar = cur_mean(I, V, z * qd, h)
-        qfrc[va] = torque(Ibar, qd, False)
-        advance()
+        qfrc[va] = torque(cur_mean(I, V, z * qd, h), qd, False)
+        if has_load:
+            load(m, d, t)
+        step(m, d)
+        qd_prev = qd
         I = cur_step(I, V, 0.5 * z * (qd + float(qvel[va])), h)
     return traj.trim()
 

@@ -68,14 +68,15 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
     q, qd, I = float(machine.q0), float(machine.qd0), float(machine.I0)
     tick = progress.update if progress is not None else None
     h2, h6 = 0.5 * h, h / 6.0
+    inv_h = 1.0 / h
+    qd_prev = qd
 
     for n in range(nsteps + 1):
         t = n * h
-        k1q, k1v, k1i = rhs(t, q, qd, I, 0.0)  # dI/dt needs V: recomputed below
-        qdd = k1v
+        qdd = (qd - qd_prev) * inv_h  # backward difference, as in the multibody backend
         V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
         if n % decim == 0:
-            if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V) and math.isfinite(qdd)):
+            if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V) and math.isfinite(q)):
                 _diverged(t, q, qd, I, V)
             r = traj.row()
             om = z * qd
@@ -85,8 +86,9 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
                 tick(decim)
         if n == nsteps:
             break
+        qd_prev = qd
         if method == "rk4":
-            k1i = drive.di_dt(I, V, z * qd)
+            k1q, k1v, k1i = rhs(t, q, qd, I, V)
             k2q, k2v, k2i = rhs(t + h2, q + h2 * k1q, qd + h2 * k1v, I + h2 * k1i, V)
             k3q, k3v, k3i = rhs(t + h2, q + h2 * k2q, qd + h2 * k2v, I + h2 * k2i, V)
             k4q, k4v, k4i = rhs(t + h, q + h * k3q, qd + h * k3v, I + h * k3i, V)
