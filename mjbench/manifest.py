@@ -1,0 +1,54 @@
+"""Run manifests and JSON output (all parameters, versions, command), written atomically."""
+from __future__ import annotations
+
+import datetime
+import json
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .trajectory import atomic_write
+
+
+def versions() -> dict:
+    import matplotlib
+    import mujoco
+    import scipy
+
+    from . import __version__
+
+    return {"mjbench": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
+            "scipy": scipy.__version__, "matplotlib": matplotlib.__version__,
+            "python": sys.version.split()[0], "platform": platform.platform()}
+
+
+def git_commit() -> str | None:
+    try:
+        here = Path(__file__).resolve().parent
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True, text=True, timeout=5)
+        return out.stdout.strip() or None
+    except Exception:  # noqa: BLE001 - informative only
+        return None
+
+
+def manifest(scn: dict, argv=None, extra=None) -> dict:
+    return {"created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "command": list(sys.argv if argv is None else argv), "versions": versions(),
+            "git_commit": git_commit(), "scenario": scn, **(extra or {})}
+
+
+def _default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
+
+
+def write_json(path, obj):
+    atomic_write(path, lambda f: json.dump(obj, f, indent=2, default=_default, allow_nan=True))

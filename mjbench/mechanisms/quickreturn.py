@@ -1,0 +1,500 @@
+"""Crank-shaper quick-return mechanism of seed 004 (Yiğit & Şen 2023), geometry reconstructed.
+
+The kinematic figure (Fig. 4) is missing from the seed; the geometry below is read from the vector
+loops Eqs 3-6 (see docs/quickreturn.md and docs/quickreturn_geometry.png):
+
+* frame: origin at the lever pivot B₀, x horizontal, y vertical (up); gravity −y;
+* crank (link 2, length r₂, angle q = θ₂) pivots at A₀ = (0, a), a distance ``a`` above B₀;
+* a block rides on the crank pin A and slides in the slot of the lever (link 3, pivot B₀, angle
+  θ₃ = φ₁, length r₃); s₂₁ = |B₀A| (Eq 3, "s21");
+* a connecting rod (link 4, length r₄, angle θ₄ = φ₂) joins the lever tip B to the output slider
+  C (link 5) moving on the horizontal line y = a + b; Eq 4: r₃e^{iθ₃} + r₄e^{iθ₄} = i(a+b) − s₅₁,
+  so x_C = −s₅₁ (φ₃ = s₅₁).
+
+a > r₂ makes the lever oscillate (crank-shaper, not Whitworth).  The lever extremes are where
+the crank is normal to the lever (sin q = −r₂/a), so the time ratio is
+TR = (π + 2δ)/(π − 2δ), δ = asin(r₂/a), and the slider stroke is ≈ 2·r₃·r₂/a (constraint c3).
+Assembly mode k = ±1 picks cos θ₄ = k·√(1 − sin²θ₄) (k = +1: slider to the right of the lever tip).
+
+Influence coefficients (own derivation; Eqs 13 and 18 agree with it, Eqs 19-20 are misprinted,
+see SEED-ERRATA 004):  with s² = r₂² + a² + 2ar₂ sin q,
+    g₁ = dθ₃/dq = (r₂² + a r₂ sin q)/s²,              g₁' = a r₂ (a² − r₂²) cos q / s⁴
+    g₂ = dθ₄/dq = −r₃ cos θ₃ g₁ /(r₄ cos θ₄)
+    g₂' = (r₃ sin θ₃ g₁² + r₄ sin θ₄ g₂² − r₃ cos θ₃ g₁')/(r₄ cos θ₄)
+    x_C' = −r₃ sin θ₃ g₁ − r₄ sin θ₄ g₂  ( = −g₃ of Eq 13 )
+    x_C'' = −r₃ cos θ₃ g₁² − r₃ sin θ₃ g₁' − r₄ cos θ₄ g₂² − r₄ sin θ₄ g₂'
+Reduced (Eksergian) model, Eqs 24-28 with Eq 26 read as Q = Σ F·g + T·g_θ:
+    J(q) = J_A₀ + (J_B₀ + I_blk) g₁² + m₄|v_G4|² + I_G4 g₂² + m₅ x_C'²,
+    J_A₀ = I_G2 + m₂c₂² + m_blk r₂²,  J_B₀ = I_G3 + m₃c₃²   (I_Gi about the mass centres, Eq 25)
+The cutting force acts on the slider against its motion during the slow (working) stroke.
+
+In MuJoCo the plane (x, y) maps to (x, z) and hinges turn about −y (as fourbar.py), so every
+hinge angle is the paper's counter-clockwise angle and MuJoCo's default gravity is −y.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import GeometryError, ParameterError
+from .base import INPUT_JOINT, Mechanism
+
+G = 9.81  #: gravitational acceleration [m/s²]
+AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo (paper angles counter-clockwise in (x, z))
+
+# Loop closures (two site ``connect`` equalities), as in fourbar.py: timeconst = 2·h, impedance
+# 0.9999 → nearly hard; closure residual measured in tests/test_quickreturn.py.
+DEFAULT_SOLREF = (-1.0, 0.0)  # < 0: replaced by (2·timestep, 1) when the model is built
+DEFAULT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+CUT_PROFILES = ("stroke", "window", "sine", "none")
+
+
+def _xp(x):
+    return math if isinstance(x, float) else np
+
+
+@dataclass
+class QuickReturn(Mechanism):
+    """Seed-004 quick-return mechanism.  Lengths [m], masses [kg], inertias about the mass
+    centres [kg·m²], forces [N].  Defaults: Table I (mm → m, I × 1e-4)."""
+
+    r2: float = 0.054      # crank
+    r3: float = 0.324      # lever (slotted)
+    r4: float = 0.078      # connecting rod
+    a: float = 0.140       # |A₀B₀|: crank pivot above lever pivot
+    b: float = 0.207       # slider line at y = a + b
+    m2: float = 0.35
+    m3: float = 0.32
+    m4: float = 0.36
+    m5: float = 1.0        # output slider ("s_s1" row of Table I)
+    I_G2: float = 8.95e-4
+    I_G3: float = 53e-4
+    I_G4: float = 8.5e-4
+    c2: float | None = None  # mass-centre distances from the proximal joint [m]; None = mid-length
+    c3: float | None = None
+    c4: float | None = None
+    m_block: float = 0.01    # block on the crank pin sliding in the lever slot (not in Table I)
+    I_block: float = 1e-7
+    k: int = 1
+    g: float = G
+    cut_force: float = 50.0      # §4: cutting force [N]
+    cut_profile: str = "stroke"  # stroke | window | sine | none
+    cut_start: float = 0.0       # window: fraction of the working stroke where cutting starts
+    cut_end: float = 1.0         # ... and ends
+    name: str = "quickreturn"
+
+    def __post_init__(self):
+        for nm, L in (("c2", self.r2), ("c3", self.r3), ("c4", self.r4)):
+            if getattr(self, nm) is None:
+                setattr(self, nm, 0.5 * L)
+        self.check()
+        self._prepare()
+
+    # ================================================================ validation
+    def check(self, n: int = 3600):
+        """ParameterError for non-physical values, GeometryError if the linkage cannot be
+        assembled for every crank angle (message names the parameters)."""
+        for nm in ("r2", "r3", "r4", "a", "b"):
+            v = getattr(self, nm)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(f"quickreturn.{nm} = {v!r}: length must be a finite number > 0 [m]")
+        for nm in ("m2", "m3", "m4", "m5", "I_G2", "I_G3", "I_G4", "m_block", "I_block", "c2", "c3", "c4"):
+            v = getattr(self, nm)
+            if not (math.isfinite(v) and v >= 0):
+                raise ParameterError(f"quickreturn.{nm} = {v!r}: must be finite and >= 0")
+        for nm in ("g", "cut_force"):
+            if not math.isfinite(getattr(self, nm)):
+                raise ParameterError(f"quickreturn.{nm} = {getattr(self, nm)!r}: must be finite")
+        if self.k not in (1, -1):
+            raise ParameterError(f"quickreturn.k = {self.k!r}: assembly mode must be +1 or -1")
+        if self.cut_profile not in CUT_PROFILES:
+            raise ParameterError(f"quickreturn.cut_profile = {self.cut_profile!r}: choose one of {CUT_PROFILES}")
+        if not (0.0 <= self.cut_start < self.cut_end <= 1.0):
+            raise ParameterError(f"quickreturn.cut_start/cut_end = {self.cut_start!r}/{self.cut_end!r}: "
+                                 "need 0 <= cut_start < cut_end <= 1 (fractions of the working stroke)")
+        if not self.a > self.r2 * (1 + 1e-9):
+            raise GeometryError(
+                f"quick-return: crank r2 = {self.r2} m must be shorter than the pivot distance a = {self.a} m "
+                "(a <= r2: the lever would turn fully or the block would pass through the lever pivot B0)")
+        # rod reach: |a + b − r3 sin θ3| < r4 over the lever swing (θ3 ∈ [π/2 − δ, π/2 + δ])
+        H = self.a + self.b
+        lo, hi = self.r3 * math.sqrt(1 - (self.r2 / self.a) ** 2), self.r3  # range of r3 sin θ3
+        worst = max(abs(H - lo), abs(H - hi))
+        if worst >= self.r4 * (1 - 1e-6):
+            raise GeometryError(
+                f"quick-return: rod r4 = {self.r4} m cannot reach the slider line y = a + b = {H:.6g} m "
+                f"from the lever tip (r3 = {self.r3} m, r2 = {self.r2} m, a = {self.a} m, b = {self.b} m): "
+                f"needs r4 > max|a + b − r3·sin θ3| = {worst:.6g} m over the lever swing (else no assembly or "
+                "a toggle with the rod vertical)")
+
+    # ================================================================ position analysis (Eqs 3-8)
+    def _prepare(self):
+        """Crank angles of the slider extremes, working (slow) stroke and its direction."""
+        d = math.asin(self.r2 / self.a)
+        # lever extremes: crank normal to the lever, sin q = −r2/a  (g1 = 0)
+        q_a, q_b = -d, math.pi + d  # ccw from q_a to q_b passes q = π/2: the long (slow) arc
+        self.delta = d
+        arc_up = q_b - q_a
+        if arc_up >= math.pi:
+            self._work_q0, self._work_arc = q_a, arc_up
+        else:  # pragma: no cover - cannot happen with a > r2 > 0
+            self._work_q0, self._work_arc = q_b, 2 * math.pi - arc_up
+        qm = self._work_q0 + 0.5 * self._work_arc
+        self._work_sign = 1.0 if self.slider_x_derivs(qm)[1] > 0 else -1.0
+        self._x_start = float(self.slider_x_derivs(self._work_q0)[0])
+        self._x_end = float(self.slider_x_derivs(self._work_q0 + self._work_arc)[0])
+
+    def angles(self, q):
+        """(θ₃, θ₄, s₂₁): lever angle, rod angle [rad] and block distance from B₀ [m]."""
+        xp = _xp(q)
+        r2, a = self.r2, self.a
+        Ax, Ay = r2 * xp.cos(q), a + r2 * xp.sin(q)
+        th3 = xp.atan2(Ay, Ax) if xp is math else np.arctan2(Ay, Ax)
+        s21 = xp.sqrt(Ax * Ax + Ay * Ay)
+        s4 = (self.a + self.b - self.r3 * xp.sin(th3)) / self.r4
+        c4 = self.k * xp.sqrt(1.0 - s4 * s4)
+        th4 = xp.atan2(s4, c4) if xp is math else np.arctan2(s4, c4)
+        return th3, th4, s21
+
+    def kin(self, q):
+        """Everything up to second order: dict with th3, th4, s21, ds21, xC and the influence
+        coefficients g1, g2, dg1, dg2 (dθ/dq, d²θ/dq²), xd = dx_C/dq, xdd = d²x_C/dq²."""
+        xp = _xp(q)
+        r2, r3, r4, a = self.r2, self.r3, self.r4, self.a
+        sq, cq = xp.sin(q), xp.cos(q)
+        Ax, Ay = r2 * cq, a + r2 * sq
+        S2 = Ax * Ax + Ay * Ay
+        s21 = xp.sqrt(S2)
+        th3 = math.atan2(Ay, Ax) if xp is math else np.arctan2(Ay, Ax)
+        s3, c3 = Ay / s21, Ax / s21
+        sn4 = (a + self.b - r3 * s3) / r4
+        cs4 = self.k * xp.sqrt(1.0 - sn4 * sn4)
+        th4 = math.atan2(sn4, cs4) if xp is math else np.arctan2(sn4, cs4)
+        g1 = (r2 * r2 + a * r2 * sq) / S2
+        dg1 = a * r2 * (a * a - r2 * r2) * cq / (S2 * S2)
+        g2 = -r3 * c3 * g1 / (r4 * cs4)
+        dg2 = (r3 * s3 * g1 * g1 + r4 * sn4 * g2 * g2 - r3 * c3 * dg1) / (r4 * cs4)
+        xC = r3 * c3 + r4 * cs4
+        xd = -r3 * s3 * g1 - r4 * sn4 * g2
+        xdd = -r3 * c3 * g1 * g1 - r3 * s3 * dg1 - r4 * cs4 * g2 * g2 - r4 * sn4 * dg2
+        ds21 = a * r2 * cq / s21
+        return dict(th3=th3, th4=th4, s21=s21, ds21=ds21, s3=s3, c3=c3, s4=sn4, c4=cs4, xC=xC,
+                    g1=g1, g2=g2, dg1=dg1, dg2=dg2, xd=xd, xdd=xdd)
+
+    def influence(self, q):
+        """Paper notation: (g₁, g₂, g₃) and (g₁', g₂', g₃') with φ₃ = s₅₁ = −x_C (Eqs 13, 17)."""
+        k = self.kin(q)
+        return (k["g1"], k["g2"], -k["xd"]), (k["dg1"], k["dg2"], -k["xdd"])
+
+    def slider_x_derivs(self, q):
+        """(x_C, dx_C/dq, d²x_C/dq²) of the output slider [m, m/rad, m/rad²]."""
+        k = self.kin(q)
+        return k["xC"], k["xd"], k["xdd"]
+
+    def slider_position(self, q):
+        """Output slider position x_C = −s₅₁ [m]."""
+        return self.kin(q)["xC"]
+
+    # ================================================================ design figures
+    @property
+    def time_ratio(self):
+        """TR = working-stroke crank angle / return-stroke crank angle (constraint c6)."""
+        return self._work_arc / (2 * math.pi - self._work_arc)
+
+    @property
+    def stroke(self):
+        """Slider stroke |x_C(start) − x_C(end)| [m] (constraint c3; ≈ 2 r₃ r₂/a)."""
+        return abs(self._x_start - self._x_end)
+
+    @property
+    def working_direction(self):
+        """+1 / −1: direction (x) in which the slider moves on the working stroke for q̇ > 0."""
+        return self._work_sign
+
+    def transmission_angle(self, q):
+        """Transmission angle at the output slider, μ = 90° − |pressure angle| [rad]: the
+        pressure angle is the angle between the rod and the slider path (our reading of c5)."""
+        th4 = self.angles(q)[1]
+        press = np.abs(np.arcsin(np.sin(th4)))
+        return 0.5 * np.pi - press
+
+    def transmission_angle_lever(self, q):
+        """Angle between lever and rod folded to [0, π/2] [rad] (alternative reading of c5)."""
+        th3, th4, _ = self.angles(q)
+        mu = np.abs(np.mod(np.asarray(th4 - th3) + np.pi, 2 * np.pi) - np.pi)
+        return np.minimum(mu, np.pi - mu)
+
+    def min_transmission_angle(self, n: int = 3600, which: str = "slider"):
+        q = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+        f = self.transmission_angle if which == "slider" else self.transmission_angle_lever
+        return float(np.min(f(q)))
+
+    # ================================================================ points
+    def joints(self, q):
+        """A₀, A (crank pin / block), B₀, B (lever tip), C (slider) as (x, y) [m]."""
+        xp = _xp(q)
+        k = self.kin(q)
+        zero = 0.0 * q
+        H = self.a + self.b
+        return {"A0": (zero, zero + self.a), "A": (self.r2 * xp.cos(q), self.a + self.r2 * xp.sin(q)),
+                "B0": (zero, zero), "B": (self.r3 * k["c3"], self.r3 * k["s3"]),
+                "C": (k["xC"], zero + H)}
+
+    def points(self, q):
+        return self.joints(q)
+
+    def trace_point(self, q):
+        return self.kin(q)["xC"], 0.0 * q + self.a + self.b
+
+    # ================================================================ reduced dynamics (Eqs 24-28)
+    def _JA0(self):
+        return self.I_G2 + self.m2 * self.c2 ** 2 + self.m_block * self.r2 ** 2
+
+    def _JB0(self):
+        return self.I_G3 + self.m3 * self.c3 ** 2 + self.I_block
+
+    def reduced(self, q):
+        """J(q) [kg·m²], dJ/dq [kg·m²/rad], dE_p/dq [N·m] (Eqs 25, 28; analytic)."""
+        k = self.kin(q)
+        r3, c4 = self.r3, self.c4
+        g1, g2, dg1, dg2 = k["g1"], k["g2"], k["dg1"], k["dg2"]
+        s3, c3, s4, cs4 = k["s3"], k["c3"], k["s4"], k["c4"]
+        # rod mass centre G4 = B + c4·e^{iθ4}: velocity coefficients and their q-derivatives
+        vx = -r3 * s3 * g1 - c4 * s4 * g2
+        vy = r3 * c3 * g1 + c4 * cs4 * g2
+        ax = -r3 * c3 * g1 * g1 - r3 * s3 * dg1 - c4 * cs4 * g2 * g2 - c4 * s4 * dg2
+        ay = -r3 * s3 * g1 * g1 + r3 * c3 * dg1 - c4 * s4 * g2 * g2 + c4 * cs4 * dg2
+        JB0 = self._JB0()
+        xd, xdd = k["xd"], k["xdd"]
+        J = (self._JA0() + JB0 * g1 * g1 + self.m4 * (vx * vx + vy * vy) + self.I_G4 * g2 * g2
+             + self.m5 * xd * xd)
+        dJ = 2.0 * (JB0 * g1 * dg1 + self.m4 * (vx * ax + vy * ay) + self.I_G4 * g2 * dg2
+                    + self.m5 * xd * xdd)
+        xp = _xp(q)
+        cq = xp.cos(q)
+        dEp = self.g * ((self.m2 * self.c2 + self.m_block * self.r2) * cq
+                        + self.m3 * self.c3 * c3 * g1 + self.m4 * vy)
+        return J, dJ, dEp
+
+    def potential_energy(self, q):
+        """E_p = g Σ m_i y_Gi [J], zero level at B₀ (y = 0)."""
+        xp = _xp(q)
+        k = self.kin(q)
+        sq = xp.sin(q)
+        return self.g * (self.m2 * (self.a + self.c2 * sq) + self.m_block * (self.a + self.r2 * sq)
+                         + self.m3 * self.c3 * k["s3"] + self.m4 * (self.r3 * k["s3"] + self.c4 * k["s4"])
+                         + self.m5 * (self.a + self.b))
+
+    # ================================================================ cutting force
+    def cutting_force(self, q):
+        """Force on the output slider along x [N] at crank angle q (any sign of rotation):
+        −(working direction)·F·profile on the working (slow) stroke, 0 on the return stroke.
+        For q̇ > 0 it opposes the slider's motion, and its generalised force is
+        Q = F_x·dx_C/dq ≤ 0 (Eq 26 with Eq 31's Q_o)."""
+        F0 = self.cut_force
+        prof = self.cut_profile
+        if prof == "none" or F0 == 0.0:
+            return 0.0 * q
+        xp = _xp(q)
+        u = (q - self._work_q0) % (2 * math.pi) if xp is math else np.mod(q - self._work_q0, 2 * np.pi)
+        on = u < self._work_arc
+        if prof == "stroke":
+            frac = None
+            w = 1.0
+        else:
+            frac = (self._x_start - self.kin(q)["xC"]) / (self._x_start - self._x_end)
+            if prof == "window":
+                w = (frac >= self.cut_start) & (frac <= self.cut_end)
+            else:  # sine: F0·sin(π·fraction), smooth start and end
+                w = xp.sin(math.pi * frac) if xp is math else np.sin(np.pi * np.clip(frac, 0.0, 1.0))
+        if xp is math:
+            return -self._work_sign * F0 * float(w) if on else 0.0
+        return np.where(on, -self._work_sign * F0 * np.asarray(w, dtype=float), 0.0)
+
+    def external_torque(self, q, qd, t):
+        """Cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m] (Eq 26/31)."""
+        if self.cut_profile == "none" or self.cut_force == 0.0:
+            return 0.0 * q
+        F = self.cutting_force(q)
+        return F * self.kin(q)["xd"]
+
+    # ================================================================ MJCF builder
+    def build_spec(self, armature: float = 0.0, options=None):
+        """MjSpec: crank (hinge "crank" at A₀), lever (hinge at B₀) carrying the block (slide
+        along the lever) and the rod (hinge at the lever tip), slider (slide along x on y = a+b);
+        loops closed by two site ``connect`` equalities (block–crank pin, rod end–slider).
+
+        ``options``: timestep [s], integrator (Euler|RK4|implicit|implicitfast; default RK4),
+        solref (2), solimp (5), iterations, tolerance.  Dense Jacobian (MuJoCo 4.0.0 sparse
+        bug on closed chains, see pyproject.toml), contacts off, energy computed.
+        """
+        import mujoco
+
+        from .fourbar import _integrator
+
+        o = dict(options or {})
+        h = float(o.get("timestep", 1e-4))
+        spec = mujoco.MjSpec()
+        spec.modelname = self.name
+        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+        spec.compiler.autolimits = True
+        opt = spec.option
+        opt.timestep = h
+        opt.integrator = _integrator(o.get("integrator", "RK4"))
+        opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
+        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+        opt.iterations = int(o.get("iterations", 100))
+        opt.tolerance = float(o.get("tolerance", 1e-12))
+        opt.gravity = [0.0, 0.0, -self.g]
+        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+        opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+        spec.visual.global_.offwidth = 1920
+        spec.visual.global_.offheight = 1080
+
+        H = self.a + self.b
+        rad = 0.012 * max(self.r3, H)
+        col = {"ground": [0.45, 0.45, 0.5, 1], "crank": [0.85, 0.25, 0.2, 1], "lever": [0.2, 0.55, 0.85, 1],
+               "rod": [0.3, 0.7, 0.3, 1], "block": [0.95, 0.75, 0.1, 1], "slider": [0.6, 0.3, 0.7, 1]}
+        world = spec.worldbody
+        world.add_light(pos=[0, -3, 3], dir=[0, 1, -1], diffuse=[0.8, 0.8, 0.8])
+        for nm, z in (("A0", self.a), ("B0", 0.0)):
+            world.add_geom(name=f"pivot_{nm}", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                           size=[1.8 * rad, 1.5 * rad, 0], pos=[0.0, 0.0, z],
+                           quat=[0.7071068, 0.7071068, 0, 0], rgba=col["ground"], contype=0, conaffinity=0)
+        half = 0.6 * self.r3
+        world.add_geom(name="slider_guide", type=mujoco.mjtGeom.mjGEOM_BOX,
+                       size=[half, 0.5 * rad, 0.3 * rad], pos=[self._x_mid(), 2.5 * rad, H + 1.6 * rad],
+                       rgba=col["ground"], contype=0, conaffinity=0)
+
+        def inertial(body, mass, cx, I):
+            body.mass = max(mass, 1e-9)
+            body.ipos = [cx, 0.0, 0.0]
+            I = max(I, 1e-12)
+            body.inertia = [0.6 * I, I, 0.6 * I]  # only I_yy (hinge axis) matters
+            body.explicitinertial = True
+
+        def hinge(body, name):
+            return body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(AXIS))
+
+        crank = world.add_body(name="crank", pos=[0.0, 0.0, self.a])
+        hinge(crank, INPUT_JOINT).armature = float(armature)
+        inertial(crank, self.m2, self.c2, self.I_G2)
+        crank.add_geom(name="crank_geom", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, self.r2, 0, 0],
+                       size=[rad, 0, 0], rgba=col["crank"], contype=0, conaffinity=0, mass=0)
+        crank.add_site(name="crank_pin", pos=[self.r2, 0, 0], size=[1.2 * rad, 0, 0])
+
+        lever = world.add_body(name="lever", pos=[0.0, 0.0, 0.0])
+        hinge(lever, "lever_joint")
+        inertial(lever, self.m3, self.c3, self.I_G3)
+        lever.add_geom(name="lever_geom", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, self.r3, 0, 0],
+                       size=[0.8 * rad, 0, 0], rgba=col["lever"], contype=0, conaffinity=0, mass=0)
+
+        block = lever.add_body(name="block", pos=[0.0, 0.0, 0.0])
+        block.add_joint(name="block_slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+        inertial(block, self.m_block, 0.0, self.I_block)
+        block.add_geom(name="block_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[2.0 * rad, 1.2 * rad, 1.4 * rad],
+                       rgba=col["block"], contype=0, conaffinity=0, mass=0)
+        block.add_site(name="block_pin", pos=[0, 0, 0], size=[1.2 * rad, 0, 0])
+
+        rod = lever.add_body(name="rod", pos=[self.r3, 0.0, 0.0])
+        hinge(rod, "rod_joint")
+        inertial(rod, self.m4, self.c4, self.I_G4)
+        rod.add_geom(name="rod_geom", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, self.r4, 0, 0],
+                     size=[0.8 * rad, 0, 0], rgba=col["rod"], contype=0, conaffinity=0, mass=0)
+        rod.add_site(name="rod_end", pos=[self.r4, 0, 0], size=[1.2 * rad, 0, 0])
+
+        slider = world.add_body(name="slider", pos=[0.0, 0.0, H])
+        slider.add_joint(name="slider", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[1.0, 0.0, 0.0])
+        inertial(slider, self.m5, 0.0, 1e-6)
+        slider.add_geom(name="slider_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[3 * rad, 1.5 * rad, 1.5 * rad],
+                        rgba=col["slider"], contype=0, conaffinity=0, mass=0)
+        slider.add_site(name="slider_pin", pos=[0, 0, 0], size=[1.2 * rad, 0, 0])
+        slider.add_site(name="trace", pos=[0, 0, 0], size=[1.6 * rad, 0, 0], rgba=[1, 0.8, 0.1, 1])
+
+        solref = list(o.get("solref", DEFAULT_SOLREF))
+        if solref[0] < 0:
+            solref = [2.0 * h, 1.0]
+        solimp = list(o.get("solimp", DEFAULT_SOLIMP))
+        for nm, s1, s2 in (("slot_closure", "crank_pin", "block_pin"), ("slider_closure", "rod_end", "slider_pin")):
+            spec.add_equality(name=nm, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
+                              name1=s1, name2=s2, solref=solref, solimp=solimp)
+        return spec
+
+    def _x_mid(self):
+        return 0.5 * (self._x_start + self._x_end)
+
+    def initial_qpos(self, model, q0: float) -> np.ndarray:
+        k = self.kin(float(q0))
+        qpos = np.array(model.qpos0, dtype=float)
+        qpos[model.joint(INPUT_JOINT).qposadr[0]] = q0
+        qpos[model.joint("lever_joint").qposadr[0]] = k["th3"]
+        qpos[model.joint("block_slide").qposadr[0]] = k["s21"]
+        qpos[model.joint("rod_joint").qposadr[0]] = k["th4"] - k["th3"]
+        qpos[model.joint("slider").qposadr[0]] = k["xC"]
+        return qpos
+
+    def initial_qvel(self, model, q0: float, qd0: float) -> np.ndarray:
+        k = self.kin(float(q0))
+        qvel = np.zeros(model.nv)
+        qvel[model.joint(INPUT_JOINT).dofadr[0]] = qd0
+        qvel[model.joint("lever_joint").dofadr[0]] = k["g1"] * qd0
+        qvel[model.joint("block_slide").dofadr[0]] = k["ds21"] * qd0
+        qvel[model.joint("rod_joint").dofadr[0]] = (k["g2"] - k["g1"]) * qd0
+        qvel[model.joint("slider").dofadr[0]] = k["xd"] * qd0
+        return qvel
+
+    def multibody_load(self, model, data, t: float) -> None:
+        """Cutting force on the slider dof, F_x(q) with q the crank angle (same law as
+        ``external_torque``; held over the integrator step)."""
+        adr = self._adr.get(id(model)) if hasattr(self, "_adr") else None
+        if adr is None:
+            if not hasattr(self, "_adr"):
+                self._adr = {}
+            adr = (int(model.joint(INPUT_JOINT).qposadr[0]), int(model.joint("slider").dofadr[0]))
+            self._adr[id(model)] = adr
+        data.qfrc_applied[adr[1]] = self.cutting_force(float(data.qpos[adr[0]]))
+
+    def export_mjcf(self, path, armature: float = 0.0, options=None):
+        """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""
+        from ..trajectory import atomic_write
+
+        spec = self.build_spec(armature=armature, options=options)
+        spec.compile()
+        xml = spec.to_xml()
+        atomic_write(path, lambda f: f.write(xml))
+        return path
+
+    def describe(self) -> dict:
+        keys = ("r2", "r3", "r4", "a", "b", "m2", "m3", "m4", "m5", "I_G2", "I_G3", "I_G4", "c2", "c3", "c4",
+                "m_block", "I_block", "k", "g", "cut_force", "cut_profile", "cut_start", "cut_end")
+        return {"type": "quickreturn", **{k: getattr(self, k) for k in keys}}
+
+
+_KEYS = ("r2", "r3", "r4", "a", "b", "m2", "m3", "m4", "m5", "I_G2", "I_G3", "I_G4", "c2", "c3", "c4",
+         "m_block", "I_block", "k", "g", "cut_force", "cut_profile", "cut_start", "cut_end")
+
+
+def from_params(p: dict) -> QuickReturn:
+    """Scenario ``[mechanism]`` table → QuickReturn.  Keys (SI): r2, r3, r4, a, b [m]; m2..m5 [kg];
+    I_G2..I_G4 [kg·m²] about the mass centres; c2..c4 [m] mass-centre distances (default mid-length);
+    m_block [kg], I_block [kg·m²]; k (±1); g [m/s²]; cut_force [N]; cut_profile
+    (stroke|window|sine|none); cut_start, cut_end (fractions of the working stroke, window)."""
+    p = dict(p)
+    unknown = sorted(set(p) - set(_KEYS))
+    if unknown:
+        raise ParameterError(f"unknown quick-return parameters: {unknown} (known: {list(_KEYS)})")
+    kw = {}
+    for key, v in p.items():
+        if key == "cut_profile":
+            kw[key] = str(v)
+        elif key == "k":
+            kw[key] = int(v)
+        else:
+            try:
+                kw[key] = float(v)
+            except (TypeError, ValueError):
+                raise ParameterError(f"mechanism.{key} = {v!r}: must be a number") from None
+    return QuickReturn(**kw)

@@ -1,0 +1,119 @@
+"""Run a scenario end to end: machine(s) → backend(s) → trajectories, metrics, manifest, figure.
+
+This is what ``mjbench run`` calls; ``reproduce``, sweeps and tests use the same function.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import metrics as M
+from . import scenario as S
+from .backends import simulate
+from .manifest import manifest, write_json
+
+BACKENDS = ("multibody", "reduced")
+
+
+def backend_options(scn: dict, backend: str) -> dict:
+    o = dict(S._strip(scn.get(backend, {})))
+    dt = S.get(scn, "simulation.dt")
+    if dt is not None:
+        o.setdefault("timestep", float(dt))
+    return o
+
+
+def run_mode(scn: dict, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:
+    """Simulate one mode on the given backends: {backend: Trajectory}."""
+    t_end = float(t_end if t_end is not None else S.get(scn, "simulation.t_end", 2.0))
+    record_dt = float(S.get(scn, "simulation.record_dt", 1e-3))
+    out = {}
+    for b in backends:
+        machine = S.make_machine(scn, mode)
+        bar = None
+        if progress:
+            from tqdm import tqdm
+            dt = backend_options(scn, b).get("timestep", 1e-4)
+            bar = tqdm(total=int(round(t_end / dt)), desc=f"{mode}/{b}", unit="step", unit_scale=True,
+                       leave=False, mininterval=0.5)
+        try:
+            out[b] = simulate(machine, b, t_end, record_dt=record_dt, options=backend_options(scn, b),
+                              progress=bar)
+        finally:
+            if bar is not None:
+                bar.close()
+    return out
+
+
+def mode_metrics(scn: dict, mode: str, trajs: dict) -> dict:
+    """Metrics of every backend, their cross-comparison and the paper comparison rows."""
+    win = S.get(scn, "metrics.chi_window")
+    avg = S.get(scn, "metrics.chi_average", "mean")
+    res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=win, average=avg) for b, tr in trajs.items()}}
+    if "multibody" in trajs and "reduced" in trajs:
+        res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
+    res["paper"] = paper_rows(scn, mode, res["backends"])
+    return res
+
+
+def paper_rows(scn: dict, mode: str, backend_metrics: dict) -> list:
+    """Rows {name, paper, ours (per backend), difference, note} for the scenario's
+    ``[[paper.figures]]`` entries of this mode (each: name, mode, metric, value, note)."""
+    rows = []
+    for fig in S.get(scn, "paper.figures", []) or []:
+        if fig.get("mode") not in (None, mode):
+            continue
+        row = {"name": fig["name"], "metric": fig["metric"], "paper": fig["value"], "note": fig.get("note", "")}
+        for b, m in backend_metrics.items():
+            v = m.get(fig["metric"])
+            row[b] = v
+            if v is not None and fig["value"]:
+                row[f"{b}_rel_diff"] = (v - fig["value"]) / abs(fig["value"])
+        rows.append(row)
+    return rows
+
+
+def run(scn: dict, out_dir, mode=None, backend="both", t_end=None, progress=True, argv=None,
+        figure=True) -> dict:
+    """``mjbench run``: simulate, then write trajectory CSV(s), metrics.json, manifest.json and the
+    Fig.-4-style PNG into ``out_dir``.  Returns the metrics dict."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    mode = mode or S.get(scn, "simulation.mode")
+    backends = BACKENDS if backend == "both" else (backend,)
+    for b in backends:
+        if b not in BACKENDS:
+            from .errors import ParameterError
+            raise ParameterError(f"--backend {b!r}: choose multibody, reduced or both")
+    trajs = run_mode(scn, mode, backends, t_end, progress)
+    res = mode_metrics(scn, mode, trajs)
+    res["scenario"] = S.get(scn, "scenario.name")
+    for b, tr in trajs.items():
+        name = "trajectory.csv" if len(trajs) == 1 else f"trajectory_{b}.csv"
+        tr.write_csv(out / name)
+    write_json(out / "metrics.json", res)
+    write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backends": list(backends),
+                                                            "t_end_s": float(next(iter(trajs.values())).t[-1]),
+                                                            "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
+    if figure:
+        from .plots import fig4
+        chi_txt = _chi_text(res)
+        fig4({mode: trajs}, out / "fig4.png", setpoint=_setpoint(scn, mode),
+             title=f"{S.get(scn, 'scenario.title', S.get(scn, 'scenario.name'))} — {mode}",
+             chi={mode: chi_txt} if chi_txt else None)
+    return res
+
+
+def _setpoint(scn, mode):
+    v = S.get(scn, f"modes.{mode}.omega0")
+    return float(v) if v is not None else None
+
+
+def _chi_text(res):
+    parts = []
+    for b, m in res["backends"].items():
+        if "chi_window" in m:
+            t0, t1 = m["chi_window_s"]
+            parts.append(f"{b}: χ({t0:g}–{t1:g} s) = {100 * m['chi_window']:.2f} %")
+        if "chi_last_cycle" in m:
+            parts.append(f"{b}: χ(last cycle) = {100 * m['chi_last_cycle']:.2f} %")
+    return "\n".join(parts)
