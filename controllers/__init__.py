@@ -13,7 +13,8 @@ __all__ = ["Controller", "Measurement", "ConstantVoltage", "PID", "ConstantSpeed
 import importlib as _importlib
 
 #: controller type (scenario ``[modes.X] type``) → module providing ``from_params``
-TYPES = {"open": "controllers.openloop", "pid": "controllers.pid"}
+TYPES = {"open": "controllers.openloop", "pid": "controllers.pid",
+         "smc": "controllers.smc"}
 
 
 def make(params: dict, drive=None, mechanism=None):

@@ -1,6 +1,8 @@
 """Open loop: a constant (or time-profiled) armature voltage (seed 000 Fig. 4, left column)."""
 from __future__ import annotations
 
+import numpy as np
+
 from .base import Controller
 
 
@@ -15,8 +17,11 @@ class ConstantVoltage(Controller):
         pass
 
     def __call__(self, t, y):
-        if self.t_ramp > 0 and t < self.t_ramp:
-            return self.voltage * (t / self.t_ramp)
+        tr = self.t_ramp
+        if np.ndim(tr):  # (nsim,) ramp durations
+            return np.where(t < tr, self.voltage * (t / np.where(tr > 0, tr, 1.0)), self.voltage)
+        if tr > 0 and t < tr:
+            return self.voltage * (t / tr)
         return self.voltage
 
 

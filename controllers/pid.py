@@ -52,7 +52,10 @@ class PID(Controller):
     def gain_p(self, t):
         """Proportional gain at time t [V·s/rad]."""
         if self.kp_ramp:
-            return self.kp * (t if t < self.t_ramp_max else self.t_ramp_max)
+            tm = self.t_ramp_max
+            if np.ndim(tm):  # (nsim,) ramp limits
+                return self.kp * np.minimum(t, tm)
+            return self.kp * (t if t < tm else tm)
         return self.kp
 
     def __call__(self, t, y):

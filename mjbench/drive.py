@@ -88,7 +88,7 @@ class DCMotorDrive:
     # ---------------------------------------------------------------- equations
     def limit(self, V):
         """Voltage limiter of Fig. 3: clip to ±v_max."""
-        if self.v_max == math.inf:
+        if np.ndim(self.v_max) == 0 and self.v_max == math.inf:
             return V
         if isinstance(V, float):
             return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
@@ -106,6 +106,11 @@ class DCMotorDrive:
             x = h * R / L
             decay = np.exp(-x)
             w = (1.0 - decay) / x  # mean of exp(-s/tau) over [0, h]
+        elif np.any(L > 0):  # (nsim,) parameters, some with L = 0 (algebraic current)
+            L, R = np.broadcast_arrays(L, R)
+            x = h * R / np.where(L > 0, L, 1.0)
+            decay = np.where(L > 0, np.exp(-x), 0.0)
+            w = np.where(L > 0, (1.0 - decay) / x, 0.0)
         else:
             decay, w = np.zeros_like(R), np.zeros_like(R)
         self._decay = float(decay) if decay.ndim == 0 else decay
@@ -126,7 +131,7 @@ class DCMotorDrive:
             self.prepare(h)
         i_ss = (V - self.k_m * omega_m_mean) / self.R
         I_new = i_ss + (I - i_ss) * self._decay
-        if self.i_max != math.inf:
+        if np.ndim(self.i_max) != 0 or self.i_max != math.inf:
             I_new = np.clip(I_new, -self.i_max, self.i_max)
             if I_new.ndim == 0:
                 I_new = float(I_new)

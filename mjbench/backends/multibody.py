@@ -41,7 +41,7 @@ def build_model(machine, options=None, native_dcmotor=False):
     mech, drive = machine.mechanism, machine.drive
     if native_dcmotor:
         spec = mech.build_spec(armature=float(drive.J_b), options=o)
-        spec.add_actuator(name="dcmotor", **_dcmotor_kwargs(drive))
+        _add_dcmotor(spec, drive)
     else:
         spec = mech.build_spec(armature=float(drive.J_eq), options=o)
         j = spec.joint(INPUT_JOINT)
@@ -49,16 +49,19 @@ def build_model(machine, options=None, native_dcmotor=False):
     return spec, spec.compile()
 
 
-def _dcmotor_kwargs(drive):
+def _add_dcmotor(spec, drive):
     """MuJoCo ``<dcmotor>`` equivalent of the drive: voltage input, R, K, L, gear z, rotor
-    inertia J_m + J_a and viscous friction λ on the motor side (reflected ×z² by MuJoCo)."""
-    return dict(
-        trntype=mujoco.mjtTrn.mjTRN_JOINT, target=INPUT_JOINT,
-        gear=[float(drive.z), 0, 0, 0, 0, 0],
-        dcmotor=dict(resistance=float(drive.R), motorconst=[float(drive.k_m), float(drive.k_m)],
-                     inductance=[float(drive.L), 0.0]),
-        armature=float(drive.J_m + drive.J_a), damping=[float(drive.lam), 0.0, 0.0],
-    )
+    inertia J_m + J_a and viscous friction λ on the motor side (MuJoCo reflects both by z²)."""
+    if drive.T_0 != 0:
+        raise ParameterError("native <dcmotor> cross-check: drive.T_0 must be 0 (Coulomb friction is "
+                             "modelled by LuGre there, not by a constant torque)")
+    act = spec.add_actuator(name="dcmotor", trntype=mujoco.mjtTrn.mjTRN_JOINT, target=INPUT_JOINT,
+                            gear=[float(drive.z), 0, 0, 0, 0, 0])
+    act.set_to_dcmotor(motorconst=[float(drive.k_m), float(drive.k_m)], resistance=float(drive.R),
+                       inductance=[float(drive.L), 0.0])
+    act.armature = float(drive.J_m + drive.J_a)
+    act.damping = [float(drive.lam), 0.0, 0.0]
+    return act
 
 
 def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 1e-3,

@@ -61,8 +61,12 @@ class FourBar(Mechanism):
     coupler_point: CouplerPoint = field(default_factory=CouplerPoint)
     #: extra point masses at joints [kg]: {"A":..,"B":..,"C":..,"D":..} (bearings, seed 002)
     joint_masses: dict = field(default_factory=dict)
-    #: viscous friction in the passive joints B, C, D [N·m·s/rad] (seed 002 bearings)
+    #: viscous friction in the passive hinges B and D [N·m·s/rad] (seed 002 bearings)
     joint_damping: float = 0.0
+    #: viscous friction in the crank pivot A (crank vs ground) [N·m·s/rad], on top of the drive's λ
+    damping_A: float = 0.0
+    #: viscous friction in the loop-closing hinge C (coupler vs rocker) [N·m·s/rad]
+    damping_C: float = 0.0
     name: str = "fourbar"
 
     def __post_init__(self):
@@ -99,8 +103,13 @@ class FourBar(Mechanism):
                 raise ParameterError(f"fourbar.J_G{i+1} = {self.J_G[i]!r}: inertia must be >= 0 [kg m^2]")
             if self.f[i] < 0:
                 raise ParameterError(f"fourbar.f{i+1} = {self.f[i]!r}: mass-centre distance must be >= 0 [m]")
-        if self.joint_damping < 0:
-            raise ParameterError(f"fourbar.joint_damping = {self.joint_damping!r}: must be >= 0")
+        for name in ("joint_damping", "damping_A", "damping_C"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise ParameterError(f"fourbar.{name} = {v!r}: viscous friction must be finite and >= 0 [N·m·s/rad]")
+        for j, v in self.joint_masses.items():
+            if j not in ("A", "B", "C", "D") or not (np.isfinite(v) and v >= 0):
+                raise ParameterError(f"fourbar.joint_mass_{j} = {v!r}: joint must be A..D and mass finite >= 0 [kg]")
         alpha = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
         _, _, _, D2 = self._abcd2(alpha)
         scale = (2 * self.c * (self.a + math.hypot(self.h_x, self.h_y))) ** 2
@@ -213,6 +222,54 @@ class FourBar(Mechanism):
         return (-self.a * alpha_dot * xp.sin(alpha) - pt.f * bd * xp.sin(beta + pt.theta),
                 self.a * alpha_dot * xp.cos(alpha) + pt.f * bd * xp.cos(beta + pt.theta))
 
+    # ================================================================ coupler curve (seed 002 §2)
+    def coupler_speed_ratio(self, alpha, point: CouplerPoint | None = None):
+        """|dP/dα| [m/rad]: coupler-point speed per unit crank speed, the square root of the
+        denominator of seed 002 Eq 17, √(r₂² + r_C²g₁² + 2·r₂·r_C·g₁·cos(q − φ₁ − β_C))."""
+        pt = point or self.coupler_point
+        xp = _xp(alpha)
+        beta, _, Q, _ = self.ratios(alpha)
+        a, f = self.a, pt.f
+        s2 = a * a + f * f * Q * Q + 2 * a * f * Q * xp.cos(alpha - beta - pt.theta)
+        return xp.sqrt(xp.maximum(s2, 0.0)) if xp is np else math.sqrt(max(s2, 0.0))
+
+    def coupler_speed_ratio_derivative(self, alpha, point: CouplerPoint | None = None):
+        """(S, dS/dα) with S = |dP/dα| [m/rad] and its analytic derivative [m/rad²]."""
+        pt = point or self.coupler_point
+        xp = _xp(alpha)
+        beta, _, Q, _, dQ, _ = self.ratio_derivatives(alpha)
+        a, f = self.a, pt.f
+        psi = alpha - beta - pt.theta
+        c, s = xp.cos(psi), xp.sin(psi)
+        S2 = a * a + f * f * Q * Q + 2 * a * f * Q * c
+        S = xp.sqrt(xp.maximum(S2, 0.0)) if xp is np else math.sqrt(max(S2, 0.0))
+        dS2 = 2 * f * f * Q * dQ + 2 * a * f * (dQ * c - Q * s * (1.0 - Q))
+        return S, dS2 / (2 * S)
+
+    def coupler_curve(self, n: int = 721, point: CouplerPoint | None = None):
+        """(α, x_P, y_P) over one crank turn α ∈ [0, 2π] (n samples, both ends included) [rad, m]."""
+        alpha = np.linspace(0.0, 2 * np.pi, int(n))
+        x, y = self.coupler_point_position(alpha, point)
+        return alpha, np.asarray(x), np.asarray(y)
+
+    def _arc_key(self, point):
+        pt = point or self.coupler_point
+        return (self.a, self.b, self.c, self.h_x, self.h_y, self.k, pt.f, pt.theta)
+
+    def path_length(self, point: CouplerPoint | None = None) -> float:
+        """Length of the closed coupler curve traced in one crank turn [m]."""
+        return _arc_table(self, self._arc_key(point), point)[1]
+
+    def arc_length(self, alpha, point: CouplerPoint | None = None):
+        """Path length s(α) = ∫₀^α |dP/dα'| dα' travelled by the coupler point since α = 0 [m],
+        cumulative over turns (s(α + 2π) = s(α) + path_length).  Gauss-Legendre table + cubic
+        Hermite interpolation (error < 1e-10 m)."""
+        spline, L = _arc_table(self, self._arc_key(point), point)
+        a = np.asarray(alpha, dtype=float)
+        turns = np.floor(a / (2 * np.pi))
+        out = spline(a - turns * 2 * np.pi) + turns * L
+        return float(out) if np.ndim(out) == 0 and isinstance(alpha, (float, int)) else out
+
     def mass_centres(self, alpha):
         """(x, y) of G1, G2, G3 [m] (Eq 4 and Appendix A)."""
         xp = _xp(alpha)
@@ -271,13 +328,41 @@ class FourBar(Mechanism):
         extra = extra + jm.get("D", 0.0) * self.h_y
         return self.g * (self.m[0] * y1 + self.m[1] * y2 + self.m[2] * y3 + extra)
 
-    def external_torque(self, q, qd, t):
-        """Viscous friction of the passive hinges B (coupler-crank) and D (rocker) reduced to the
-        crank: −c·[(Q−1)² + R²]·α̇ [N·m] (the loop-closing joint C is frictionless, as in the MJCF)."""
-        if self.joint_damping == 0.0:
-            return 0.0 * qd
+    def hinge_damping_factor(self, q):
+        """Σ_j c_j·(ω_j,rel/α̇)² [N·m·s/rad]: viscous friction of the hinges reduced to the crank.
+
+        Relative hinge speeds per unit crank speed: A (crank/ground) 1, B (coupler/crank) Q−1,
+        C (coupler/rocker) R−Q, D (rocker/ground) R.  ``joint_damping`` acts in B and D,
+        ``damping_A`` in A and ``damping_C`` in C (seed 002: the same coefficient in every bearing).
+        """
         _, _, Q, R = self.ratios(q)
-        return -self.joint_damping * ((Q - 1.0) ** 2 + R * R) * qd
+        return (self.damping_A + self.joint_damping * ((Q - 1.0) ** 2 + R * R)
+                + self.damping_C * (R - Q) ** 2)
+
+    def external_torque(self, q, qd, t):
+        """Viscous friction of the hinges reduced to the crank, −hinge_damping_factor(α)·α̇ [N·m]
+        (the MJCF model has the same: joint damping in B, D; explicit torques in A, C, see
+        ``multibody_load``)."""
+        if self.joint_damping == 0.0 and self.damping_A == 0.0 and self.damping_C == 0.0:
+            return 0.0 * qd
+        return -self.hinge_damping_factor(q) * qd
+
+    def multibody_load(self, model, data, t: float) -> None:
+        """Viscous friction of hinge A (crank/ground) and of the loop-closing hinge C
+        (coupler/rocker, a ``connect`` equality in MJCF, so no joint to carry ``damping``) as
+        generalised forces, from the velocities at the start of the step.  Hinge A's friction
+        cannot be the crank joint's ``damping``: the backend puts the drive's z²λ there.
+        ``qfrc_applied[crank]`` already holds the drive torque: it is added to, not replaced."""
+        if self.damping_A == 0.0 and self.damping_C == 0.0:
+            return
+        adr = _dof_cache(model)
+        va, vb, vr = adr
+        qv, qf = data.qvel, data.qfrc_applied
+        w_crank = qv[va]
+        tau_c = -self.damping_C * (w_crank + qv[vb] - qv[vr])  # on the coupler, from the rocker
+        qf[va] += tau_c - self.damping_A * w_crank
+        qf[vb] = tau_c
+        qf[vr] = -tau_c
 
     # ================================================================ MJCF builder
     def build_spec(self, armature: float = 0.0, options=None):
@@ -396,7 +481,47 @@ class FourBar(Mechanism):
         return {"type": "fourbar", "a": self.a, "b": self.b, "c": self.c, "h_x": self.h_x, "h_y": self.h_y,
                 "f": list(self.f), "theta": list(self.theta), "m": list(self.m), "J_G": list(self.J_G),
                 "k": self.k, "g": self.g, "coupler_point": {"f": self.coupler_point.f, "theta": self.coupler_point.theta},
-                "joint_masses": dict(self.joint_masses), "joint_damping": self.joint_damping}
+                "joint_masses": dict(self.joint_masses), "joint_damping": self.joint_damping,
+                "damping_A": self.damping_A, "damping_C": self.damping_C}
+
+
+_DOF_CACHE: dict = {}
+_ARC_CACHE: dict = {}
+
+
+def _arc_table(fb, key, point, n: int = 2048):
+    """(CubicHermiteSpline of s(α) on [0, 2π], path length) for the coupler point, cached by
+    geometry: 3-point Gauss-Legendre per interval for the nodes, exact S = dS/dα as slopes."""
+    hit = _ARC_CACHE.get(key)
+    if hit is not None:
+        return hit
+    from scipy.interpolate import CubicHermiteSpline
+
+    nodes = np.linspace(0.0, 2 * np.pi, n + 1)
+    h = nodes[1] - nodes[0]
+    xg, wg = np.polynomial.legendre.leggauss(3)
+    mid = 0.5 * (nodes[:-1] + nodes[1:])
+    pts = mid[:, None] + 0.5 * h * xg[None, :]
+    S = fb.coupler_speed_ratio(pts.ravel(), point).reshape(pts.shape)
+    seg = 0.5 * h * (S * wg[None, :]).sum(axis=1)
+    s_nodes = np.concatenate(([0.0], np.cumsum(seg)))
+    spline = CubicHermiteSpline(nodes, s_nodes, fb.coupler_speed_ratio(nodes, point))
+    if len(_ARC_CACHE) > 64:
+        _ARC_CACHE.clear()
+    _ARC_CACHE[key] = (spline, float(s_nodes[-1]))
+    return _ARC_CACHE[key]
+
+
+def _dof_cache(model):
+    """(crank, coupler, rocker) dof addresses of a compiled model, cached per model object."""
+    hit = _DOF_CACHE.get(id(model))
+    if hit is not None and hit[0] is model:
+        return hit[1]
+    adr = tuple(int(model.joint(n).dofadr[0]) for n in (INPUT_JOINT, "coupler_joint", "rocker_joint"))
+    if len(_DOF_CACHE) > 32:
+        _DOF_CACHE.clear()
+    _DOF_CACHE[id(model)] = (model, adr)
+    return adr
 
 
 def _integrator(name):
@@ -435,7 +560,7 @@ def from_params(p: dict) -> FourBar:
 
     Keys: a, b, c, h_x, h_y [m]; f1..f3 [m]; theta1..theta3 [rad]; m1..m3 [kg];
     J_G1..J_G3 [kg·m²]; k (±1); g [m/s²]; coupler_f [m], coupler_theta [rad];
-    joint_mass_A..D [kg]; joint_damping [N·m·s/rad].
+    joint_mass_A..D [kg]; joint_damping (hinges B, D), damping_A, damping_C [N·m·s/rad].
     """
     p = dict(p)
     if "r1" in p or "notation" in p:  # seed-002 notation, see from_seed002
@@ -452,6 +577,7 @@ def from_params(p: dict) -> FourBar:
             coupler_point=CouplerPoint(float(p.pop("coupler_f", 0.0)), float(p.pop("coupler_theta", 0.0))),
             joint_masses={j: float(p.pop(f"joint_mass_{j}")) for j in "ABCD" if f"joint_mass_{j}" in p},
             joint_damping=float(p.pop("joint_damping", 0.0)),
+            damping_A=float(p.pop("damping_A", 0.0)), damping_C=float(p.pop("damping_C", 0.0)),
         )
     except KeyError as e:
         raise ParameterError(f"mechanism.{e.args[0]} is required for a four-bar") from None
@@ -460,5 +586,100 @@ def from_params(p: dict) -> FourBar:
     return fb
 
 
-def from_seed002(p: dict) -> FourBar:  # pragma: no cover - provided by the seed-002 issue
-    raise ParameterError("seed-002 notation (r1..r4) is not implemented yet")
+#: seed-002 joint names → seed-000 joint names (A₀ crank pivot, A crank/coupler,
+#: B coupler/rocker, B₀ rocker pivot  →  A, B, C, D)
+SEED002_JOINTS = {"A0": "A", "A": "B", "B": "C", "B0": "D"}
+
+
+def from_seed002(p: dict) -> FourBar:
+    """Scenario ``[mechanism]`` table in the seed-002 notation (Hülako & Çakar, Eqs 2-17,
+    Table 1) → the same :class:`FourBar`.  Lengths [m], angles [rad], masses [kg], J [kg·m²].
+
+    Keys: ``notation = "seed002"`` (optional marker); r1 (ground A₀B₀), r2 (crank A₀A), r3
+    (coupler AB), r4 (rocker B₀B); beta1 = angle of the ground line A₀→B₀ (Table 1 β₁ = 0);
+    c2..c4, beta2..beta4: mass centre of link i at distance c_i from its proximal joint (A₀, A,
+    B₀) and angle β_i from the link line; m2..m4; J2..J4 about the mass centre; rC, betaC:
+    coupler point C at r_C, β_C from A relative to AB (Eq 13); g; branch = "open" | "crossed"
+    (or +1/−1 = seed-000 k directly): "open" is the circuit in which B lies left of A₀→B₀
+    (above the ground line for β₁ = 0) at q = β₁ + 90°; bearing_mass [kg] point mass in each
+    joint of ``bearing_joints`` (default all of A0, A, B, B0); bearing_damping [N·m·s/rad]
+    viscous friction in each hinge of ``damping_joints`` (default all four; "A" and "B0" must
+    be both in or both out, they share FourBar.joint_damping).
+
+    Mapping: a = r2, b = r3, c = r4, (h_x, h_y) = r1·(cos β₁, sin β₁); q = α, φ₁ = β, φ₂ = γ,
+    g₁ = Q, g₂ = R; link i of seed 002 is link i−1 of seed 000.
+    """
+    p = dict(p)
+    notation = str(p.pop("notation", "seed002")).lower().replace("-", "")
+    if notation not in ("seed002", "002", "hulako2025"):
+        raise ParameterError(f"mechanism.notation = {notation!r}: expected 'seed002'")
+    try:
+        r1, r2, r3, r4 = (float(p.pop(f"r{i}")) for i in (1, 2, 3, 4))
+    except KeyError as e:
+        raise ParameterError(f"mechanism.{e.args[0]} is required for a seed-002 four-bar "
+                             f"(r1 ground, r2 crank, r3 coupler, r4 rocker) [m]") from None
+    if not (np.isfinite(r1) and r1 > 0):
+        raise ParameterError(f"mechanism.r1 = {r1!r}: ground link length must be finite > 0 [m]")
+    beta1 = float(p.pop("beta1", 0.0))
+    c = tuple(float(p.pop(f"c{i}", 0.0)) for i in (2, 3, 4))
+    beta = tuple(float(p.pop(f"beta{i}", 0.0)) for i in (2, 3, 4))
+    m = tuple(float(p.pop(f"m{i}", 0.0)) for i in (2, 3, 4))
+    J = tuple(float(p.pop(f"J{i}", 0.0)) for i in (2, 3, 4))
+    pt = CouplerPoint(float(p.pop("rC", 0.0)), float(p.pop("betaC", 0.0)))
+    g = float(p.pop("g", G))
+    branch = p.pop("branch", "open")
+    bmass = float(p.pop("bearing_mass", 0.0))
+    bjoints = _joint_list(p.pop("bearing_joints", "all"), "bearing_joints")
+    bdamp = float(p.pop("bearing_damping", 0.0))
+    djoints = _joint_list(p.pop("damping_joints", "all"), "damping_joints")
+    if p:
+        raise ParameterError(f"unknown seed-002 four-bar parameters: {sorted(p)}")
+    if ("A" in djoints) != ("B0" in djoints):
+        raise ParameterError(f"mechanism.damping_joints = {sorted(djoints)}: hinges 'A' and 'B0' share one "
+                             f"coefficient (FourBar.joint_damping); list both or neither")
+    if not (np.isfinite(bmass) and bmass >= 0):
+        raise ParameterError(f"mechanism.bearing_mass = {bmass!r}: must be finite >= 0 [kg]")
+    hx, hy = r1 * math.cos(beta1), r1 * math.sin(beta1)
+    kw = dict(a=r2, b=r3, c=r4, h_x=hx, h_y=hy, f=c, theta=beta, m=m, J_G=J, g=g, coupler_point=pt,
+              joint_masses={SEED002_JOINTS[j]: bmass for j in bjoints} if bmass > 0 else {},
+              joint_damping=bdamp if "A" in djoints else 0.0,
+              damping_A=bdamp if "A0" in djoints else 0.0,
+              damping_C=bdamp if "B" in djoints else 0.0)
+    if isinstance(branch, str):
+        b = branch.strip().lower()
+        if b not in ("open", "crossed"):
+            raise ParameterError(f"mechanism.branch = {branch!r}: choose 'open', 'crossed', +1 or -1")
+        # try k = +1: is B (seed-000 C) left of A0->B0 at q = beta1 + 90 deg?
+        fb = FourBar(**kw, k=1)
+        q = beta1 + 0.5 * math.pi
+        Cx, Cy = (float(v) for v in fb.joints(q)["C"])
+        left = (hx * Cy - hy * Cx) > 0
+        k = 1 if left == (b == "open") else -1
+        return fb if k == 1 else FourBar(**kw, k=-1)
+    if branch not in (1, -1):
+        raise ParameterError(f"mechanism.branch = {branch!r}: choose 'open', 'crossed', +1 or -1")
+    return FourBar(**kw, k=int(branch))
+
+
+def _joint_list(v, name):
+    if isinstance(v, str):
+        key = v.strip().lower()
+        if key == "all":
+            return set(SEED002_JOINTS)
+        if key == "none":
+            return set()
+        v = [x.strip() for x in v.split(",")]
+    out = set(v)
+    bad = out - set(SEED002_JOINTS)
+    if bad:
+        raise ParameterError(f"mechanism.{name} = {v!r}: joints are {sorted(SEED002_JOINTS)}, 'all' or 'none'")
+    return out
+
+
+def to_seed002(fb: FourBar) -> dict:
+    """The seed-002 description of a FourBar (inverse of from_seed002, bearings excluded)."""
+    return {"r1": math.hypot(fb.h_x, fb.h_y), "r2": fb.a, "r3": fb.b, "r4": fb.c,
+            "beta1": math.atan2(fb.h_y, fb.h_x),
+            **{f"c{i + 2}": fb.f[i] for i in range(3)}, **{f"beta{i + 2}": fb.theta[i] for i in range(3)},
+            **{f"m{i + 2}": fb.m[i] for i in range(3)}, **{f"J{i + 2}": fb.J_G[i] for i in range(3)},
+            "rC": fb.coupler_point.f, "betaC": fb.coupler_point.theta, "g": fb.g, "branch": fb.k}

@@ -1,0 +1,366 @@
+"""Batched multibody backend: N simulations of one machine stepped together by ``mujoco.batch``.
+
+The co-step is the one of :mod:`mjbench.backends.multibody`, vectorised over the N simulations
+(arrays of shape (nsim,) for every signal and every per-simulation parameter):
+
+1. measurement (t_n, α_n, α̇_n, α̈_n = (α̇_n − α̇_{n−1})/h, I_n);
+2. controller → V_n, drive limiter;
+3. ``qfrc_applied[:, crank] = z·(k_m·Ī − T_0·sgn φ̇)``, Ī the exact mean current over the step;
+4. one ``Batch.step()`` — one plain ``mj_step`` per simulation on MuJoCo's thread pool;
+5. I_{n+1} by the exact exponential update with the mean of φ̇_n and φ̇_{n+1}.
+
+Same operations in the same order on the same numbers as the single run, so the results equal N
+``multibody.simulate`` runs to round-off (bit-identical in practice; tests/test_batch.py).
+
+Per-simulation parameters: each simulation is a :class:`~mjbench.machine.Machine` (built from
+its own scenario).  The drives are stacked into one :class:`DCMotorDrive` with (nsim,) arrays
+where they differ, the controllers of one class into one controller with (nsim,) gains
+(:func:`stack_objects`).  The MuJoCo model of each simulation is compiled from its own machine
+(masses, inertias, lengths, reflected drive inertia J_eq as ``armature``, viscous friction as
+``damping``): one shared model if all are equal, otherwise ``Batch.set_models`` with one model per
+distinct machine — compiling is what ``multibody.simulate`` does, so the models are the same, and
+derived constants (``mj_setConst``) stay consistent, which expanding single fields would not
+guarantee (``dof_armature`` is a ``mj_setConst`` input).
+
+A simulation that diverges (the single run raises :class:`SimulationDiverged`) is marked in
+``BatchResult.diverged`` with its time and message, its rows stop there, and it is no longer
+stepped; the others continue.
+
+Closure column: the largest component of the site-to-site offset of every ``connect`` equality
+between sites, from ``site_xpos`` of the last forward evaluation (derived fields lag the state by
+one substep in ``mujoco.batch``, as with ``mj_step``); NaN if the model has no such equality.
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import numbers
+
+import mujoco
+import numpy as np
+from mujoco import batch as mjbatch
+
+from controllers.base import Measurement
+
+from ..errors import ParameterError
+from ..mechanisms.base import INPUT_JOINT, Mechanism
+from ..trajectory import NAMES, Trajectory
+from .multibody import (DEFAULT_OPTIONS, MAX_CURRENT, MAX_SPEED, _check_times, _integ_name,
+                        build_model)
+
+NCOL = len(NAMES)
+
+
+# ================================================================= stacking per-simulation objects
+def _is_num(v):
+    return isinstance(v, (numbers.Real, np.number)) and not isinstance(v, (bool, np.bool_))
+
+
+def stack_objects(objs, path="controller"):
+    """One object of the common class whose numeric attributes are (nsim,) arrays where the
+    objects differ (scalars where they agree).  Nested objects (a controller's reference) are
+    stacked recursively; non-numeric attributes (flags, strings, None) must agree."""
+    objs = list(objs)
+    first = objs[0]
+    if all(o is first for o in objs):
+        return first
+    cls = type(first)
+    if any(type(o) is not cls for o in objs):
+        raise ParameterError(f"{path}: simulations of one batch need the same class, got "
+                             f"{sorted({type(o).__name__ for o in objs})}")
+    if dataclasses.is_dataclass(first):
+        kw = {}
+        for f in dataclasses.fields(first):
+            kw[f.name] = _stack_value([getattr(o, f.name) for o in objs], f"{path}.{f.name}")
+        return cls(**kw)
+    new = copy.copy(first)
+    for k in vars(first):
+        vals = [vars(o).get(k) for o in objs]
+        if k.startswith("_"):
+            continue  # internal state: reset() recreates it
+        setattr(new, k, _stack_value(vals, f"{path}.{k}"))
+    return new
+
+
+def _stack_value(vals, path):
+    v0 = vals[0]
+    if all(_is_num(v) for v in vals):
+        if all(v == v0 for v in vals):
+            return v0
+        return np.array(vals, dtype=float)
+    if all(isinstance(v, np.ndarray) for v in vals):
+        if all(np.array_equal(v, v0) for v in vals):
+            return v0
+        return np.stack(vals)
+    if all(v is v0 for v in vals):
+        return v0
+    if isinstance(v0, (str, bool, type(None), tuple, list, dict)) or isinstance(v0, (Mechanism,)):
+        if all(type(v) is type(v0) and v == v0 for v in vals):
+            return v0
+        raise ParameterError(f"{path}: must be the same in every simulation of a batch, got "
+                             f"{vals[:4]}{' ...' if len(vals) > 4 else ''}")
+    if hasattr(v0, "__dict__"):
+        return stack_objects(vals, path)
+    raise ParameterError(f"{path}: cannot vectorise values of type {type(v0).__name__}")
+
+
+def stack_drives(drives):
+    """One drive with (nsim,) parameter arrays where the drives differ."""
+    return stack_objects(drives, "drive")
+
+
+# ================================================================= result
+class BatchResult:
+    """Samples of N simulations: ``data`` (nsim, nrec, ncol) in :data:`trajectory.NAMES` order,
+    ``nrows`` valid rows per simulation, ``diverged`` flags with ``t_diverged`` and ``messages``."""
+
+    def __init__(self, data, nrows, diverged, t_diverged, messages, meta):
+        self.data, self.nrows, self.diverged = data, nrows, diverged
+        self.t_diverged, self.messages, self.meta = t_diverged, messages, meta
+
+    @property
+    def nsim(self):
+        return self.data.shape[0]
+
+    def trajectory(self, i) -> Trajectory:
+        """Simulation i as a :class:`Trajectory` (a view, no copy)."""
+        tr = Trajectory.__new__(Trajectory)
+        tr.data = self.data[i, : self.nrows[i]]
+        tr.n = int(self.nrows[i])
+        tr.backend = "batch"
+        tr.meta = dict(self.meta, sim=int(i))
+        if self.diverged[i]:
+            tr.meta["diverged"] = self.messages[i]
+        return tr
+
+    def trajectories(self):
+        return [self.trajectory(i) for i in range(self.nsim)]
+
+    def column(self, name):
+        """(nsim, nrec) array of one column (NaN after a divergence)."""
+        return self.data[:, :, NAMES.index(name)]
+
+
+# ================================================================= models
+def _model_key(machine, o):
+    d = machine.drive
+    return (repr(machine.mechanism.describe()), float(d.J_eq), float(d.crank_damping),
+            repr(sorted(o.items())))
+
+
+def build_models(machines, options=None):
+    """One compiled model per distinct (mechanism, J_eq, damping); list indexed by simulation."""
+    o = {**DEFAULT_OPTIONS, **(options or {})}
+    cache, models = {}, []
+    for mc in machines:
+        k = _model_key(mc, o)
+        if k not in cache:
+            cache[k] = build_model(mc, o)[1]
+        models.append(cache[k])
+    return models
+
+
+def _connect_sites(m):
+    pairs = []
+    for i in range(m.neq):
+        if m.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT and m.eq_objtype[i] == mujoco.mjtObj.mjOBJ_SITE:
+            pairs.append((int(m.eq_obj1id[i]), int(m.eq_obj2id[i])))
+    return pairs
+
+
+# ================================================================= simulation
+def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3,
+             options: dict | None = None, nthread: int = 0, models=None, progress=None,
+             closure: bool = True) -> BatchResult:
+    """Co-simulate the machines (a list, one per simulation) together for ``t_end`` seconds.
+
+    ``nthread``: MuJoCo batch threads (0: all CPUs).  ``models``: compiled models per simulation
+    (default: :func:`build_models`).  Returns a :class:`BatchResult`; use ``.trajectory(i)``."""
+    machines = list(machines)
+    nsim = len(machines)
+    if nsim == 0:
+        raise ParameterError("batch: no simulations")
+    o = {**DEFAULT_OPTIONS, **(options or {})}
+    if dt is not None:
+        o["timestep"] = dt
+    h = float(o["timestep"])
+    _check_times(t_end, h, record_dt)
+    if models is None:
+        models = build_models(machines, o)
+    distinct = list({id(m): m for m in models}.values())
+    m0 = distinct[0]
+    for m in distinct[1:]:
+        if (m.nq, m.nv, m.nbody, m.neq, m.nsite, m.nu, m.na) != (m0.nq, m0.nv, m0.nbody, m0.neq, m0.nsite, m0.nu, m0.na):
+            raise ParameterError("batch: the simulations' models differ in structure (number of bodies, "
+                                 "joints, equalities ...); run them in separate batches")
+        if m.opt.timestep != m0.opt.timestep:
+            raise ParameterError("batch: every simulation needs the same time step")
+    b = mjbatch.Batch(m0, nsim, nthread)
+    if len(distinct) > 1:
+        b.set_models(models)
+
+    mechs = [mc.mechanism for mc in machines]
+    drive = stack_drives([mc.drive for mc in machines])
+    ctrl = stack_objects([mc.controller for mc in machines])
+    if ctrl is machines[0].controller and nsim > 1:
+        ctrl = copy.copy(ctrl)  # same object in every machine: one vectorised copy
+    ctrl.reset()
+    drive.prepare(h)
+
+    # initial state: exactly as multibody.simulate (qpos, qvel, mj_forward)
+    b.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+    qpos_b, qvel_b, qfrc_b = b.bind("qpos"), b.bind("qvel"), b.bind("qfrc_applied")
+    for i, (mech, mc, m) in enumerate(zip(mechs, machines, models)):
+        qpos_b[i] = mech.initial_qpos(m, mc.q0)
+        if hasattr(mech, "initial_qvel"):
+            qvel_b[i] = mech.initial_qvel(m, mc.q0, mc.qd0)
+    b.forward()
+
+    jnt = m0.joint(INPUT_JOINT)
+    qa, va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
+    z = drive.z
+    y = Measurement(z=z)
+    nsteps = int(round(t_end / h))
+    decim = max(1, int(round(record_dt / h)))
+    nrec = nsteps // decim + 1
+    data = np.full((nsim, nrec, NCOL), np.nan)
+    nrows = np.zeros(nsim, dtype=int)
+    diverged = np.zeros(nsim, dtype=bool)
+    t_div = np.full(nsim, np.nan)
+    messages = [""] * nsim
+    torque = drive.crank_torque
+    cur_mean, cur_step, limit = drive.current_mean, drive.current_step, drive.limit
+    k_m = drive.k_m
+    I = np.array([float(mc.I0) for mc in machines])
+    load_fn = _load_function(mechs, models)
+    pairs = _connect_sites(m0) if closure else []
+    site_xpos = b.bind("site_xpos") if pairs else None
+    warn = b.warning
+    bad_qacc = int(mujoco.mjtWarning.mjWARN_BADQACC)
+    tick = progress.update if progress is not None else None
+    inv_h = 1.0 / h
+    ids = None  # all alive
+    alive = np.ones(nsim, dtype=bool)
+    qd_prev = qvel_b[:, va].copy()
+    zeros = np.zeros(nsim)
+    step = b.step
+    k = 0
+
+    with np.errstate(all="ignore"):
+        for n in range(nsteps + 1):
+            t = n * h
+            q = qpos_b[:, qa].copy()
+            qd = qvel_b[:, va].copy()
+            qdd = (qd - qd_prev) * inv_h
+            V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
+            if np.ndim(V) == 0:
+                V = zeros + V
+            if n % decim == 0:
+                bad = ~((np.abs(qd) < MAX_SPEED) & (np.abs(I) < MAX_CURRENT) & np.isfinite(V)) \
+                    | (warn[:, bad_qacc, 1] > 0)
+                new = bad & alive
+                if new.any():
+                    for i in np.flatnonzero(new):
+                        diverged[i], t_div[i] = True, t
+                        messages[i] = (f"diverged at t = {t:.6g} s: crank angle = {q[i]:.6g} rad, crank speed = "
+                                       f"{qd[i]:.6g} rad/s, current = {I[i]:.6g} A, voltage = {V[i]:.6g} V")
+                    alive &= ~new
+                    if not alive.any():
+                        break
+                    ids = np.flatnonzero(alive).astype(np.int32)
+                r = data[:, k]
+                om = z * qd
+                r[:, 0] = t; r[:, 1] = q; r[:, 2] = qd; r[:, 3] = qdd; r[:, 4] = om; r[:, 5] = I
+                r[:, 6] = V; r[:, 7] = torque(I, qd); r[:, 8] = k_m * I * om; r[:, 9] = V * I
+                if pairs:
+                    sx = site_xpos
+                    r[:, 10] = np.max([np.max(np.abs(sx[:, a] - sx[:, c]), axis=1) for a, c in pairs], axis=0)
+                if ids is not None:
+                    r[~alive] = np.nan
+                nrows[alive] = k + 1
+                k += 1
+                if tick is not None:
+                    tick(decim)
+            if n == nsteps:
+                break
+            qfrc_b[:, va] = torque(cur_mean(I, V, z * qd, h), qd, False)
+            if load_fn is not None:
+                load_fn(qpos_b, qvel_b, qfrc_b, t, alive)
+            step(ids)
+            qd_prev = qd
+            I = cur_step(I, V, 0.5 * z * (qd + qvel_b[:, va]), h)
+    meta = {"dt": h, "record_dt": decim * h, "integrator": _integ_name(m0.opt.integrator),
+            "nsim": nsim, "nthread": b.nthread}
+    return BatchResult(data, nrows, diverged, t_div, messages, meta)
+
+
+class _RowsView:
+    """Stands in for an MjData in ``multibody_load``: ``qpos``, ``qvel``, ``qfrc_applied`` are the
+    transposed state rows, so ``data.qvel[dof]`` is the (nsim,) column and writes go to the rows."""
+
+    def __init__(self, qpos, qvel, qfrc, t):
+        self.qpos, self.qvel, self.qfrc_applied, self.time = qpos.T, qvel.T, qfrc.T, t
+
+
+def _load_function(mechs, models):
+    """Vectorised external loads (``Mechanism.multibody_load``), in order of preference:
+    ``mechanism.multibody_load_batch(models, qpos, qvel, qfrc, t)`` if the class provides it; the
+    single-run ``multibody_load`` called once on the (nv, nsim) columns of the state rows
+    (:class:`_RowsView`) when every simulation has the same mechanism and the load is written with
+    elementwise arithmetic (probed on the first step); else ``multibody_load`` per simulation on a
+    scratch MjData holding qpos, qvel, qfrc_applied and time (a load that reads other, derived,
+    fields is not supported by the batch)."""
+    mech = mechs[0]
+    if type(mech).multibody_load is Mechanism.multibody_load:
+        return None
+    if hasattr(mech, "multibody_load_batch"):
+        def f(qpos, qvel, qfrc, t, alive):
+            mech.multibody_load_batch(models, qpos, qvel, qfrc, t)
+        return f
+    scratch = [mujoco.MjData(m) for m in models]
+
+    def per_sim(qpos, qvel, qfrc, t, alive):
+        for i in np.flatnonzero(alive):
+            d = scratch[i]
+            d.qpos[:] = qpos[i]
+            d.qvel[:] = qvel[i]
+            d.qfrc_applied[:] = qfrc[i]
+            d.time = t
+            mechs[i].multibody_load(models[i], d, t)
+            qfrc[i] = d.qfrc_applied
+
+    same = all(m is mech for m in mechs) or len({repr(m.describe()) for m in mechs}) == 1
+    if not same:
+        return per_sim
+    state = {"f": None}
+
+    def columns(qpos, qvel, qfrc, t, alive):
+        mech.multibody_load(models[0], _RowsView(qpos, qvel, qfrc, t), t)
+
+    def probe(qpos, qvel, qfrc, t, alive):
+        if state["f"] is None:
+            q2, v2, f2 = qpos.copy(), qvel.copy(), qfrc.copy()
+            f3 = qfrc.copy()
+            try:
+                columns(q2, v2, f2, t, alive)
+                per_sim(qpos.copy(), qvel.copy(), f3, t, alive)
+                ok = np.array_equal(f2, f3)
+            except (TypeError, ValueError, IndexError):
+                ok = False
+            state["f"] = columns if ok else per_sim
+        state["f"](qpos, qvel, qfrc, t, alive)
+    return probe
+
+
+def simulate_one(machine, t_end, **kw) -> Trajectory:
+    """Convenience: one machine through the batch (raises like the single run on divergence)."""
+    res = simulate([machine], t_end, **kw)
+    if res.diverged[0]:
+        from ..errors import SimulationDiverged
+        raise SimulationDiverged("batch simulation " + res.messages[0], t=float(res.t_diverged[0]))
+    return res.trajectory(0)
+
+
+__all__ = ["simulate", "simulate_one", "stack_objects", "stack_drives", "build_models", "BatchResult",
+           "math"]

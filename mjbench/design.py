@@ -1,0 +1,114 @@
+"""Optimum design of the seed-004 quick-return mechanism (Eqs 1-2), scipy SLSQP from several starts.
+
+Design variables (mm, as the paper): x = (r₂, r₃, r₄, a, b) = (x₁ … x₅).  Objective (Eq 1):
+minimise x₁ + x₂ + x₃ + x₄ + x₅.  Constraints (Eq 2) in our reading (docs/quickreturn.md):
+
+* c1  r₂ < a                                   (crank shorter than the pivot distance)
+* c2  200 < a + b < 500                        (height of the slider line above B₀)
+* c3  250 < 2 r₃ sin δ < 350,  sin δ = r₂/a    (slider stroke; δ = half swing of the lever, the
+                                                paper's "θ₃" in c3/c4 read as this angle)
+* c4  250 < 2 r₃ sin δ + r₄ sin φ_max < 500    (stroke + the rod's largest vertical extent;
+                                                φ_max = largest rod angle to the slider path)
+* c5  45° < μ_min < 55°,  μ = 90° − φ          (transmission angle at the slider: μ_min = 90° − φ_max)
+* c6  1.5 < TR < 2,  TR = (π + 2δ)/(π − 2δ)
+
+Closed forms (mechanisms/quickreturn.py): the lever swings over θ₃ ∈ [90° − δ, 90° + δ]; the rod
+angle φ obeys r₄ sin φ = a + b − r₃ sin θ₃, so sin φ_max = max(|a+b−r₃|, |a+b−r₃ cos δ|)/r₄.
+Strict inequalities are enforced with a margin ``eps`` (mm or degrees).  The bounds are not given
+in the paper (SEED-ERRATA 004): default 10 … 500 mm for every variable (without a lower bound
+the objective decreases without limit as r₂, a → 0 with r₂/a fixed).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import minimize
+
+TABLE_I = np.array([54.0, 324.0, 78.0, 140.0, 207.0])  #: paper's optimum (mm)
+NAMES = ("r2", "r3", "r4", "a", "b")
+DEFAULT_BOUNDS = ((10.0, 500.0),) * 5
+
+
+def figures(x) -> dict:
+    """Design figures of x = (r₂, r₃, r₄, a, b) [mm]: δ [deg], TR, stroke [mm], c4 [mm],
+    μ_min [deg], sum [mm]."""
+    r2, r3, r4, a, b = (float(v) for v in x)
+    H = a + b
+    ratio = r2 / a
+    d = math.asin(min(max(ratio, -1.0), 1.0))
+    sphi = max(abs(H - r3), abs(H - r3 * math.cos(d))) / r4
+    phi = math.asin(min(sphi, 1.0))
+    stroke = 2 * r3 * math.sin(d)
+    return {"delta_deg": math.degrees(d), "TR": (math.pi + 2 * d) / (math.pi - 2 * d), "stroke_mm": stroke,
+            "c4_mm": stroke + r4 * math.sin(phi), "mu_min_deg": 90.0 - math.degrees(phi),
+            "sum_mm": r2 + r3 + r4 + a + b, "a_plus_b_mm": H, "sin_phi_max": sphi}
+
+
+def constraint_values(x, eps: float = 1e-3) -> np.ndarray:
+    """Inequalities g(x) ≥ 0 of c1-c6 (each strict bound with margin eps)."""
+    r2, r3, r4, a, b = x
+    H = a + b
+    ratio = np.clip(r2 / a, 1e-9, 1 - 1e-9)
+    d = np.arcsin(ratio)
+    stroke = 2 * r3 * ratio
+    TR = (np.pi + 2 * d) / (np.pi - 2 * d)
+    p_lo, p_hi = (H - r3) / r4, (H - r3 * np.cos(d)) / r4  # sin of the rod angle at both swing ends
+    s45, s35 = math.sin(math.radians(45.0)), math.sin(math.radians(35.0))
+    pmax_sq = np.maximum(p_lo * p_lo, p_hi * p_hi)
+    c4 = stroke + r4 * np.sqrt(np.clip(pmax_sq, 0.0, 1.0))
+    return np.array([
+        a - r2 - eps,                       # c1
+        H - 200.0 - eps, 500.0 - H - eps,   # c2
+        stroke - 250.0 - eps, 350.0 - stroke - eps,  # c3
+        c4 - 250.0 - eps, 500.0 - c4 - eps,          # c4
+        s45 ** 2 - p_lo * p_lo - eps * 1e-3, s45 ** 2 - p_hi * p_hi - eps * 1e-3,  # c5: μ_min > 45°
+        pmax_sq - s35 ** 2 - eps * 1e-3,    # c5: μ_min < 55°
+        TR - 1.5 - eps, 2.0 - TR - eps,     # c6
+    ])
+
+
+CONSTRAINT_LABELS = ("c1 r2<a", "c2 a+b>200", "c2 a+b<500", "c3 stroke>250", "c3 stroke<350", "c4 >250",
+                     "c4 <500", "c5 mu>45 (lower swing end)", "c5 mu>45 (upper swing end)", "c5 mu<55",
+                     "c6 TR>1.5", "c6 TR<2")
+
+
+def feasible(x, tol: float = 1e-6) -> bool:
+    return bool(np.all(constraint_values(x, eps=0.0) >= -tol))
+
+
+def optimise(starts: int = 8, seed: int = 0, bounds=DEFAULT_BOUNDS, include_table: bool = True,
+             eps: float = 1e-3, maxiter: int = 500) -> dict:
+    """Run SLSQP from ``starts`` points (Table I first when ``include_table``, then uniform random
+    points in the bounds, seeded); return the best feasible design and every run."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
+    x0s = [TABLE_I.copy()] if include_table else []
+    while len(x0s) < starts:
+        x0s.append(lo + (hi - lo) * rng.random(5))
+    cons = [{"type": "ineq", "fun": lambda x: constraint_values(x, eps)}]
+    runs = []
+    for x0 in x0s[:starts]:
+        res = minimize(lambda x: float(np.sum(x)), x0, jac=lambda x: np.ones(5), method="SLSQP",
+                       bounds=bounds, constraints=cons, options={"maxiter": maxiter, "ftol": 1e-10})
+        x = np.asarray(res.x, dtype=float)
+        runs.append({"x0": x0.tolist(), "x": x.tolist(), "sum_mm": float(np.sum(x)), "success": bool(res.success),
+                     "feasible": feasible(x), "message": str(res.message)})
+    ok = [r for r in runs if r["feasible"]]
+    best = min(ok, key=lambda r: r["sum_mm"]) if ok else None
+    out = {"bounds_mm": [list(b) for b in bounds], "starts": starts, "seed": seed, "runs": runs,
+           "table_I": {"x": TABLE_I.tolist(), **figures(TABLE_I), "feasible": feasible(TABLE_I),
+                       "violated": [lbl for lbl, v in zip(CONSTRAINT_LABELS, constraint_values(TABLE_I, 0.0))
+                                    if v < 0]}}
+    if best is not None:
+        out["best"] = {"x": best["x"], **dict(zip(NAMES, best["x"])), **figures(best["x"])}
+    return out
+
+
+def check_with_mechanism(x_mm) -> dict:
+    """Cross-check the closed forms with the full kinematics of QuickReturn (lengths in mm)."""
+    from .mechanisms.quickreturn import QuickReturn
+
+    r2, r3, r4, a, b = (float(v) * 1e-3 for v in x_mm)
+    m = QuickReturn(r2=r2, r3=r3, r4=r4, a=a, b=b)
+    return {"TR": m.time_ratio, "stroke_mm": 1e3 * m.stroke, "mu_min_deg": math.degrees(m.min_transmission_angle())}

@@ -1,0 +1,482 @@
+"""Offscreen videos of a scenario's multibody run (issue 6).
+
+Pipeline (``render_scenario``):
+
+1. the scenario's machine is co-simulated by ``backends.multibody.simulate`` at its control step
+   h (0.1 ms) with every step recorded (``record_dt = h``);
+2. video frame k shows the simulated state at the step nearest to t_k = k/fps (error ≤ h/2), so
+   the video plays in real time; the mechanism is 1-DOF and closed, so the full assembled pose is
+   ``mechanism.initial_qpos(model, q)`` of the recorded crank angle q (exact up to the loop-closure
+   residual of the run, < 1e-6 m), followed by ``mj_kinematics``;
+3. the model is the mechanism's own MJCF plus display-only items (light backdrop with a grid
+   whose spacing is printed in the overlay, gradient sky); the camera looks along +y at the
+   mechanism plane (paper x → right, paper y → up) and frames the bounding box of
+   ``mechanism.points(q)`` over the whole run;
+4. the path of ``mechanism.trace_point`` (four-bar: coupler point; quick-return: output slider)
+   is drawn as scene connectors: the full kinematic path over one crank turn (thin, pale) and
+   the trail of the last crank turn (thick, orange);
+5. a text box (time, crank speed, voltage, real-time factor) is drawn with Pillow (already a
+   matplotlib dependency) on a small crop of the frame only;
+6. frames stream to ``imageio-ffmpeg``'s bundled ffmpeg (H.264, yuv420p) or, for ``*.gif``,
+   to Pillow's GIF writer; the file is written under a temporary name and renamed at the end.
+
+OpenGL: ``MUJOCO_GL`` defaults to ``egl`` (Mesa's llvmpipe on a CPU-only machine).  EGL is probed
+in a subprocess once; if it fails the renderer falls back to OSMesa and says why.
+"""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+
+from .errors import MjbenchError, ParameterError  # noqa: E402
+
+_GL_CHOICE = None  # cached result of gl_setup()
+
+# colours (RGBA 0..1) of the display-only items
+TRACE_PATH_RGBA = (0.55, 0.55, 0.60, 0.9)
+TRACE_TRAIL_RGBA = (1.0, 0.55, 0.0, 1.0)
+BACKDROP_RGB = (0.96, 0.96, 0.94)
+GRID_RGB = (0.78, 0.78, 0.80)
+
+
+class RenderError(MjbenchError):
+    """Offscreen rendering is not possible (no OpenGL backend, encoder failure)."""
+
+
+# ============================================================================ OpenGL backend
+def _probe(backend: str, timeout: float = 60.0):
+    """Try to create a tiny offscreen context with ``backend`` in a fresh interpreter.
+    Returns (ok, message)."""
+    code = ("import mujoco; c = mujoco.GLContext(16, 16); c.make_current(); "
+            "m = mujoco.MjModel.from_xml_string('<mujoco/>'); "
+            "r = mujoco.Renderer(m, 16, 16); r.render(); print('ok')")
+    env = dict(os.environ, MUJOCO_GL=backend)
+    env.pop("PYOPENGL_PLATFORM", None)
+    try:
+        p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                           timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return False, str(e)
+    if p.returncode == 0 and "ok" in p.stdout:
+        return True, ""
+    tail = (p.stderr or p.stdout).strip().splitlines()
+    return False, tail[-1] if tail else f"exit code {p.returncode}"
+
+
+def gl_setup(verbose: bool = True) -> str:
+    """Choose the offscreen OpenGL backend before MuJoCo's renderer is created.
+
+    ``MUJOCO_GL`` (default ``egl``) is honoured; ``egl`` is probed in a subprocess and, if it
+    fails, OSMesa is used instead with a message on stderr.  Returns the backend name."""
+    global _GL_CHOICE
+    if _GL_CHOICE is not None:
+        return _GL_CHOICE
+    want = os.environ.get("MUJOCO_GL", "egl").lower() or "egl"
+    choice = want
+    if want == "egl":
+        ok, msg = _probe("egl")
+        if not ok:
+            ok2, msg2 = _probe("osmesa")
+            if not ok2:
+                raise RenderError(
+                    f"no offscreen OpenGL: EGL failed ({msg}) and OSMesa failed ({msg2}). On Debian/"
+                    f"Ubuntu install libegl1 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa), e.g. "
+                    f"scripts/ci_system_deps.sh")
+            if verbose:
+                print(f"mjbench render: EGL is not available ({msg}); falling back to OSMesa "
+                      f"(software, slower). Install libegl1 + libgl1-mesa-dri for EGL.", file=sys.stderr)
+            choice = "osmesa"
+    os.environ["MUJOCO_GL"] = choice
+    if "mujoco" in sys.modules:
+        # MuJoCo was imported before us: make its Renderer use the chosen context class
+        # (works as long as PyOpenGL has not been initialised for another platform).
+        import importlib
+
+        from mujoco.rendering.classic import gl_context, renderer
+        cur = getattr(gl_context, "_MUJOCO_GL", "")
+        if cur != choice:
+            os.environ["PYOPENGL_PLATFORM"] = choice
+            cls = importlib.import_module(f"mujoco.{choice}").GLContext
+            gl_context.GLContext = cls
+            renderer.gl_context.GLContext = cls
+    _GL_CHOICE = choice
+    return choice
+
+
+# ============================================================================ model + camera
+def _nice_step(span: float) -> float:
+    """A 1-2-5 grid spacing giving about 8 cells over ``span`` [m]."""
+    raw = max(span, 1e-6) / 8.0
+    e = 10 ** math.floor(math.log10(raw))
+    for f in (1, 2, 5, 10):
+        if f * e >= raw:
+            return f * e
+    return 10 * e
+
+
+def point_bounds(mechanism, q) -> tuple:
+    """(xmin, xmax, ymin, ymax) [m] of every named point of ``mechanism`` over angles ``q``."""
+    pts = mechanism.points(np.asarray(q, dtype=float))
+    xs, ys = [], []
+    for x, y in pts.values():
+        xs.append(np.ravel(np.asarray(x, dtype=float)))
+        ys.append(np.ravel(np.asarray(y, dtype=float)))
+    xs, ys = np.concatenate(xs), np.concatenate(ys)
+    ok = np.isfinite(xs) & np.isfinite(ys)
+    if not ok.any():
+        raise RenderError("mechanism.points() returned no finite point: cannot frame the camera")
+    return float(xs[ok].min()), float(xs[ok].max()), float(ys[ok].min()), float(ys[ok].max())
+
+
+def build_render_model(mechanism, armature: float, options: dict | None, bounds, width, height):
+    """Compile the mechanism's MJCF plus display-only items: backdrop with grid, sky, offscreen
+    buffer ≥ the frame size.  Returns (model, grid_step_m)."""
+    import mujoco
+
+    spec = mechanism.build_spec(armature=armature, options=options)
+    g = spec.visual.global_
+    g.offwidth = max(int(g.offwidth), int(width))
+    g.offheight = max(int(g.offheight), int(height))
+    spec.visual.quality.offsamples = 4
+    xmin, xmax, ymin, ymax = bounds
+    span = max(xmax - xmin, ymax - ymin, 1e-3)
+    step = _nice_step(span)
+    cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+    spec.add_texture(name="mjb_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[1, 1, 1], rgb2=[0.85, 0.87, 0.9],
+                     width=64, height=64)
+    spec.add_texture(name="mjb_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
+                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, mark=mujoco.mjtMark.mjMARK_EDGE,
+                     rgb1=list(BACKDROP_RGB), rgb2=list(BACKDROP_RGB), markrgb=list(GRID_RGB),
+                     width=256, height=256)
+    mat = spec.add_material(name="mjb_grid", texrepeat=[1.0 / step, 1.0 / step], texuniform=True,
+                            reflectance=0.0)
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "mjb_grid"
+    # plane normal (local z) → −y (towards the camera): +90° about x; grid origin at (0, 0)
+    half = 3.0 * span
+    spec.worldbody.add_geom(name="mjb_backdrop", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                            size=[half, half, step], pos=[0.0, 0.25 * span, 0.0],
+                            quat=[0.70710678, 0.70710678, 0, 0], material="mjb_grid",
+                            contype=0, conaffinity=0, group=0)
+    model = spec.compile()
+    model.vis.headlight.ambient[:] = 0.45
+    model.vis.headlight.diffuse[:] = 0.55
+    model.vis.headlight.specular[:] = 0.1
+    return model, step, (cx, cy)
+
+
+def frame_camera(bounds, width, height, fovy_deg, margin=0.12, top_band_px=0):
+    """Free camera looking along +y at the bounds (x right, paper y = MuJoCo z up).
+
+    The distance fits the padded bounding box into the frame for the vertical field of view
+    ``fovy_deg``; ``top_band_px`` rows at the top are kept free for the text overlay."""
+    import mujoco
+
+    xmin, xmax, ymin, ymax = bounds
+    w = max(xmax - xmin, 1e-3) * (1 + 2 * margin)
+    h = max(ymax - ymin, 1e-3) * (1 + 2 * margin)
+    usable = max(height - top_band_px, height // 2)
+    # world height shown = h · height/usable; centre shifted up by the band
+    h_world = max(h * height / usable, w * height / width)
+    t = math.tan(math.radians(fovy_deg) / 2)
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    cam.azimuth = 90.0
+    cam.elevation = 0.0
+    cam.distance = 0.5 * h_world / t
+    shift = 0.5 * h_world * (height - usable) / height  # lift the view centre by half the band
+    cam.lookat[:] = [0.5 * (xmin + xmax), 0.0, 0.5 * (ymin + ymax) + shift]
+    return cam
+
+
+# ============================================================================ overlay
+_FONTS = {}
+
+
+def _font(size: int):
+    from PIL import ImageFont
+    if size not in _FONTS:
+        try:
+            from matplotlib import font_manager
+            path = font_manager.findfont("DejaVu Sans Mono", fallback_to_default=True)
+            _FONTS[size] = ImageFont.truetype(path, size)
+        except Exception:  # pragma: no cover - no usable TrueType font
+            _FONTS[size] = ImageFont.load_default()
+    return _FONTS[size]
+
+
+class TextBox:
+    """Text drawn into a fixed top-left box of a frame (only that crop goes through Pillow)."""
+
+    def __init__(self, width, height, nlines, scale=1.0):
+        self.size = max(11, int(round(18 * scale)))
+        self.pad = max(4, self.size // 3)
+        self.line_h = int(self.size * 1.3)
+        self.w = min(width, int(self.size * 0.62 * 46) + 2 * self.pad)
+        self.h = min(height, nlines * self.line_h + 2 * self.pad)
+        self.x0 = self.y0 = max(2, self.size // 2)
+
+    @property
+    def band_px(self):
+        return self.y0 + self.h
+
+    def draw(self, frame, lines):
+        from PIL import Image, ImageDraw
+        y0, x0, h, w = self.y0, self.x0, self.h, self.w
+        crop = frame[y0:y0 + h, x0:x0 + w]
+        # translucent white panel
+        crop[:] = (crop.astype(np.uint16) * 3 // 10 + 178).astype(np.uint8)
+        img = Image.fromarray(crop)
+        dr = ImageDraw.Draw(img)
+        font = _font(self.size)
+        for i, line in enumerate(lines):
+            dr.text((self.pad, self.pad + i * self.line_h), line, fill=(20, 20, 30), font=font)
+        frame[y0:y0 + h, x0:x0 + w] = np.asarray(img)
+        return frame
+
+
+# ============================================================================ renderer
+class MechanismView:
+    """Renders a mechanism at given input angles, with its traced path and an overlay."""
+
+    def __init__(self, mechanism, width=960, height=540, bounds_q=None, armature=0.0, options=None,
+                 trail_turns=1.0, overlay_lines=4):
+        import mujoco
+
+        gl_setup()
+        if width < 16 or height < 16 or width % 2 or height % 2:
+            raise ParameterError(f"--width/--height = {width}x{height}: need even sizes >= 16 px (H.264)")
+        self.mech = mechanism
+        self.width, self.height = int(width), int(height)
+        q_b = np.asarray(bounds_q if bounds_q is not None else np.linspace(0, 2 * np.pi, 361), float)
+        self.bounds = point_bounds(mechanism, q_b)
+        self.model, self.grid_step, _ = build_render_model(mechanism, armature, options, self.bounds,
+                                                           self.width, self.height)
+        self.data = mujoco.MjData(self.model)
+        self.renderer = mujoco.Renderer(self.model, self.height, self.width, max_geom=4000)
+        self.text = TextBox(self.width, self.height, overlay_lines, scale=self.height / 540)
+        self.camera = frame_camera(self.bounds, self.width, self.height, float(self.model.vis.global_.fovy),
+                                   top_band_px=self.text.band_px)
+        self.opt = mujoco.MjvOption()
+        span = max(self.bounds[1] - self.bounds[0], self.bounds[3] - self.bounds[2])
+        self.trace_w_path = 0.0025 * span
+        self.trace_w_trail = 0.006 * span
+        # trace path over one crank turn starting at the first angle (pale)
+        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 181))
+        self.trail_turns = float(trail_turns)
+        self._mjv_initGeom = mujoco.mjv_initGeom
+        self._mjv_connector = mujoco.mjv_connector
+        self._capsule = int(mujoco.mjtGeom.mjGEOM_CAPSULE)
+        self._eye = np.eye(3).ravel()
+        self._zero3 = np.zeros(3)
+
+    def _trace(self, q):
+        try:
+            p = self.mech.trace_point(np.asarray(q, dtype=float))
+        except Exception:
+            p = None
+        if p is None:
+            return None
+        x, y = (np.broadcast_to(np.asarray(c, float), np.shape(q)) for c in p)
+        pts = np.stack([x, np.zeros_like(x), y], axis=1)  # paper (x, y) → MuJoCo (x, z)
+        return pts[np.all(np.isfinite(pts), axis=1)]
+
+    def _polyline(self, pts, width, rgba):
+        """Append capsule connectors along pts (n,3) to the scene (no allocation per segment)."""
+        if pts is None or len(pts) < 2:
+            return
+        scn = self.renderer.scene
+        n0 = scn.ngeom
+        nmax = scn.maxgeom - n0
+        k = min(len(pts) - 1, nmax)
+        rgba = np.asarray(rgba, dtype=np.float32)
+        for i in range(k):
+            g = scn.geoms[n0 + i]
+            self._mjv_initGeom(g, self._capsule, self._zero3, self._zero3, self._eye, rgba)
+            self._mjv_connector(g, self._capsule, width, pts[i], pts[i + 1])
+        scn.ngeom = n0 + k
+
+    def frame(self, q, lines=(), trail_q=None, out=None):
+        """RGB frame (height, width, 3) uint8 at input angle q [rad]."""
+        import mujoco
+
+        m, d = self.model, self.data
+        d.qpos[:] = self.mech.initial_qpos(m, float(q))
+        mujoco.mj_kinematics(m, d)
+        self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
+        self._polyline(self.path, self.trace_w_path, TRACE_PATH_RGBA)
+        if trail_q is not None and len(trail_q) > 1:
+            self._polyline(self._trace(trail_q), self.trace_w_trail, TRACE_TRAIL_RGBA)
+        img = self.renderer.render(out=out)
+        if lines:
+            self.text.draw(img, lines)
+        return img
+
+    def close(self):
+        self.renderer.close()
+
+
+# ============================================================================ writers
+class VideoWriter:
+    """MP4 (H.264 via imageio-ffmpeg's bundled ffmpeg) or GIF (Pillow), written atomically."""
+
+    def __init__(self, path, width, height, fps, crf=23):
+        self.path = os.fspath(path)
+        self.ext = os.path.splitext(self.path)[1].lower()
+        if self.ext not in (".mp4", ".gif"):
+            raise ParameterError(f"--out {self.path!r}: the video file must end in .mp4 or .gif")
+        folder = os.path.dirname(os.path.abspath(self.path))
+        os.makedirs(folder, exist_ok=True)
+        fd, self.tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=self.ext)
+        os.close(fd)
+        self.fps, self.n = float(fps), 0
+        self._frames = []
+        if self.ext == ".mp4":
+            import imageio_ffmpeg
+            self._gen = imageio_ffmpeg.write_frames(
+                self.tmp, (int(width), int(height)), fps=self.fps, codec="libx264", quality=None,
+                pix_fmt_in="rgb24", pix_fmt_out="yuv420p", macro_block_size=2,
+                ffmpeg_log_level="error",
+                output_params=["-preset", "veryfast", "-crf", str(int(crf)), "-movflags", "+faststart"])
+            self._gen.send(None)
+
+    def write(self, frame):
+        if self.ext == ".mp4":
+            self._gen.send(np.ascontiguousarray(frame))
+        else:
+            self._frames.append(frame.copy())
+        self.n += 1
+
+    def close(self):
+        try:
+            if self.ext == ".mp4":
+                self._gen.close()
+            else:
+                from PIL import Image
+                imgs = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE, colors=128)
+                        for f in self._frames]
+                if not imgs:
+                    raise RenderError("no frame to write")
+                imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
+                             duration=int(round(1000 / self.fps)), loop=0, optimize=False)
+            os.replace(self.tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+
+    def abort(self):
+        try:
+            if self.ext == ".mp4":
+                self._gen.close()
+        except Exception:
+            pass
+        try:
+            os.unlink(self.tmp)
+        except OSError:
+            pass
+
+
+# ============================================================================ scenario → video
+def simulate_for_video(scn: dict, mode: str | None = None, t_end: float | None = None):
+    """Multibody run of the scenario with every control step recorded.  Returns (machine, traj)."""
+    from . import scenario as scenario_mod
+    from .backends import multibody
+
+    mode = mode or scenario_mod.get(scn, "simulation.mode")
+    machine = scenario_mod.make_machine(scn, mode)
+    sim = scn.get("simulation", {})
+    t_end = float(t_end if t_end is not None else sim.get("t_end", 2.0))
+    h = float(sim.get("dt", 1e-4))
+    opts = {k: v for k, v in scn.get("multibody", {}).items() if not str(k).startswith("_")}
+    traj = multibody.simulate(machine, t_end, dt=h, record_dt=h, options=opts)
+    return machine, traj
+
+
+def frame_indices(t, fps: float, t_end: float | None = None) -> np.ndarray:
+    """Indices into the recorded times ``t`` nearest to k/fps, k = 0..floor(t_end·fps)."""
+    t = np.asarray(t, float)
+    t_end = float(t[-1] if t_end is None else min(t_end, t[-1]))
+    nfr = int(math.floor(t_end * fps + 1e-9)) + 1
+    tk = np.arange(nfr) / fps
+    idx = np.clip(np.searchsorted(t, tk), 1, len(t) - 1)
+    left = t[idx - 1]
+    idx = np.where(np.abs(tk - left) <= np.abs(t[idx] - tk), idx - 1, idx)
+    return idx
+
+
+def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title="", progress=True,
+                      t_end=None, options=None, crf=23):
+    """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps)."""
+    from tqdm import tqdm
+
+    mech, drive = machine.mechanism, machine.drive
+    idx = frame_indices(traj.t, fps, t_end)
+    t, q, qd, V = traj.t, traj.q, traj.qd, traj.voltage
+    t0 = time.perf_counter()
+    view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
+                         overlay_lines=4 if title else 3)
+    writer = VideoWriter(out, width, height, fps, crf=crf)
+    # trail: the last crank turn, sampled at ≤ 90 points from the recorded steps
+    n_render = 0.0
+    try:
+        bar = tqdm(total=len(idx), unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
+                   disable=not progress, leave=False)
+        buf = np.empty((view.height, view.width, 3), np.uint8)
+        for k, i in enumerate(idx):
+            lo = np.searchsorted(q[: i + 1], q[i] - 2 * np.pi * view.trail_turns) if qd[i] >= 0 else 0
+            lo = max(0, min(lo, i))
+            trail = q[lo: i + 1][:: max(1, (i - lo) // 90)] if i > lo else None
+            if trail is not None and trail[-1] != q[i]:
+                trail = np.append(trail, q[i])
+            lines = ([title] if title else []) + [
+                f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
+                f"crank speed {qd[i]:7.2f} rad/s   motor {drive.z * qd[i]:7.2f} rad/s",
+                f"voltage {V[i]:7.2f} V   grid {view.grid_step * 1000:g} mm",
+            ]
+            r0 = time.perf_counter()
+            img = view.frame(q[i], lines, trail_q=trail, out=buf)
+            n_render += time.perf_counter() - r0
+            writer.write(img)
+            bar.update(1)
+        bar.close()
+        writer.close()
+    except BaseException:
+        writer.abort()
+        raise
+    finally:
+        view.close()
+    wall = time.perf_counter() - t0
+    return {"frames": len(idx), "width": width, "height": height, "fps": fps,
+            "duration_s": len(idx) / fps, "render_s": n_render, "wall_s": wall,
+            "frames_per_s": len(idx) / wall if wall > 0 else float("nan"), "gl": _GL_CHOICE,
+            "path": os.fspath(out)}
+
+
+def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,
+                    crf=23):
+    """Simulate (multibody) and render ``scn``.  Returns the render info dict plus ``sim_s``."""
+    if not (np.isfinite(fps) and fps > 0):
+        raise ParameterError(f"--fps = {fps!r}: must be > 0")
+    gl_setup()
+    from . import scenario as scenario_mod
+
+    mode = mode or scenario_mod.get(scn, "simulation.mode")
+    t0 = time.perf_counter()
+    machine, traj = simulate_for_video(scn, mode, t_end)
+    sim_s = time.perf_counter() - t0
+    name = scn.get("scenario", {}).get("name", "scenario")
+    opts = {k: v for k, v in scn.get("multibody", {}).items() if not str(k).startswith("_")}
+    info = render_trajectory(machine, traj, out, fps=fps, width=width, height=height,
+                             title=f"{name} — mode {mode} (multibody)", progress=progress, t_end=t_end,
+                             options=opts, crf=crf)
+    info["sim_s"] = sim_s
+    info["mode"] = mode
+    return info

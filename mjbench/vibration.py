@@ -1,0 +1,458 @@
+"""Residual vibration of a platform driven through an elastic transmission (seeds 001, 003).
+
+Model (seed 001 Eq 4 / seed 003 Eq 6), ψ = transmission deflection (platform side, rad):
+
+    ψ̈ + 2ξω_n·ψ̇ + ω_n²·ψ = −ρ·φ̈(t),   ψ(0) = ψ̇(0) = 0
+
+with φ the motor angle (the law) and ρ = λ = z·r/R (belt) or z (elastic joint).  At t = T the
+motor is at rest and the residual mechanical energy is (seed 001 Eqs 26-31, seed 003 Eqs 24-29)
+
+    E(T) = ½·J·(ρ/ω_d)²·[G² + ω_n²·F²]
+
+with F = ∫₀ᵀ φ̈(τ)·e^{−ξω_n(T−τ)}·sin ω_d(T−τ) dτ and G = ∫₀ᵀ ∂f/∂t dτ.  Both are parts of one
+complex integral W = ∫₀ᵀ φ̈(τ)·e^{s(T−τ)} dτ, s = −ξω_n + iω_d:  F = Im W,  G = Im(s·W)
+(g = ω_n·φ̈·e^{…}·cos(ω_d(T−τ) + δ) of Eq 29 is exactly Im(s·e^{s(T−τ)})·φ̈).
+
+Three independent evaluations of E(T):
+
+* ``closed``: W computed exactly — for polynomial laws (Bezier, integer exponents) by the
+  terminating integration-by-parts series W = Σ_k [p⁽ᵏ⁾(0)·e^{sT} − p⁽ᵏ⁾(T)] / s^{k+1}; for
+  pseudo-polynomial laws term by term, ∫₀¹ u^e·e^{sTu} du by Gauss–Jacobi quadrature with the
+  weight u^e (exact for the singular factor, spectrally convergent for the entire e^{sTu};
+  machine precision with ≥ |sT| + 40 nodes);
+* ``ode``: the reduced ODE above by ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12);
+* ``multibody``: the MuJoCo model of :mod:`mjbench.mechanisms.platform`, RK4, the driven joint
+  kinematically imposed at every integrator stage (:func:`simulate_multibody`).
+
+Also: residual amplitude, ZV / ZVD input shapers (Singer & Seering 1990) applied to a law,
+±ω_n sensitivity, and the optimiser (:func:`optimize`: BFGS, or SLSQP when constraints on peak
+speed / acceleration / torque are given; both quasi-Newton).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.special import roots_jacobi
+
+from .errors import ParameterError
+from .mechanisms.platform import Oscillator
+from .motionlaws import BezierLaw, MotionLaw, PseudoPolynomialLaw
+
+
+# ====================================================================== shaped laws
+class ShapedLaw(MotionLaw):
+    """A law convolved with an impulse sequence (input shaper): φ_s(t) = Σ A_j·φ(t − t_j), Σ A_j = 1.
+    The move lasts T + t_last."""
+
+    kind = "shaped"
+
+    def __init__(self, law: MotionLaw, amplitudes, times, name="shaped"):
+        self.base = law
+        self.A = np.asarray(amplitudes, dtype=float)
+        self.tj = np.asarray(times, dtype=float)
+        if abs(self.A.sum() - 1.0) > 1e-12:
+            raise ParameterError(f"shaper amplitudes {self.A.tolist()} must sum to 1")
+        self.name = name
+        super().__init__(law.Phi, law.T + float(self.tj.max()))
+
+    def evaluate(self, t, order: int = 3):
+        t = np.asarray(t, dtype=float)
+        acc = None
+        for a, tj in zip(self.A, self.tj):
+            part = self.base.evaluate(t - tj, order)
+            acc = [a * p for p in part] if acc is None else [x + a * p for x, p in zip(acc, part)]
+        return tuple(acc)
+
+    __call__ = evaluate
+
+    def describe(self):
+        return {"kind": self.kind, "name": self.name, "base": self.base.describe(),
+                "amplitudes": self.A.tolist(), "times": self.tj.tolist(), "T_total": self.T}
+
+
+def zv_shaper(osc: Oscillator):
+    """ZV shaper (Singer & Seering): A = [1, K]/(1+K), t = [0, π/ω_d], K = exp(−ξπ/√(1−ξ²))."""
+    K = math.exp(-osc.xi * math.pi / math.sqrt(1.0 - osc.xi ** 2))
+    return np.array([1.0, K]) / (1.0 + K), np.array([0.0, math.pi / osc.omega_d])
+
+
+def zvd_shaper(osc: Oscillator):
+    """ZVD shaper: A = [1, 2K, K²]/(1+K)², t = [0, π/ω_d, 2π/ω_d]."""
+    K = math.exp(-osc.xi * math.pi / math.sqrt(1.0 - osc.xi ** 2))
+    Td = math.pi / osc.omega_d
+    return np.array([1.0, 2 * K, K * K]) / (1.0 + K) ** 2, np.array([0.0, Td, 2 * Td])
+
+
+def shape(law: MotionLaw, osc: Oscillator, kind: str = "ZV", same_total_time: bool = False) -> ShapedLaw:
+    """Apply a ZV or ZVD shaper designed for ``osc`` to ``law``.  ``same_total_time``: shorten the
+    base law so that the shaped move still ends at the law's T (a fair, equal-time comparison)."""
+    A, tj = {"ZV": zv_shaper, "ZVD": zvd_shaper}[kind.upper()](osc)
+    base = law
+    if same_total_time:
+        Tb = law.T - tj[-1]
+        if Tb <= 0:
+            raise ParameterError(f"{kind} shaper lasts {tj[-1]:.4g} s >= T = {law.T} s")
+        base = _retimed(law, Tb)
+    return ShapedLaw(base, A, tj, name=f"{kind.upper()}{' (total T)' if same_total_time else ''}")
+
+
+def _retimed(law, T):
+    if isinstance(law, PseudoPolynomialLaw):
+        return PseudoPolynomialLaw(law.Phi, T, law.gammas)
+    if isinstance(law, BezierLaw):
+        return BezierLaw(law.Phi, T, law.m, law.p, law.interior)
+    raise ParameterError(f"cannot retime a {type(law).__name__}")
+
+
+# ====================================================================== closed form
+_JACOBI_CACHE: dict = {}
+
+
+def _gauss_jacobi_01(e: float, n: int):
+    """Nodes u and weights w on [0, 1] for ∫₀¹ u^e·g(u) du ≈ Σ w·g(u) (e > −1)."""
+    key = (e, n)
+    r = _JACOBI_CACHE.get(key)
+    if r is None:
+        x, w = roots_jacobi(n, 0.0, e)  # weight (1+x)^e on [-1, 1]
+        r = (0.5 * (x + 1.0), w * 0.5 ** (e + 1.0))
+        if len(_JACOBI_CACHE) > 256:
+            _JACOBI_CACHE.clear()
+        _JACOBI_CACHE[key] = r
+    return r
+
+
+def convolution_W(law: MotionLaw, osc: Oscillator, t_end: float | None = None) -> complex:
+    """W(t_end) = ∫₀^{t_end} φ̈(τ)·e^{s(t_end−τ)} dτ [rad/s] (exact; see module doc).
+    ``t_end`` ≥ the law's T (default T): after T φ̈ = 0 and W(t) = e^{s(t−T)}·W(T)."""
+    s = osc.s
+    if isinstance(law, ShapedLaw):
+        Tb = law.base.T
+        Wb = convolution_W(law.base, osc)  # base move ending at Tb
+        t_end = law.T if t_end is None else t_end
+        return complex(Wb * np.sum(law.A * np.exp(s * (t_end - law.tj - Tb))))
+    T = law.T
+    if isinstance(law, PseudoPolynomialLaw):
+        a, e = law.accel_terms()
+        beta = s * T
+        n = int(abs(beta)) + 48
+        W = 0j
+        for ai, ei in zip(a, e):
+            if ai == 0.0:
+                continue
+            u, w = _gauss_jacobi_01(float(ei), n)
+            W += ai * np.dot(w, np.exp(beta * u))
+        W *= T
+    elif isinstance(law, BezierLaw):
+        bp = law.accel_bpoly()
+        deg = bp.c.shape[0] - 1
+        eT = np.exp(s * T)
+        W, sk = 0j, s
+        for k in range(deg + 1):
+            d = bp.derivative(k) if k else bp
+            W += (float(d(0.0)) * eT - float(d(T))) / sk
+            sk *= s
+    else:
+        W = _quad_W(law, osc, T)
+    if t_end is not None and t_end != T:
+        W *= np.exp(s * (t_end - T))
+    return complex(W)
+
+
+def _quad_W(law, osc, T):
+    from scipy.integrate import quad
+
+    s = osc.s
+
+    def re(tau):
+        return float(law.evaluate(tau, 2)[2]) * np.exp(s * (T - tau)).real
+
+    def im(tau):
+        return float(law.evaluate(tau, 2)[2]) * np.exp(s * (T - tau)).imag
+
+    kw = dict(limit=400, epsabs=0.0, epsrel=1e-13)
+    return quad(re, 0, T, **kw)[0] + 1j * quad(im, 0, T, **kw)[0]
+
+
+def FG(law, osc, t_end=None):
+    """(F, G) of seed 001 Eq 30 / seed 003 Eq 28 [rad/s, rad/s²]."""
+    W = convolution_W(law, osc, t_end)
+    return W.imag, (osc.s * W).imag
+
+
+def residual_state(law, osc, t_end=None):
+    """(ψ, ψ̇) at t_end (default T) [rad, rad/s] by the closed form (Eqs 5, 28)."""
+    F, G = FG(law, osc, t_end)
+    k = -osc.ratio / osc.omega_d
+    return k * F, k * G
+
+
+def energy_from_state(psi, psid, osc, motor_speed=0.0):
+    """E = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] [J] (seed 001 Eq 25)."""
+    return 0.5 * osc.J * ((psid + osc.ratio * motor_speed) ** 2 + osc.omega_n ** 2 * psi ** 2)
+
+
+def residual_energy(law, osc, t_end=None) -> float:
+    """E(T) [J] by the closed form: ½J(ρ/ω_d)²(G² + ω_n²F²) (seed 001 Eq 31)."""
+    F, G = FG(law, osc, t_end)
+    return 0.5 * osc.J * (osc.ratio / osc.omega_d) ** 2 * (G * G + osc.omega_n ** 2 * F * F)
+
+
+def residual_amplitude(psi, psid, osc) -> float:
+    """Amplitude [rad, platform] of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
+    that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²)."""
+    return float(math.hypot(psi, (psid + osc.xi * osc.omega_n * psi) / osc.omega_d))
+
+
+# ====================================================================== reduced ODE
+def ode_response(law, osc, t_end=None, t_eval=None, rtol=1e-12, atol=None, method="DOP853"):
+    """Integrate ψ̈ + 2ξω_nψ̇ + ω_n²ψ = −ρφ̈ from rest; returns (t, ψ, ψ̇) at ``t_eval``
+    (default: 2001 points on [0, t_end]); the integration is split at T (end of the law)."""
+    t_end = law.T if t_end is None else float(t_end)
+    if t_eval is None:
+        t_eval = np.linspace(0.0, t_end, 2001)
+    t_eval = np.clip(np.asarray(t_eval, dtype=float), 0.0, t_end)
+    wn, xi, rho = osc.omega_n, osc.xi, osc.ratio
+    acc = law.acceleration
+    scale = abs(rho * law.Phi) / max(wn * wn * law.T ** 2, 1e-300)
+    atol = 1e-15 * max(scale, 1e-300) if atol is None else atol
+
+    def rhs(t, y):
+        return (y[1], -2 * xi * wn * y[1] - wn * wn * y[0] - rho * float(acc(t)))
+
+    def rhs_free(t, y):
+        return (y[1], -2 * xi * wn * y[1] - wn * wn * y[0])
+
+    Tm = min(law.T, t_end)
+    ev1 = t_eval[t_eval <= Tm]
+    s1 = solve_ivp(rhs, (0.0, Tm), [0.0, 0.0], method=method, rtol=rtol, atol=atol, t_eval=ev1)
+    ts, ys = [s1.t], [s1.y]
+    yT = s1.y[:, -1] if s1.t.size and s1.t[-1] == Tm else \
+        solve_ivp(rhs, (0.0, Tm), [0.0, 0.0], method=method, rtol=rtol, atol=atol).y[:, -1]
+    if t_end > Tm:
+        ev2 = t_eval[t_eval > Tm]
+        s2 = solve_ivp(rhs_free, (Tm, t_end), yT, method=method, rtol=rtol, atol=atol, t_eval=ev2)
+        ts.append(s2.t)
+        ys.append(s2.y)
+    return np.concatenate(ts), np.concatenate([y[0] for y in ys]), np.concatenate([y[1] for y in ys]), yT
+
+
+def residual_energy_ode(law, osc, **kw) -> float:
+    _, _, _, yT = ode_response(law, osc, t_end=law.T, t_eval=np.array([law.T]), **kw)
+    return float(energy_from_state(yT[0], yT[1], osc))
+
+
+# ====================================================================== multibody
+def simulate_multibody(platform, law, t_end=None, dt=1e-4, integrator="RK4", record_dt=None):
+    """Run the platform's MuJoCo model with the driven joint following ``law`` exactly.
+
+    At every integrator stage a control callback sets the driven joint's generalised force u so
+    that its acceleration equals the law's: with f = qfrc_passive − qfrc_bias, u =
+    (ρ_d·φ̈(t) − (M⁻¹f)_d)/(M⁻¹)_dd (inverse dynamics of the driven joint; RK4 then integrates
+    the motor's position and speed to O(h⁴)).  Returns a dict of arrays: t, motor angle φ,
+    motor speed φ̇, platform angle / speed / acceleration, deflection ψ, ψ̇ [rad, rad/s, rad/s²]."""
+    import mujoco
+
+    t_end = law.T if t_end is None else float(t_end)
+    spec = platform.build_spec({"timestep": dt, "integrator": integrator})
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    dj = m.joint(platform.driven_joint)
+    qa, va = int(dj.qposadr[0]), int(dj.dofadr[0])
+    rho_d = float(platform.driven_ratio)
+    rho = float(platform.ratio)
+    nv = m.nv
+    e = np.zeros((1, nv))
+    e[0, va] = 1.0
+    x = np.zeros((1, nv))
+    y = np.zeros((1, nv))
+    f = np.zeros((1, nv))
+    acc = law.acceleration
+
+    def control(mm, dd):
+        dd.qfrc_applied[va] = 0.0
+        np.subtract(dd.qfrc_passive, dd.qfrc_bias, out=f[0])
+        mujoco.mj_solveM(mm, dd, x, f)
+        mujoco.mj_solveM(mm, dd, y, e)
+        dd.qfrc_applied[va] = (rho_d * float(acc(dd.time)) - x[0, va]) / y[0, va]
+
+    nsteps = int(round(t_end / dt))
+    decim = 1 if record_dt is None else max(1, int(round(record_dt / dt)))
+    nrec = nsteps // decim + 1
+    rec = np.empty((nrec, 6))
+    old = mujoco.get_mjcb_control()
+    mujoco.set_mjcb_control(control)
+    try:
+        k = 0
+        for n in range(nsteps + 1):
+            if n % decim == 0:
+                mujoco.mj_forward(m, d)
+                th, thd, thdd = platform.platform_state(m, d.qpos, d.qvel, d.qacc)
+                rec[k] = (n * dt, d.qpos[qa] / rho_d, d.qvel[va] / rho_d, th, thd, thdd)
+                k += 1
+            if n < nsteps:
+                mujoco.mj_step(m, d)
+    finally:
+        mujoco.set_mjcb_control(old)
+    rec = rec[:k]
+    out = {"t": rec[:, 0], "motor_angle": rec[:, 1], "motor_speed": rec[:, 2], "platform_angle": rec[:, 3],
+           "platform_speed": rec[:, 4], "platform_accel": rec[:, 5]}
+    out["psi"] = out["platform_angle"] - rho * out["motor_angle"]
+    out["psid"] = out["platform_speed"] - rho * out["motor_speed"]
+    return out
+
+
+def residual_energy_multibody(platform, law, dt=1e-4, integrator="RK4") -> float:
+    r = simulate_multibody(platform, law, t_end=law.T, dt=dt, integrator=integrator, record_dt=law.T)
+    osc = platform.oscillator()
+    return float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
+
+
+# ====================================================================== optimisation
+@dataclass
+class Constraints:
+    """Optional limits on the motor law (None = no limit): peak |φ̇| [rad/s], |φ̈| [rad/s²] and
+    peak motor torque [N·m] estimated as (J_motor + ρ²·J)·|φ̈| (rigid transmission)."""
+
+    max_speed: float | None = None
+    max_accel: float | None = None
+    max_torque: float | None = None
+    J_motor: float = 0.0
+    ngrid: int = 801
+
+    def active(self):
+        return any(v is not None for v in (self.max_speed, self.max_accel, self.max_torque))
+
+
+@dataclass
+class OptResult:
+    law0: MotionLaw
+    law: MotionLaw
+    E0: float
+    E: float
+    nit: int
+    nfev: int
+    message: str
+    method: str
+    history: list = field(default_factory=list)
+
+
+def _residual_vector(law, osc):
+    """r with |r|² = E(T): r = √h·(G, ω_n·F), h = ½J(ρ/ω_d)²."""
+    F, G = FG(law, osc)
+    sh = math.sqrt(0.5 * osc.J) * abs(osc.ratio) / osc.omega_d
+    return np.array([sh * G, sh * osc.omega_n * F])
+
+
+def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None = None, method=None,
+             gtol=1e-13, maxiter=500, fd_step=1e-6, callback=None) -> OptResult:
+    """Minimise E(T) over the law's shape parameters from ``law0`` (seeds 001/003 §IV).
+
+    Objective E(x)/E(x0) (scaled so the start is 1); gradient 2·Jᵣᵀ·r from the residual vector r
+    (|r|² = E) with Jᵣ by central differences (r is smooth and O(√E0), so the gradient stays
+    accurate when E itself is 1e-12 of the start).  Unconstrained: BFGS; with constraints:
+    SLSQP (a quasi-Newton SQP).  Parameters that make the law invalid (exponents not distinct or
+    ≤ n) evaluate as +inf-like penalties so the line search backs off."""
+    from scipy.optimize import minimize
+
+    x0 = np.asarray(law0.params, dtype=float)
+    r0 = _residual_vector(law0, osc)
+    E0 = float(r0 @ r0)
+    scale = 1.0 / E0 if E0 > 0 else 1.0
+    hist = []
+
+    def resid(x):
+        try:
+            return _residual_vector(law0.with_params(x), osc)
+        except ParameterError:
+            return None
+
+    def fun(x):
+        r = resid(x)
+        if r is None:
+            return 1e6, np.zeros_like(x)
+        Jr = np.empty((r.size, x.size))
+        for i in range(x.size):
+            hstep = fd_step * max(1.0, abs(x[i]))
+            xp, xm = x.copy(), x.copy()
+            xp[i] += hstep
+            xm[i] -= hstep
+            rp, rm = resid(xp), resid(xm)
+            if rp is None or rm is None:
+                return 1e6, np.zeros_like(x)
+            Jr[:, i] = (rp - rm) / (2 * hstep)
+        val = float(r @ r) * scale
+        hist.append(val)
+        if callback is not None:
+            callback(x, val)
+        return val, 2.0 * scale * (Jr.T @ r)
+
+    cons = []
+    if constraints is not None and constraints.active():
+        c = constraints
+        tg = np.linspace(0.0, law0.T, c.ngrid)
+        inertia = c.J_motor + osc.ratio ** 2 * osc.J
+
+        def g(x):
+            try:
+                _, v, a = law0.with_params(x).evaluate(tg, 2)
+            except ParameterError:
+                return -np.ones(3)
+            out = []
+            if c.max_speed is not None:
+                out.append(1.0 - np.max(np.abs(v)) / c.max_speed)
+            if c.max_accel is not None:
+                out.append(1.0 - np.max(np.abs(a)) / c.max_accel)
+            if c.max_torque is not None:
+                out.append(1.0 - inertia * np.max(np.abs(a)) / c.max_torque)
+            return np.array(out)
+
+        cons = [{"type": "ineq", "fun": g}]
+    method = method or ("SLSQP" if cons else "BFGS")
+    if method == "BFGS":
+        res = minimize(fun, x0, jac=True, method="BFGS", options={"gtol": gtol, "maxiter": maxiter})
+    elif method == "SLSQP":
+        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=cons,
+                       options={"ftol": 1e-16, "maxiter": maxiter})
+    else:
+        res = minimize(fun, x0, jac=True, method=method, options={"maxiter": maxiter})
+    law = law0.with_params(res.x)
+    return OptResult(law0=law0, law=law, E0=E0, E=residual_energy(law, osc), nit=int(res.get("nit", 0)),
+                     nfev=int(res.nfev), message=str(res.message), method=method, history=hist)
+
+
+# ====================================================================== summaries
+def summary(law, osc, J_motor=0.0) -> dict:
+    """E(T) (closed form), residual state and amplitude, peaks of the motor law."""
+    psi, psid = residual_state(law, osc)
+    pk = law.peaks()
+    return {"E_T_J": residual_energy(law, osc), "psi_T_rad": psi, "psid_T_rad_s": psid,
+            "residual_amplitude_rad": residual_amplitude(psi, psid, osc),
+            "peak_motor_speed_rad_s": pk["speed"], "peak_motor_accel_rad_s2": pk["accel"],
+            "peak_motor_jerk_rad_s3": pk["jerk"], "T_total_s": law.T,
+            "peak_torque_rigid_Nm": (J_motor + osc.ratio ** 2 * osc.J) * pk["accel"]}
+
+
+def sensitivity(laws: dict, osc: Oscillator, errors=(-0.05, -0.025, 0.0, 0.025, 0.05), keep="xi"):
+    """E(T_end) and residual amplitude of each law when the plant's ω_n is off by ``errors``
+    (fractions) while the law was designed for ``osc``.  Returns {name: [(err, E, amp), ...]}."""
+    out = {}
+    for name, law in laws.items():
+        rows = []
+        for err in errors:
+            o = osc.scaled(1.0 + err, keep=keep)
+            psi, psid = residual_state(law, o)
+            rows.append((float(err), float(energy_from_state(psi, psid, o)), residual_amplitude(psi, psid, o)))
+        out[name] = rows
+    return out
+
+
+def peak_torque_ode(law, osc, J_motor=0.0, n=4001):
+    """Peak motor torque [N·m] along the move with the elastic transmission: J_motor·φ̈ + ρ·(J·ψ̈_platform)
+    i.e. J_motor·φ̈ + ρ·J·(ψ̈ + ρφ̈) = J_motor·φ̈ − ρ(k ψ + c ψ̇)."""
+    t, psi, psid, _ = ode_response(law, osc, t_eval=np.linspace(0, law.T, n))
+    a = law.acceleration(t)
+    tau = J_motor * a - osc.ratio * (osc.k * psi + osc.c * psid)
+    return float(np.max(np.abs(tau)))

@@ -1,0 +1,90 @@
+"""DC motor drive (Eqs 6-9) and controllers (Eqs 14-16): exactness, vectorisation, errors."""
+import math
+
+import numpy as np
+import pytest
+
+from controllers import PID, ConstantVoltage, Measurement
+from mjbench.drive import DCMotorDrive
+from mjbench.errors import ParameterError
+
+
+def test_current_step_is_exact_for_constant_speed():
+    d = DCMotorDrive(R=2.0, L=9e-3, k_m=0.48)
+    V, w, h = 25.0, 12.0, 1e-4
+    I = 0.0
+    for _ in range(100):
+        I = d.current_step(I, V, w, h)
+    t = 100 * h
+    iss = (V - d.k_m * w) / d.R
+    assert I == pytest.approx(iss * (1 - math.exp(-t * d.R / d.L)), rel=1e-12)
+    # mean current over one step equals the integral of the exact solution / h
+    Ibar = d.current_mean(0.0, V, w, h)
+    tau = d.L / d.R
+    assert Ibar == pytest.approx(iss * (1 - tau / h * (1 - math.exp(-h / tau))), rel=1e-12)
+
+
+def test_drive_accepts_arrays_like_scalars():
+    R = np.array([1.0, 2.0, 3.0])
+    da = DCMotorDrive(R=R)
+    I = np.zeros(3)
+    out = da.current_step(I, np.full(3, 24.0), np.array([0.0, 5.0, 10.0]), 1e-4)
+    for k in range(3):
+        ds = DCMotorDrive(R=float(R[k]))
+        assert out[k] == pytest.approx(ds.current_step(0.0, 24.0, [0.0, 5.0, 10.0][k], 1e-4), rel=1e-14)
+    tq = da.crank_torque(out, np.array([1.0, -1.0, 0.0]))
+    assert tq.shape == (3,)
+
+
+def test_torque_and_inertia_follow_eq9():
+    d = DCMotorDrive(z=3.0, k_m=0.5, T_0=0.1, lam=0.02, J_m=1e-3, J_a=2e-4, J_b=5e-4)
+    assert d.J_eq == pytest.approx(5e-4 + (1e-3 + 2e-4) * 9)
+    # T_c + J_eq α̈ = z k_m I − z T_0 − z² λ α̇  (α̇ > 0)
+    assert d.crank_torque(2.0, 4.0) == pytest.approx(3 * 0.5 * 2 - 3 * 0.1 - 9 * 0.02 * 4)
+    assert d.crank_torque(2.0, 4.0, viscous=False) == pytest.approx(3 * 0.5 * 2 - 3 * 0.1)
+
+
+@pytest.mark.parametrize("kw,name", [({"R": 0.0}, "drive.R"), ({"L": -1e-3}, "drive.L"),
+                                     ({"k_m": float("nan")}, "drive.k_m"), ({"z": -2}, "drive.z"),
+                                     ({"v_max": 0.0}, "drive.v_max")])
+def test_non_physical_drive_parameters_raise(kw, name):
+    with pytest.raises(ParameterError, match=name):
+        DCMotorDrive(**kw)
+
+
+def _y(t, q, qd, qdd, z=1.0):
+    return Measurement(z=z).set(t, q, qd, qdd, 0.0)
+
+
+def test_pid_is_eq16_with_time_varying_gain():
+    c = PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True)
+    c.reset()
+    t, q, qd, qdd = 0.4, 10.0, 28.0, 5.0
+    V = c(t, _y(t, q, qd, qdd))
+    assert V == pytest.approx(80 * t * (30 - qd) + 32 * (30 * t - q) + 0.015 * (0 - qdd))
+    c2 = PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, t_ramp_max=0.2)
+    assert c2.gain_p(0.4) == pytest.approx(16.0)
+
+
+def test_pid_anti_windup_freezes_the_integral_while_saturated():
+    c = PID(1.0, 10.0, 0.0, omega0=30.0, v_limit=12.0)
+    c.reset()
+    h = 1e-3
+    # motor stalled: error grows, output saturated → integral frozen
+    outs = [c(n * h, _y(n * h, 0.0, 0.0, 0.0)) for n in range(2000)]
+    assert max(outs) == 12.0
+    # after release the integral term is what accumulated before saturation, not 2 s of windup
+    assert c.ki * (30.0 * 2000 * h - c._offset) < 12.0 + 30.0
+
+
+def test_controllers_accept_arrays():
+    kp = np.array([50.0, 80.0])
+    c = PID(kp, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
+    c.reset()
+    y = Measurement(z=1.0).set(0.3, np.array([5.0, 6.0]), np.array([20.0, 25.0]), np.zeros(2), np.zeros(2))
+    V = c(0.3, y)
+    for k in range(2):
+        cs = PID(float(kp[k]), 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
+        cs.reset()
+        assert V[k] == pytest.approx(cs(0.3, _y(0.3, [5.0, 6.0][k], [20.0, 25.0][k], 0.0)), rel=1e-14)
+    assert ConstantVoltage(np.array([1.0, 2.0]))(0.1, y).shape == (2,)
