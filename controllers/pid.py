@@ -77,15 +77,29 @@ class PID(Controller):
             else:
                 frozen = ((u > vl) & (d > 0)) | ((u < -vl) & (d < 0))
                 self._offset = self._offset + np.where(frozen, d, 0.0)
-                u = np.clip(u - np.where(frozen, self.ki * d, 0.0), -vl, vl)
+                u = np.minimum(np.maximum(u - np.where(frozen, self.ki * d, 0.0), -vl), vl)  # clip
         self._epos_prev = epos
         return u
 
 
 def from_params(params, drive=None, mechanism=None):
     """Scenario table → PID.  Keys: kp, ki, kd, omega0 (motor side, rad/s), kp_ramp,
-    t_ramp_max, v_limit; or a ``reference`` sub-table {type = "<module in controllers.references>"}."""
+    t_ramp_max, v_limit; or a ``reference`` sub-table {type = "<module in controllers.references>"}.
+
+    ``side = "motor"`` (default): the gains act on motor-shaft errors (seed 000).  ``side = "crank"``:
+    the gains are given for crank-side errors (seed 002 Eqs 21-22, e = q̇_trj − q̇); since every
+    motor-side error is z × the crank-side one, the PID is built with kp/z, ki/z, kd/z — the same
+    control law.  omega0 stays a motor speed."""
     p = dict(params)
+    side = str(p.pop("side", "motor"))
+    if side not in ("motor", "crank"):
+        raise ValueError(f"PID side = {side!r}: choose 'motor' or 'crank'")
+    if side == "crank":
+        if drive is None:
+            raise ValueError("PID side = 'crank' needs the drive (gear ratio z)")
+        for k in ("kp", "ki", "kd"):
+            if k in p:
+                p[k] = float(p[k]) / drive.z
     ref = p.pop("reference", None)
     reference = None
     if isinstance(ref, dict):

@@ -92,7 +92,7 @@ class DCMotorDrive:
             return V
         if isinstance(V, float):
             return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
-        return np.clip(V, -self.v_max, self.v_max)
+        return np.minimum(np.maximum(V, -self.v_max), self.v_max)  # = np.clip, several times faster
 
     def di_dt(self, I, V, omega_m):
         """dI/dt of Eq 7 [A/s] for motor speed ``omega_m`` = φ̇ [rad/s]."""

@@ -86,3 +86,61 @@ def figures(runs: dict, outdir, omega_d=5.0, zoom=(3.0, 4.0), window=(3.0, 3.05)
     p7 = plot_voltage([v for _, v in closed], [k for k, _ in closed], os.path.join(outdir, "fig7_voltage.png"),
                       window=window, v_limit=v_limit)
     return [p6, p7]
+
+
+def draw_geometry(mech, path=None, q=2.0):
+    """Drawing of the reconstructed geometry (docs/quickreturn_geometry.png): B₀ origin, A₀ above it,
+    crank circle, lever extremes, rod, slider line y = a + b, stroke, angles θ₂, θ₃, θ₄ at crank
+    angle ``q`` [rad]."""
+    mm = 1e3
+    fig, ax = plt.subplots(figsize=(7.5, 8))
+    H = mech.a + mech.b
+    # crank circle and lever extremes (crank normal to the lever)
+    tt = np.linspace(0, 2 * np.pi, 200)
+    ax.plot(mm * mech.r2 * np.cos(tt), mm * (mech.a + mech.r2 * np.sin(tt)), color="0.7", lw=0.8, ls="--")
+    for qe, lab in ((mech._work_q0, "working stroke starts"), (mech._work_q0 + mech._work_arc, "working stroke ends")):
+        p = mech.joints(float(qe))
+        ax.plot([0, mm * p["B"][0]], [0, mm * p["B"][1]], color="tab:blue", lw=0.8, ls=":", alpha=0.7)
+        ax.plot([mm * p["B"][0], mm * p["C"][0]], [mm * p["B"][1], mm * p["C"][1]], color="tab:green", lw=0.8,
+                ls=":", alpha=0.7)
+        ax.plot(mm * p["C"][0], mm * H, "s", ms=6, mfc="none", color="tab:purple")
+    # slider path and stroke
+    xs, xe = mm * mech._x_start, mm * mech._x_end
+    ax.plot([min(xs, xe) - 60, max(xs, xe) + 60], [mm * H] * 2, color="0.3", lw=1)
+    ax.annotate("", xy=(xe, mm * H + 25), xytext=(xs, mm * H + 25), arrowprops=dict(arrowstyle="->", color="tab:red"))
+    ax.text(0.5 * (xs + xe), mm * H + 32, f"working stroke {mm * mech.stroke:.1f} mm (cutting force on slider)",
+            ha="center", fontsize=8, color="tab:red")
+    # configuration at q
+    p = mech.joints(float(q))
+    k = mech.kin(float(q))
+    A0, A, B0, B, C = (np.array(p[n]) * mm for n in ("A0", "A", "B0", "B", "C"))
+    ax.plot(*zip(A0, A), color="tab:red", lw=3, label=f"crank r₂ = {mm * mech.r2:.0f} mm (link 2)")
+    ax.plot(*zip(B0, B), color="tab:blue", lw=3, label=f"slotted lever r₃ = {mm * mech.r3:.0f} mm (link 3)")
+    ax.plot(*zip(B, C), color="tab:green", lw=3, label=f"rod r₄ = {mm * mech.r4:.0f} mm (link 4)")
+    ax.add_patch(plt.Rectangle((C[0] - 15, C[1] - 8), 30, 16, color="tab:purple", alpha=0.8,
+                               label=f"slider (link 5), m = {mech.m5:g} kg"))
+    ax.add_patch(plt.Rectangle((A[0] - 7, A[1] - 5), 14, 10, angle=np.degrees(k["th3"]), rotation_point="center",
+                               color="gold", label="block on crank pin, slides in the lever"))
+    for P, n in ((A0, "A₀"), (B0, "B₀"), (A, "A"), (B, "B"), (C, "C")):
+        ax.plot(*P, "ko", ms=4)
+        ax.text(P[0] + 6, P[1] + (4 if n == "B₀" else -12), n, fontsize=10)
+    # dimensions a, b
+    ax.annotate("", xy=(-120, 0), xytext=(-120, mm * mech.a), arrowprops=dict(arrowstyle="<->"))
+    ax.text(-115, 0.5 * mm * mech.a, f"a = {mm * mech.a:.0f}", fontsize=9)
+    ax.annotate("", xy=(-120, mm * mech.a), xytext=(-120, mm * H), arrowprops=dict(arrowstyle="<->"))
+    ax.text(-115, mm * (mech.a + 0.5 * mech.b), f"b = {mm * mech.b:.0f}", fontsize=9)
+    ax.text(A0[0] + 8, A0[1] + 8, f"θ₂ = q = {np.degrees(q):.0f}°", fontsize=8, color="tab:red")
+    ax.text(20, 40, f"θ₃ = {np.degrees(k['th3']):.0f}°", fontsize=8, color="tab:blue")
+    ax.text(B[0] - 5, B[1] - 28, f"θ₄ = {np.degrees(k['th4']):.0f}°", fontsize=8, color="tab:green")
+    ax.text(0.02, 0.02, f"TR = {mech.time_ratio:.3f},  μ_min = {np.degrees(mech.min_transmission_angle()):.1f}° "
+            f"(rod vs slider-path normal),  gravity −y", transform=ax.transAxes, fontsize=8)
+    ax.set_aspect("equal")
+    ax.set_ylim(-30, mm * H + 60)
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_title("Seed 004 quick-return mechanism: geometry reconstructed from Eqs 3-6 (Table I)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="center right", fontsize=7)
+    if path:
+        return _save(fig, path)
+    return fig

@@ -41,10 +41,11 @@ from .errors import MjbenchError, ParameterError  # noqa: E402
 _GL_CHOICE = None  # cached result of gl_setup()
 
 # colours (RGBA 0..1) of the display-only items
-TRACE_PATH_RGBA = (0.55, 0.55, 0.60, 0.9)
-TRACE_TRAIL_RGBA = (1.0, 0.55, 0.0, 1.0)
+TRACE_PATH_RGBA = (0.35, 0.35, 0.40, 1.0)
+TRACE_TRAIL_RGBA = (0.95, 0.35, 0.0, 1.0)
 BACKDROP_RGB = (0.96, 0.96, 0.94)
-GRID_RGB = (0.78, 0.78, 0.80)
+LINK_SCALE = 1.8  #: display thickness factor of link capsules, pins and sites
+GRID_RGB = (0.80, 0.81, 0.84)
 
 
 class RenderError(MjbenchError):
@@ -146,26 +147,23 @@ def build_render_model(mechanism, armature: float, options: dict | None, bounds,
     g.offwidth = max(int(g.offwidth), int(width))
     g.offheight = max(int(g.offheight), int(height))
     spec.visual.quality.offsamples = 4
+    # thicker links / pins than the simulation model's (display only; inertias are explicit)
+    for geom in spec.geoms:
+        if geom.type in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
+                         mujoco.mjtGeom.mjGEOM_SPHERE):
+            geom.size[0] *= LINK_SCALE
+    for site in spec.sites:
+        site.size[0] *= LINK_SCALE
     xmin, xmax, ymin, ymax = bounds
     span = max(xmax - xmin, ymax - ymin, 1e-3)
     step = _nice_step(span)
     cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
-    spec.add_texture(name="mjb_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[1, 1, 1], rgb2=[0.85, 0.87, 0.9],
-                     width=64, height=64)
-    spec.add_texture(name="mjb_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
-                     builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, mark=mujoco.mjtMark.mjMARK_EDGE,
-                     rgb1=list(BACKDROP_RGB), rgb2=list(BACKDROP_RGB), markrgb=list(GRID_RGB),
-                     width=256, height=256)
-    mat = spec.add_material(name="mjb_grid", texrepeat=[1.0 / step, 1.0 / step], texuniform=True,
-                            reflectance=0.0)
-    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "mjb_grid"
-    # plane normal (local z) → −y (towards the camera): +90° about x; grid origin at (0, 0)
+    # flat light backdrop behind the plane (a textured plane or a skybox costs 2-4× the frame
+    # time on llvmpipe; the grid is drawn as scene lines instead, see MechanismView)
     half = 3.0 * span
-    spec.worldbody.add_geom(name="mjb_backdrop", type=mujoco.mjtGeom.mjGEOM_PLANE,
-                            size=[half, half, step], pos=[0.0, 0.25 * span, 0.0],
-                            quat=[0.70710678, 0.70710678, 0, 0], material="mjb_grid",
-                            contype=0, conaffinity=0, group=0)
+    spec.worldbody.add_geom(name="mjb_backdrop", type=mujoco.mjtGeom.mjGEOM_BOX,
+                            size=[half, 1e-3 * span, half], pos=[cx, 0.25 * span, cy],
+                            rgba=list(BACKDROP_RGB) + [1.0], contype=0, conaffinity=0, group=0)
     model = spec.compile()
     model.vis.headlight.ambient[:] = 0.45
     model.vis.headlight.diffuse[:] = 0.55
@@ -248,7 +246,7 @@ class MechanismView:
     """Renders a mechanism at given input angles, with its traced path and an overlay."""
 
     def __init__(self, mechanism, width=960, height=540, bounds_q=None, armature=0.0, options=None,
-                 trail_turns=1.0, overlay_lines=4):
+                 trail_turns=0.6, overlay_lines=4):
         import mujoco
 
         gl_setup()
@@ -266,17 +264,37 @@ class MechanismView:
         self.camera = frame_camera(self.bounds, self.width, self.height, float(self.model.vis.global_.fovy),
                                    top_band_px=self.text.band_px)
         self.opt = mujoco.MjvOption()
-        span = max(self.bounds[1] - self.bounds[0], self.bounds[3] - self.bounds[2])
-        self.trace_w_path = 0.0025 * span
-        self.trace_w_trail = 0.006 * span
-        # trace path over one crank turn starting at the first angle (pale)
-        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 181))
-        self.trail_turns = float(trail_turns)
+        self._line = int(mujoco.mjtGeom.mjGEOM_LINE)
         self._mjv_initGeom = mujoco.mjv_initGeom
         self._mjv_connector = mujoco.mjv_connector
-        self._capsule = int(mujoco.mjtGeom.mjGEOM_CAPSULE)
         self._eye = np.eye(3).ravel()
         self._zero3 = np.zeros(3)
+        px = self.height / 540.0  # line widths [px] scale with the frame
+        # static lines: grid on the backdrop, trace path over one crank turn from the first angle
+        segs = [self._grid_segments()]
+        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 121))
+        self._static = []  # (pts (n,3) polyline or (k,2,3) segments, width px, rgba)
+        self._static.append((segs[0], 1.0 * px, np.array(GRID_RGB + (1.0,), np.float32)))
+        if self.path is not None and len(self.path) > 1:
+            self._static.append((np.stack([self.path[:-1], self.path[1:]], axis=1), 1.5 * px,
+                                 np.array(TRACE_PATH_RGBA, np.float32)))
+        self.trail_turns = float(trail_turns)
+        self.trail_w = 3.5 * px
+        self.trail_rgba = np.array(TRACE_TRAIL_RGBA, np.float32)
+
+    def _grid_segments(self):
+        """Grid lines (k, 2, 3) every ``grid_step`` over the visible part of the backdrop."""
+        cam = self.camera
+        hh = 1.15 * cam.distance * math.tan(math.radians(float(self.model.vis.global_.fovy)) / 2)
+        hw = hh * self.width / self.height
+        cx, _, cz = cam.lookat
+        s = self.grid_step
+        yb = 0.2 * max(self.bounds[1] - self.bounds[0], self.bounds[3] - self.bounds[2])
+        xs = np.arange(math.floor((cx - hw) / s), math.ceil((cx + hw) / s) + 1) * s
+        zs = np.arange(math.floor((cz - hh) / s), math.ceil((cz + hh) / s) + 1) * s
+        segs = [((x, yb, cz - hh), (x, yb, cz + hh)) for x in xs]
+        segs += [((cx - hw, yb, z), (cx + hw, yb, z)) for z in zs]
+        return np.asarray(segs, dtype=float)
 
     def _trace(self, q):
         try:
@@ -289,32 +307,36 @@ class MechanismView:
         pts = np.stack([x, np.zeros_like(x), y], axis=1)  # paper (x, y) → MuJoCo (x, z)
         return pts[np.all(np.isfinite(pts), axis=1)]
 
-    def _polyline(self, pts, width, rgba):
-        """Append capsule connectors along pts (n,3) to the scene (no allocation per segment)."""
-        if pts is None or len(pts) < 2:
-            return
+    def _segments(self, segs, width, rgba):
+        """Append line connectors segs (k, 2, 3) to the scene (mjGEOM_LINE: width in pixels;
+        capsules would cost 4× the frame on llvmpipe)."""
         scn = self.renderer.scene
         n0 = scn.ngeom
-        nmax = scn.maxgeom - n0
-        k = min(len(pts) - 1, nmax)
-        rgba = np.asarray(rgba, dtype=np.float32)
+        k = min(len(segs), scn.maxgeom - n0)
+        init, conn, line, z3, eye = self._mjv_initGeom, self._mjv_connector, self._line, self._zero3, self._eye
+        geoms = scn.geoms
         for i in range(k):
-            g = scn.geoms[n0 + i]
-            self._mjv_initGeom(g, self._capsule, self._zero3, self._zero3, self._eye, rgba)
-            self._mjv_connector(g, self._capsule, width, pts[i], pts[i + 1])
+            g = geoms[n0 + i]
+            init(g, line, z3, z3, eye, rgba)
+            conn(g, line, width, segs[i, 0], segs[i, 1])
+            g.emission = 1.0  # unlit: the line shows its own colour
         scn.ngeom = n0 + k
 
     def frame(self, q, lines=(), trail_q=None, out=None):
-        """RGB frame (height, width, 3) uint8 at input angle q [rad]."""
+        """RGB frame (height, width, 3) uint8 at input angle q [rad]; ``trail_q``: input angles
+        whose trace points form the highlighted trail."""
         import mujoco
 
         m, d = self.model, self.data
         d.qpos[:] = self.mech.initial_qpos(m, float(q))
         mujoco.mj_kinematics(m, d)
         self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
-        self._polyline(self.path, self.trace_w_path, TRACE_PATH_RGBA)
+        for segs, w, rgba in self._static:
+            self._segments(segs, w, rgba)
         if trail_q is not None and len(trail_q) > 1:
-            self._polyline(self._trace(trail_q), self.trace_w_trail, TRACE_TRAIL_RGBA)
+            pts = self._trace(trail_q)
+            if pts is not None and len(pts) > 1:
+                self._segments(np.stack([pts[:-1], pts[1:]], axis=1), self.trail_w, self.trail_rgba)
         img = self.renderer.render(out=out)
         if lines:
             self.text.draw(img, lines)
@@ -367,6 +389,9 @@ class VideoWriter:
                     raise RenderError("no frame to write")
                 imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
                              duration=int(round(1000 / self.fps)), loop=0, optimize=False)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(self.tmp, 0o666 & ~umask)  # mkstemp creates 0600
             os.replace(self.tmp, self.path)
         except BaseException:
             self.abort()

@@ -298,13 +298,13 @@ def export_default_mjcf(folder="assets/mjcf"):
 
 
 def _xml_with_inertials(spec) -> str:
-    """``spec.to_xml()`` with the explicit ``<inertial>`` elements restored (MuJoCo 4.0.0's
-    ``to_xml`` drops them when inertiafromgeom is false; the XML would not compile)."""
+    """``spec.to_xml()`` with any explicit ``<inertial>`` element it left out restored (MuJoCo
+    4.0.0's ``to_xml`` drops one whose ``ipos`` is unset; the XML would then not compile)."""
     import re
 
     xml = spec.to_xml()
     for b in spec.bodies[1:]:
-        if not b.explicitinertial:
+        if not b.explicitinertial or re.search(rf'<body name="{re.escape(b.name)}"[^>]*>\s*<inertial', xml):
             continue
         tag = (f'<inertial pos="0 0 0" mass="{b.mass:.17g}" '
                f'diaginertia="{b.inertia[0]:.17g} {b.inertia[1]:.17g} {b.inertia[2]:.17g}"/>')
