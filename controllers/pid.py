@@ -44,6 +44,7 @@ class PID(Controller):
         self.reset()
 
     def reset(self):
+        self._tm_array = bool(np.ndim(self.t_ramp_max))
         self._offset = 0.0
         self._epos_prev = None
         if hasattr(self.reference, "reset"):
@@ -53,7 +54,7 @@ class PID(Controller):
         """Proportional gain at time t [V·s/rad]."""
         if self.kp_ramp:
             tm = self.t_ramp_max
-            if np.ndim(tm):  # (nsim,) ramp limits
+            if self._tm_array:  # (nsim,) ramp limits
                 return self.kp * np.minimum(t, tm)
             return self.kp * (t if t < tm else tm)
         return self.kp

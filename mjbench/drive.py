@@ -56,6 +56,12 @@ class DCMotorDrive:
     def __post_init__(self):
         self.validate()
         self._h = None
+        self._flags()
+
+    def _flags(self):
+        """Hot-path flags (scalar 'no limit' tests), refreshed by prepare() at every run start."""
+        self._no_vlimit = bool(np.ndim(self.v_max) == 0 and self.v_max == math.inf)
+        self._no_ilimit = bool(np.ndim(self.i_max) == 0 and self.i_max == math.inf)
 
     # ---------------------------------------------------------------- parameters
     def validate(self):
@@ -88,7 +94,7 @@ class DCMotorDrive:
     # ---------------------------------------------------------------- equations
     def limit(self, V):
         """Voltage limiter of Fig. 3: clip to ±v_max."""
-        if np.ndim(self.v_max) == 0 and self.v_max == math.inf:
+        if self._no_vlimit:
             return V
         if isinstance(V, float):
             return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
@@ -101,6 +107,7 @@ class DCMotorDrive:
     def prepare(self, h: float):
         """Cache the step-dependent constants for a fixed step h [s] (decay and mean weights)."""
         self._h = h
+        self._flags()
         L, R = np.asarray(self.L, dtype=float), np.asarray(self.R, dtype=float)
         if np.all(L > 0):
             x = h * R / L
@@ -131,7 +138,7 @@ class DCMotorDrive:
             self.prepare(h)
         i_ss = (V - self.k_m * omega_m_mean) / self.R
         I_new = i_ss + (I - i_ss) * self._decay
-        if np.ndim(self.i_max) != 0 or self.i_max != math.inf:
+        if not self._no_ilimit:
             I_new = np.clip(I_new, -self.i_max, self.i_max)
             if I_new.ndim == 0:
                 I_new = float(I_new)

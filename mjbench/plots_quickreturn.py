@@ -29,8 +29,8 @@ def plot_speed(trajs, labels=None, path=None, omega_d=None, zoom=None, band=None
     trajs = list(trajs)
     labels = list(labels or [f"{tr.backend}" for tr in trajs])
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    for tr, lab in zip(trajs, labels):
-        ax.plot(tr.t, tr.qd, lw=1.0, label=lab)
+    for i, (tr, lab) in enumerate(zip(trajs, labels)):
+        ax.plot(tr.t, tr.qd, lw=1.0, label=lab, color=f"C{i}")
     if omega_d is not None:
         ax.axhline(omega_d, color="k", ls="--", lw=0.8, label=f"ω_d = {omega_d:g} rad/s")
     if band is not None:
@@ -41,10 +41,12 @@ def plot_speed(trajs, labels=None, path=None, omega_d=None, zoom=None, band=None
     ax.grid(True, alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
     if zoom is not None:
-        ins = ax.inset_axes([0.45, 0.35, 0.3, 0.3])
-        for tr in trajs:
+        ins = ax.inset_axes([0.22, 0.1, 0.36, 0.36])
+        for i, tr in enumerate(trajs):
             m = (tr.t >= zoom[0]) & (tr.t <= zoom[1])
-            ins.plot(tr.t[m], tr.qd[m], lw=0.8)
+            if omega_d is not None and m.any() and abs(np.mean(tr.qd[m]) - omega_d) > 0.1 * abs(omega_d):
+                continue  # the zoom shows the traces near the set-point (closed loop)
+            ins.plot(tr.t[m], tr.qd[m], lw=0.8, color=f"C{i}")
         if omega_d is not None:
             ins.axhline(omega_d, color="k", ls="--", lw=0.6)
         ins.set_xlabel("t [s]", fontsize=7)

@@ -273,14 +273,38 @@ class MechanismView:
         # static lines: grid on the backdrop, trace path over one crank turn from the first angle
         segs = [self._grid_segments()]
         self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 121))
-        self._static = []  # (pts (n,3) polyline or (k,2,3) segments, width px, rgba)
-        self._static.append((segs[0], 1.0 * px, np.array(GRID_RGB + (1.0,), np.float32)))
+        gain = self._line_gain()
+        self._static = []  # ((k, 2, 3) segments, width px, rgba)
+        self._static.append((segs[0], 1.0 * px, self._line_rgba(GRID_RGB + (1.0,), gain)))
         if self.path is not None and len(self.path) > 1:
             self._static.append((np.stack([self.path[:-1], self.path[1:]], axis=1), 1.5 * px,
-                                 np.array(TRACE_PATH_RGBA, np.float32)))
+                                 self._line_rgba(TRACE_PATH_RGBA, gain)))
         self.trail_turns = float(trail_turns)
         self.trail_w = 3.5 * px
-        self.trail_rgba = np.array(TRACE_TRAIL_RGBA, np.float32)
+        self.trail_rgba = self._line_rgba(TRACE_TRAIL_RGBA, gain)
+
+    @staticmethod
+    def _line_rgba(rgba, gain):
+        c = np.array(rgba, np.float32)
+        c[:3] /= gain
+        return c
+
+    def _line_gain(self):
+        """Brightness gain the scene lights give a line (lines are lit as if facing every light,
+        ≈2× here): measured once on a test line so that traces show their nominal colour."""
+        import mujoco
+
+        self.data.qpos[:] = self.model.qpos0
+        mujoco.mj_kinematics(self.model, self.data)
+        self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.opt)
+        c = np.array(self.camera.lookat, dtype=float)
+        hw = 2.0 * self.camera.distance
+        ref = 0.2
+        self._segments(np.array([[c - [hw, 0, 0], c + [hw, 0, 0]]]), 9.0,
+                       np.array([ref, ref, ref, 1.0], np.float32))
+        img = self.renderer.render()
+        v = float(np.median(img[self.height // 2, :, :].mean(axis=1))) / 255.0  # robust to a link in the way
+        return float(np.clip(v / ref, 1.0, 4.0)) if v < 0.99 else 4.0
 
     def _grid_segments(self):
         """Grid lines (k, 2, 3) every ``grid_step`` over the visible part of the backdrop."""

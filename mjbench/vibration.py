@@ -456,3 +456,87 @@ def peak_torque_ode(law, osc, J_motor=0.0, n=4001):
     a = law.acceleration(t)
     tau = J_motor * a - osc.ratio * (osc.k * psi + osc.c * psid)
     return float(np.max(np.abs(tau)))
+
+
+# ====================================================================== scenario study
+def _limit(v):
+    return None if v in (None, 0, 0.0, "none") else float(v)
+
+
+def study(scn: dict, progress=None, multibody=None) -> dict:
+    """Everything ``mjbench optimize-law`` reports for a scenario (tables ``[mechanism]`` with
+    type = "platform", ``[law]``, ``[optimize]``, ``[check]``, ``[paper]``).
+
+    Returns a dict with plain numbers under "report" (JSON-ready) and the objects (platform,
+    oscillator, laws) under "objects" for the plots."""
+    from .motionlaws import make_law
+    from .scenario import make_mechanism
+
+    plat = make_mechanism(scn)
+    if not hasattr(plat, "oscillator"):
+        raise ParameterError("optimize-law needs [mechanism] type = \"platform\"")
+    osc = plat.oscillator()
+    law0 = make_law(scn.get("law", {}))
+    opt = {k: v for k, v in scn.get("optimize", {}).items() if not k.startswith("_")}
+    chk = scn.get("check", {})
+    paper = scn.get("paper", {})
+    J_motor = float(getattr(plat, "J_motor", 0.0))
+    cons = Constraints(_limit(opt.get("max_speed")), _limit(opt.get("max_accel")),
+                       _limit(opt.get("max_torque")), J_motor=J_motor)
+    steps = ["optimise", "ODE", "shapers", "sensitivity"]
+    do_mb = bool(chk.get("multibody", True)) if multibody is None else bool(multibody)
+    if do_mb:
+        steps.append("multibody")
+    tick = (lambda: progress.update(1)) if progress is not None else (lambda: None)
+
+    res = optimize(law0, osc, cons if cons.active() else None,
+                   method=None if cons.active() else opt.get("method", "BFGS"),
+                   gtol=float(opt.get("gtol", 1e-13)))
+    tick()
+    law1 = res.law
+    laws = {"initial": law0, "optimised": law1}
+    if "gammas_optimum" in paper and isinstance(law0, PseudoPolynomialLaw):
+        laws["paper_optimum"] = PseudoPolynomialLaw(law0.Phi, law0.T, paper["gammas_optimum"])
+    rep = {"scenario": scn["scenario"].get("name"), "seed": scn["scenario"].get("seed"),
+           "platform": plat.describe(), "oscillator": osc.describe(),
+           "omega_n_rad_s": osc.omega_n, "xi": osc.xi,
+           "optimiser": {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
+                         "message": res.message,
+                         "constraints": {"max_speed": cons.max_speed, "max_accel": cons.max_accel,
+                                         "max_torque": cons.max_torque}},
+           "laws": {}, "paper": {k: v for k, v in paper.items()}}
+    for name, law in laws.items():
+        rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor)}
+    for name, law in laws.items():
+        rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
+        rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
+    tick()
+    shaped = {}
+    for kind in chk.get("shapers", ["ZV", "ZVD"]):
+        for same in (False, True):
+            try:
+                sl = shape(law0, osc, kind, same_total_time=same)
+            except ParameterError:
+                continue
+            shaped[sl.name] = sl
+            rep["laws"][sl.name] = {"law": sl.describe(), **summary(sl, osc, J_motor)}
+    tick()
+    errs = chk.get("sensitivity", [-0.05, -0.025, 0.0, 0.025, 0.05])
+    sens_laws = {**laws, **shaped}
+    rep["sensitivity"] = {"omega_n_errors": list(errs), "keep": "xi",
+                          "table": {k: [{"err": e, "E_J": E, "amplitude_rad": a} for e, E, a in rows]
+                                    for k, rows in sensitivity(sens_laws, osc, errs).items()}}
+    fine = np.linspace(-0.05, 0.05, 81)
+    sens_fine = sensitivity(sens_laws, osc, fine)
+    tick()
+    if do_mb:
+        dt = float(chk.get("multibody_dt", 1e-3))
+        for name in ("initial", "optimised", "paper_optimum"):
+            if name in laws:
+                rep["laws"][name]["E_T_multibody_J"] = residual_energy_multibody(plat, laws[name], dt=dt)
+        rep["multibody"] = {"integrator": "RK4", "dt_s": dt, "drive": "kinematic (inverse dynamics per stage)"}
+        tick()
+    E0, E1 = rep["laws"]["initial"]["E_T_J"], rep["laws"]["optimised"]["E_T_J"]
+    rep["reduction_orders"] = float(np.log10(E0 / max(E1, 1e-300)))
+    return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,
+                                       "sens_fine": (fine, sens_fine), "t_after": float(chk.get("t_after", 0.5))}}

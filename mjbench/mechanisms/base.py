@@ -62,12 +62,12 @@ class Mechanism(abc.ABC):
         return float(qpos[model.joint(INPUT_JOINT).qposadr[0]])
 
     def closure_error(self, model, data) -> float:
-        """Largest loop-closure violation [m] in the multibody state (default: equality residuals)."""
-        if data.nefc == 0:
+        """Largest loop-closure violation [m] in the multibody state: the equality-constraint
+        residuals, which MuJoCo stores first (rows 0..ne-1) in ``efc_pos``."""
+        ne = data.ne
+        if ne == 0:
             return 0.0
-        import mujoco  # local: keep the kinematics importable without MuJoCo
-        eq_rows = data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
-        return float(np.max(np.abs(data.efc_pos[eq_rows]))) if eq_rows.any() else 0.0
+        return float(np.abs(data.efc_pos[:ne]).max())
 
     def multibody_load(self, model, data, t: float) -> None:
         """Write external loads of the mechanism into ``data.qfrc_applied`` (default none)."""

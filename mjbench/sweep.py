@@ -1,0 +1,392 @@
+"""Parameter sweeps on the batched multibody backend: grids and Monte Carlo, local or on Dask.
+
+A sweep is a list of *rows*; each row is the scenario with a few dotted keys overridden (the keys
+of ``--set``, aliases included).  Rows come from
+
+* ``grid``: {key: [v1, v2, ...]} — the Cartesian product, first key slowest;
+* ``samples`` × ``perturb``: for every grid point, ``samples`` Monte Carlo draws, each perturbed
+  key multiplied by (1 + r·u), u uniform in [−1, 1] (a tolerance band ±r, e.g. ``5%``), drawn
+  from ``numpy.random.default_rng(seed)`` once for the whole sweep, so a row's values depend only
+  on the specification, never on chunking, workers or resumption.
+
+Rows are simulated in *chunks* (``chunk_size`` rows, in row order) by :func:`run_chunk`: one
+``mujoco.batch`` of the chunk's machines (per-row models via ``set_models`` where masses or
+geometry differ) — the same pure function locally and on a Dask worker, so the table is identical
+either way (tests/test_sweep.py).
+
+Output folder: ``sweep.json`` (the specification), ``results.csv`` (one row per simulation:
+``row``, the swept keys, ``status`` (ok | diverged | error), the metrics of
+:func:`mjbench.metrics.summary` and ``message``), rewritten atomically after every chunk; and
+summary plots.  A rerun with the same specification skips the rows already in the table.
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import io
+import itertools
+import json
+import math
+import os
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from . import metrics as M
+from . import scenario as S
+from .errors import MjbenchError, ParameterError, ScenarioError
+from .trajectory import atomic_write
+
+RESULTS = "results.csv"
+SPEC = "sweep.json"
+FIXED_COLUMNS = ("row", "status")
+
+
+@dataclass
+class SweepSpec:
+    """What to sweep.  ``grid``: {key: [values]}; ``perturb``: {key: relative half-width}."""
+
+    scenario: str
+    grid: dict = field(default_factory=dict)
+    samples: int = 0
+    perturb: dict = field(default_factory=dict)
+    seed: int = 0
+    mode: str | None = None
+    t_end: float | None = None
+    overrides: list = field(default_factory=list)  # --set applied to every row
+    chunk_size: int = 32
+
+    def keys(self):
+        return list(self.grid) + [k for k in self.perturb if k not in self.grid]
+
+    def to_json(self):
+        d = asdict(self)
+        d.pop("chunk_size")  # does not change results
+        return d
+
+
+# ======================================================================== parsing (CLI)
+def parse_grid(items) -> dict:
+    """``["key=v1,v2", ...]`` → {key: [values]} (values parsed as TOML, like --set);
+    ``key=lo:hi:n`` gives n evenly spaced values."""
+    grid = {}
+    for item in items or ():
+        if "=" not in item:
+            raise ScenarioError(f"--grid {item!r}: expected key=v1,v2,... or key=lo:hi:n")
+        key, text = (s.strip() for s in item.split("=", 1))
+        if text.count(":") == 2 and "," not in text:
+            lo, hi, n = text.split(":")
+            vals = [float(v) for v in np.linspace(float(lo), float(hi), int(n))]
+        else:
+            vals = [S.parse_value(v.strip()) for v in text.split(",") if v.strip()]
+        if not vals:
+            raise ScenarioError(f"--grid {item!r}: no values")
+        grid[key] = vals
+    return grid
+
+
+def parse_perturb(items) -> dict:
+    """``["key=5%", "key=0.02"]`` → {key: 0.05, key: 0.02} (relative half-widths)."""
+    out = {}
+    for item in items or ():
+        if "=" not in item:
+            raise ScenarioError(f"--perturb {item!r}: expected key=5% (relative half-width)")
+        key, text = (s.strip() for s in item.split("=", 1))
+        try:
+            r = float(text[:-1]) / 100 if text.endswith("%") else float(text)
+        except ValueError:
+            raise ScenarioError(f"--perturb {item!r}: {text!r} is not a number or percentage") from None
+        if not (math.isfinite(r) and r >= 0):
+            raise ScenarioError(f"--perturb {item!r}: the relative half-width must be >= 0")
+        out[key] = r
+    return out
+
+
+# ======================================================================== rows
+def _resolve(scn, key):
+    return scn.get("aliases", {}).get(key, key)
+
+
+def make_rows(spec: SweepSpec, scn: dict) -> list[dict]:
+    """All rows of the sweep: [{"row": i, key: value, ...}] (deterministic)."""
+    for key in spec.keys():  # fail early on a typo, naming the key
+        S.set_key(copy.deepcopy(scn), _resolve(scn, key), 0.0)
+    grid_keys = list(spec.grid)
+    points = list(itertools.product(*[spec.grid[k] for k in grid_keys])) if grid_keys else [()]
+    nsamp = max(int(spec.samples), 0)
+    pkeys = list(spec.perturb)
+    if nsamp and not pkeys:
+        raise ParameterError("--samples needs at least one --perturb key=r%")
+    if pkeys and not nsamp:
+        raise ParameterError("--perturb needs --samples N")
+    rng = np.random.default_rng(spec.seed)
+    u = rng.uniform(-1.0, 1.0, size=(len(points) * max(nsamp, 1), len(pkeys)))
+    rows = []
+    for gi, pt in enumerate(points):
+        base = dict(zip(grid_keys, pt))
+        for si in range(max(nsamp, 1)):
+            i = gi * max(nsamp, 1) + si
+            row = {"row": i, **base}
+            if nsamp:
+                row["sample"] = si
+                for j, k in enumerate(pkeys):
+                    nominal = base.get(k, S.get(scn, _resolve(scn, k)))
+                    if not isinstance(nominal, (int, float)) or isinstance(nominal, bool):
+                        raise ParameterError(f"--perturb {k}: nominal value {nominal!r} is not a number")
+                    row[k] = float(nominal) * (1.0 + spec.perturb[k] * float(u[i, j]))
+            rows.append(row)
+    return rows
+
+
+def row_scenario(scn: dict, row: dict, keys) -> dict:
+    s = copy.deepcopy(scn)
+    for k in keys:
+        S.set_key(s, _resolve(s, k), row[k])
+    return s
+
+
+# ======================================================================== simulation of a chunk
+def settings(spec: SweepSpec, scn: dict) -> dict:
+    from .runner import backend_options
+
+    mode = spec.mode or S.get(scn, "simulation.mode")
+    if mode not in scn.get("modes", {}):
+        raise ScenarioError(f"mode {mode!r} is not defined in the scenario; modes: {S.modes(scn)}")
+    return {"mode": mode,
+            "t_end": float(spec.t_end if spec.t_end is not None else S.get(scn, "simulation.t_end", 2.0)),
+            "record_dt": float(S.get(scn, "simulation.record_dt", 1e-3)),
+            "options": backend_options(scn, "multibody"),
+            "chi_window": S.get(scn, "metrics.chi_window"),
+            "chi_average": S.get(scn, "metrics.chi_average", "mean")}
+
+
+def row_metrics(traj, st) -> dict:
+    win = st["chi_window"]
+    m = M.summary(traj, chi_window=win, average=st["chi_average"])
+    return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+
+
+def run_chunk(scn: dict, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
+    """Simulate ``rows`` of the sweep in one batch (per model structure) → result rows.
+    Pure: the same input gives the same output locally and on a Dask worker."""
+    from .backends import batch
+
+    out = {r["row"]: dict(r) for r in rows}
+    machines, ok_rows = [], []
+    for r in rows:
+        try:
+            s = row_scenario(scn, r, keys)
+            machines.append(S.make_machine(s, st["mode"]))
+            ok_rows.append(r)
+        except MjbenchError as e:  # invalid parameter combination: a row of the table, not a crash
+            out[r["row"]].update(status="error", message=str(e))
+    if machines:
+        o = {**batch.DEFAULT_OPTIONS, **st["options"]}
+        models = batch.build_models(machines, o)
+        groups = {}
+        for i, m in enumerate(models):
+            sig = (m.nq, m.nv, m.nbody, m.neq, m.nsite, m.nu, m.na, m.opt.timestep)
+            groups.setdefault(sig, []).append(i)
+        for idx in groups.values():
+            try:
+                res = batch.simulate([machines[i] for i in idx], st["t_end"], record_dt=st["record_dt"],
+                                     options=o, nthread=nthread, models=[models[i] for i in idx])
+            except MjbenchError as e:
+                for i in idx:
+                    out[ok_rows[i]["row"]].update(status="error", message=str(e))
+                continue
+            for j, i in enumerate(idx):
+                rr = out[ok_rows[i]["row"]]
+                if res.diverged[j]:
+                    rr.update(status="diverged", message=res.messages[j])
+                    continue
+                try:
+                    rr.update(status="ok", **row_metrics(res.trajectory(j), st))
+                except MjbenchError as e:
+                    rr.update(status="error", message=str(e))
+    return [out[r["row"]] for r in rows]
+
+
+# ======================================================================== table I/O
+def write_table(path, results: list[dict], keys: list):
+    """One CSV row per simulation, sorted by ``row``; floats written with full precision (repr)."""
+    results = sorted(results, key=lambda r: r["row"])
+    extra = ["sample"] if any("sample" in r for r in results) else []
+    metric_cols = []
+    for r in results:
+        for k in r:
+            if k not in metric_cols and k not in keys and k not in FIXED_COLUMNS and k not in extra and k != "message":
+                metric_cols.append(k)
+    cols = ["row", *extra, *keys, "status", *metric_cols, "message"]
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(cols)
+    for r in results:
+        w.writerow([_fmt(r.get(c, "")) for c in cols])
+    atomic_write(path, lambda f: f.write(buf.getvalue()))
+    return path
+
+
+def _fmt(v):
+    if isinstance(v, float):
+        return repr(v)
+    return v
+
+
+def read_table(path) -> list[dict]:
+    """Rows of a results.csv with numbers parsed back (exact: written with repr)."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    out = []
+    for r in rows:
+        d = {}
+        for k, v in r.items():
+            if v == "" or v is None:
+                continue
+            if k in ("status", "message"):
+                d[k] = v
+                continue
+            try:
+                d[k] = int(v) if k in ("row", "sample") else float(v)
+            except ValueError:
+                d[k] = v
+        out.append(d)
+    return out
+
+
+# ======================================================================== driver
+def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = None, nthread: int = 0,
+              progress: bool = True, plots: bool = True, metric: str | None = None) -> dict:
+    """Run (or resume) a sweep into ``out_dir``.  ``client``: a ``dask.distributed.Client``, or
+    ``scheduler``: its address (tcp://host:port) — chunks then run on the cluster.
+    Returns {"table": path, "rows": n, "ran": n_new, "plots": [paths]}."""
+    scn = S.load(spec.scenario, spec.overrides)
+    rows = make_rows(spec, scn)
+    keys = spec.keys()
+    st = settings(spec, scn)
+    os.makedirs(out_dir, exist_ok=True)
+    spec_path = os.path.join(out_dir, SPEC)
+    table = os.path.join(out_dir, RESULTS)
+    spec_json = json.dumps(spec.to_json(), sort_keys=True, indent=1, default=str)
+    done = {}
+    if os.path.exists(spec_path):
+        with open(spec_path) as f:
+            old = f.read()
+        if json.loads(old) != json.loads(spec_json):
+            raise ScenarioError(f"{out_dir} holds a different sweep ({SPEC} differs); use another --out "
+                                f"or delete the folder")
+        if os.path.exists(table):
+            done = {r["row"]: r for r in read_table(table) if r.get("status") in ("ok", "diverged", "error")}
+    else:
+        atomic_write(spec_path, lambda f: f.write(spec_json))
+    pending = [r for r in rows if r["row"] not in done]
+    size = max(1, int(spec.chunk_size))
+    chunks = [pending[i:i + size] for i in range(0, len(pending), size)]
+    results = dict(done)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=len(rows), initial=len(done), desc="sweep", unit="sim")
+
+    def collect(chunk_result):
+        for r in chunk_result:
+            results[r["row"]] = r
+        write_table(table, list(results.values()), keys)
+        if bar is not None:
+            bar.update(len(chunk_result))
+
+    own_client = None
+    try:
+        if client is None and scheduler:
+            from dask.distributed import Client
+            own_client = client = Client(scheduler)
+        if client is not None and chunks:
+            from dask.distributed import as_completed
+            scn_f = client.scatter(scn, broadcast=True)
+            futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False) for ch in chunks]
+            for fut in as_completed(futs):
+                collect(fut.result())
+        else:
+            for ch in chunks:
+                collect(run_chunk(scn, ch, keys, st, nthread))
+        if not chunks and not os.path.exists(table):
+            write_table(table, list(results.values()), keys)
+    finally:
+        if bar is not None:
+            bar.close()
+        if own_client is not None:
+            own_client.close()
+    out = {"table": table, "rows": len(rows), "ran": len(pending), "plots": []}
+    if plots:
+        out["plots"] = summary_plots(spec, read_table(table), out_dir, metric=metric)
+    return out
+
+
+# ======================================================================== plots
+def default_metric(results):
+    for k in ("chi_window", "chi_last_cycle", "chi_steady_mean", "mean_motor_speed_rad_s"):
+        if any(k in r for r in results):
+            return k
+    return None
+
+
+def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | None = None) -> list:
+    """Heat map (two grid keys), line (one grid key) and, for Monte Carlo, histograms."""
+    from . import plots as P
+    import matplotlib.pyplot as plt
+
+    metric = metric or default_metric(results)
+    if metric is None:
+        return []
+    paths = []
+    gk = list(spec.grid)
+    ok = [r for r in results if r.get("status") == "ok" and metric in r]
+    if not spec.samples and len(gk) == 2:
+        xs, ys = spec.grid[gk[0]], spec.grid[gk[1]]
+        Z = np.full((len(ys), len(xs)), np.nan)
+        for r in ok:
+            try:
+                Z[ys.index(_match(ys, r[gk[1]])), xs.index(_match(xs, r[gk[0]]))] = r[metric]
+            except ValueError:
+                pass
+        fig, ax = plt.subplots(figsize=(6.4, 5))
+        im = ax.imshow(Z, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(len(xs)), [f"{v:g}" if isinstance(v, float) else str(v) for v in xs], rotation=45)
+        ax.set_yticks(range(len(ys)), [f"{v:g}" if isinstance(v, float) else str(v) for v in ys])
+        ax.set_xlabel(gk[0])
+        ax.set_ylabel(gk[1])
+        for (iy, ix), v in np.ndenumerate(Z):
+            if np.isfinite(v):
+                ax.text(ix, iy, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
+        fig.colorbar(im, ax=ax, label=metric)
+        ax.set_title(f"{metric} (blank: diverged/error)")
+        paths.append(P.save(fig, os.path.join(out_dir, f"heatmap_{metric}.png")))
+    elif not spec.samples and len(gk) == 1:
+        xs = [r[gk[0]] for r in ok]
+        fig, ax = plt.subplots(figsize=(6.4, 4))
+        ax.plot(xs, [r[metric] for r in ok], "o-")
+        ax.set_xlabel(gk[0])
+        ax.set_ylabel(metric)
+        ax.grid(alpha=0.3)
+        paths.append(P.save(fig, os.path.join(out_dir, f"line_{metric}.png")))
+    if spec.samples:
+        vals = np.array([r[metric] for r in ok])
+        fig, ax = plt.subplots(figsize=(6.4, 4))
+        if len(vals):
+            ax.hist(vals, bins=max(5, min(40, len(vals) // 4)), color="tab:blue", alpha=0.8)
+            q = np.percentile(vals, [5, 50, 95])
+            for v, ls in zip(q, (":", "-", ":")):
+                ax.axvline(v, color="k", ls=ls, lw=1)
+            ax.set_title(f"{metric}: median {q[1]:.4g}, 5–95 % [{q[0]:.4g}, {q[2]:.4g}], n = {len(vals)} "
+                         f"({len(results) - len(ok)} failed)", fontsize=9)
+        ax.set_xlabel(metric)
+        ax.set_ylabel("simulations")
+        paths.append(P.save(fig, os.path.join(out_dir, f"distribution_{metric}.png")))
+    return paths
+
+
+def _match(values, v):
+    for x in values:
+        if x == v or (isinstance(x, (int, float)) and isinstance(v, (int, float)) and math.isclose(x, v, rel_tol=1e-12)):
+            return x
+    raise ValueError(v)

@@ -1,0 +1,267 @@
+"""Controller autotuning on the batched multibody backend (seed 000 §IV: "minimise χ over K_p, K_i, K_d").
+
+Stages
+1. **Global**: ``n_global`` candidate gain sets — a scrambled Sobol sequence over the log-scaled
+   box (default: each gain within ×/÷ ``span`` = 10 of the scenario's gains) plus the scenario's
+   own gains — simulated together in one ``mujoco.batch`` (chunks of ``batch_size``).
+2. **Local**: Nelder–Mead (``scipy.optimize.minimize``) in the log-gains from the best global
+   candidates (``starts``), each evaluation one simulation through the same batched backend;
+   bounded by ``maxfev`` evaluations per start.  Nelder–Mead because χ is a max−min of a sampled
+   signal: piecewise smooth, no useful gradient.
+3. **Validation**: the winner and the scenario's gains re-simulated by the single-run
+   ``multibody.simulate`` (not the batch) and compared.
+
+Objective (minimised, penalised): the metric plus 10 × the relative excess of the peak |voltage|
+and peak |current| over their limits (``--limit voltage=V,current=A``; default: the peaks of the
+scenario's own gains, so a tuned controller may not draw more than the paper's); a diverged run
+scores 1e3.  Metrics: ``chi`` (χ, Eq 22, on the scenario's ``metrics.chi_window``), ``chi_cycle``
+(χ of the last complete crank cycle), ``ise``/``iae``/``itae`` (∫e², ∫|e|, ∫t|e| of the crank-speed
+error to the set-point over the run, [rad²/s], [rad], [rad·s]).
+
+Controllers: ``pid`` (constant K_p), ``pid-tv`` (K_p·t, Eq 15; the paper's), ``smc`` (sliding mode,
+controllers/smc.py, seed 004: λ and K).  Run length: the end of the χ window (0.5 s for seed 000),
+else the scenario's ``simulation.t_end``.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import metrics as M
+from . import scenario as S
+from .errors import MjbenchError, ParameterError, ScenarioError
+
+#: controller → (controller type in the scenario, tuned parameters, fixed settings)
+CONTROLLERS = {
+    "pid": ("pid", ("kp", "ki", "kd"), {"kp_ramp": False}),
+    "pid-tv": ("pid", ("kp", "ki", "kd"), {"kp_ramp": True}),
+    "smc": ("smc", ("lam", "K"), {}),
+}
+OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae")
+PENALTY = 10.0
+DIVERGED = 1e3
+
+
+@dataclass
+class TuneResult:
+    controller: str
+    objective: str
+    mode: str
+    params: list
+    best: dict                       # gains of the winner
+    baseline: dict                   # the scenario's gains
+    validation: dict                 # {"tuned": metrics, "baseline": metrics} (single multibody runs)
+    limits: dict
+    history: dict = field(default_factory=dict)
+
+    @property
+    def improvement(self):
+        """Relative reduction of the objective metric vs the scenario's gains (validated)."""
+        a, b = self.validation["baseline"]["objective"], self.validation["tuned"]["objective"]
+        return (a - b) / a if a else float("nan")
+
+
+def find_mode(scn, ctype):
+    modes = {k: v for k, v in scn.get("modes", {}).items() if isinstance(v, dict) and v.get("type") == ctype}
+    if not modes:
+        raise ScenarioError(f"scenario {S.get(scn, 'scenario.name')!r} has no mode of controller type "
+                            f"{ctype!r}; modes: {S.modes(scn)}")
+    return ctype if ctype in modes else sorted(modes)[0]
+
+
+class Problem:
+    """Evaluates gain sets (arrays in the parameter order) on the batch."""
+
+    def __init__(self, scn, controller, objective="chi", limits=None, t_end=None, nthread=0, batch_size=64):
+        if controller not in CONTROLLERS:
+            raise ParameterError(f"--controller {controller!r}: choose one of {sorted(CONTROLLERS)}")
+        if objective not in OBJECTIVES:
+            raise ParameterError(f"--objective {objective!r}: choose one of {list(OBJECTIVES)}")
+        ctype, self.params, fixed = CONTROLLERS[controller]
+        if ctype == "smc":
+            try:
+                import controllers.smc  # noqa: F401
+            except ImportError:
+                raise ParameterError("--controller smc: controllers/smc.py is not available") from None
+        self.scn = copy.deepcopy(scn)
+        self.mode = find_mode(self.scn, ctype)
+        table = self.scn["modes"][self.mode]
+        for k, v in fixed.items():
+            table[k] = v
+        self.controller, self.objective = controller, objective
+        self.x0 = np.array([float(table[p]) for p in self.params])
+        self.window = S.get(self.scn, "metrics.chi_window")
+        self.average = S.get(self.scn, "metrics.chi_average", "mean")
+        if objective == "chi" and not self.window:
+            raise ParameterError("--objective chi needs metrics.chi_window in the scenario (or use chi_cycle)")
+        if t_end is None:
+            t_end = float(self.window[1]) if (self.window and objective == "chi") else \
+                float(S.get(self.scn, "simulation.t_end", 2.0))
+        self.t_end = float(t_end)
+        self.record_dt = min(float(S.get(self.scn, "simulation.record_dt", 1e-3)), 5e-4)
+        from .runner import backend_options
+        self.options = backend_options(self.scn, "multibody")
+        self.nthread, self.batch_size = nthread, batch_size
+        drive = S.make_drive(self.scn)
+        if "omega0" in table:
+            self.setpoint = float(table["omega0"]) / float(drive.z)  # crank side [rad/s]
+        elif "omega_d" in table:
+            self.setpoint = float(table["omega_d"])
+        else:
+            self.setpoint = None
+        self.limits = dict(limits or {})
+        self.nfev = 0
+
+    # ------------------------------------------------------------------ evaluation
+    def machine(self, x):
+        scn = copy.deepcopy(self.scn)
+        for p, v in zip(self.params, x):
+            scn["modes"][self.mode][p] = float(v)
+        return S.make_machine(scn, self.mode)
+
+    def metrics(self, tr):
+        t, om = tr.t, tr.omega
+        out = {"peak_voltage_V": float(np.max(np.abs(tr.voltage))),
+               "peak_current_A": float(np.max(np.abs(tr.current)))}
+        if self.window and t[-1] >= self.window[1] - 1e-9:
+            out["chi"] = M.chi(t, om, self.window[0], self.window[1], self.average)
+        _, vals = M.chi_per_cycle(t, tr.q, om, self.average)
+        if len(vals):
+            out["chi_cycle"] = float(vals[-1])
+        if self.setpoint is not None:
+            e = self.setpoint - tr.qd
+            out["ise"] = float(np.trapezoid(e * e, t))
+            out["iae"] = float(np.trapezoid(np.abs(e), t))
+            out["itae"] = float(np.trapezoid(t * np.abs(e), t))
+        return out
+
+    def score(self, m):
+        if m is None or self.objective not in m or not np.isfinite(m[self.objective]):
+            return DIVERGED
+        pen = 0.0
+        for key, lim in (("peak_voltage_V", self.limits.get("voltage")), ("peak_current_A", self.limits.get("current"))):
+            if lim is not None:
+                pen += max(0.0, m[key] / lim - 1.0)
+        return float(m[self.objective] + PENALTY * pen)
+
+    def evaluate(self, X):
+        """Objective of every gain set in X (n, nparam) → (scores, metrics list), batched."""
+        from .backends import batch
+
+        X = np.atleast_2d(X)
+        scores, mets = np.full(len(X), DIVERGED), [None] * len(X)
+        for s in range(0, len(X), self.batch_size):
+            idx = range(s, min(len(X), s + self.batch_size))
+            machines, ok = [], []
+            for i in idx:
+                try:
+                    machines.append(self.machine(X[i]))
+                    ok.append(i)
+                except (MjbenchError, ValueError):
+                    pass
+            if not machines:
+                continue
+            res = batch.simulate(machines, self.t_end, record_dt=self.record_dt, options=self.options,
+                                 nthread=self.nthread)
+            for j, i in enumerate(ok):
+                if not res.diverged[j]:
+                    try:
+                        mets[i] = self.metrics(res.trajectory(j))
+                    except MjbenchError:
+                        mets[i] = None
+                scores[i] = self.score(mets[i])
+        self.nfev += len(X)
+        return scores, mets
+
+    def validate(self, x):
+        """Single-run multibody simulation of gains x → metrics + objective."""
+        from .backends import multibody
+
+        tr = multibody.simulate(self.machine(x), self.t_end, record_dt=self.record_dt, options=self.options)
+        m = self.metrics(tr)
+        m["objective"] = m.get(self.objective, float("nan"))
+        m["score"] = self.score(m)
+        return m, tr
+
+
+def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, starts=1, maxfev=80,
+         span=10.0, bounds=None, seed=0, t_end=None, nthread=0, batch_size=64, log=print) -> TuneResult:
+    """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains; see module doc."""
+    from scipy.optimize import minimize
+    from scipy.stats import qmc
+
+    prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size)
+    t0 = time.perf_counter()
+    base_m, _ = prob.validate(prob.x0)
+    lim = dict(limits or {})
+    lim.setdefault("voltage", base_m["peak_voltage_V"])
+    lim.setdefault("current", base_m["peak_current_A"])
+    prob.limits = lim
+    base_m["score"] = prob.score(base_m)
+    lo = np.empty(len(prob.params))
+    hi = np.empty(len(prob.params))
+    for k, p in enumerate(prob.params):
+        b = (bounds or {}).get(p)
+        x0 = prob.x0[k]
+        if b is None:
+            if x0 <= 0:
+                raise ParameterError(f"tune: {p} = {x0} in the scenario; give --bounds {p}=lo:hi (both > 0)")
+            b = (x0 / span, x0 * span)
+        if not (0 < b[0] < b[1]):
+            raise ParameterError(f"--bounds {p}={b[0]}:{b[1]}: need 0 < lo < hi (searched in log scale)")
+        lo[k], hi[k] = math.log(b[0]), math.log(b[1])
+    sob = qmc.Sobol(len(lo), scramble=True, seed=seed)
+    U = sob.random(max(1, n_global))
+    Z = lo + U * (hi - lo)
+    X = np.vstack([prob.x0[None, :], np.exp(Z)])
+    scores, mets = prob.evaluate(X)
+    log(f"global stage: {len(X)} candidates in {time.perf_counter() - t0:.1f} s, best score "
+        f"{scores.min():.5g} (scenario gains {scores[0]:.5g})")
+    order = np.argsort(scores)
+    best_x, best_s = X[order[0]].copy(), float(scores[order[0]])
+    hist = {"global_X": X.tolist(), "global_scores": scores.tolist(), "local": []}
+
+    def f(z):
+        z = np.clip(z, lo, hi)
+        s, _ = prob.evaluate(np.exp(z)[None, :])
+        return float(s[0])
+
+    for r in range(max(0, starts)):
+        z0 = np.log(X[order[r]])
+        step = 0.1 * (hi - lo)
+        simplex = np.vstack([z0] + [z0 + np.eye(len(z0))[k] * step[k] for k in range(len(z0))])
+        opt = minimize(f, z0, method="Nelder-Mead",
+                       options={"maxfev": maxfev, "xatol": 1e-3, "fatol": 1e-6, "initial_simplex": simplex})
+        x = np.exp(np.clip(opt.x, lo, hi))
+        hist["local"].append({"start": X[order[r]].tolist(), "x": x.tolist(), "score": float(opt.fun),
+                              "nfev": int(opt.nfev)})
+        log(f"local stage from start {r + 1}: score {opt.fun:.5g} after {opt.nfev} evaluations")
+        if opt.fun < best_s:
+            best_x, best_s = x, float(opt.fun)
+    tuned_m, _ = prob.validate(best_x)
+    hist["evaluations"] = prob.nfev
+    hist["seconds"] = time.perf_counter() - t0
+    return TuneResult(controller, objective, prob.mode, list(prob.params),
+                      dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
+                      {"tuned": tuned_m, "baseline": base_m}, lim, hist)
+
+
+def report(res: TuneResult) -> str:
+    v = res.validation
+    lines = [f"controller {res.controller} (mode {res.mode}), objective {res.objective}; "
+             f"{res.history.get('evaluations', '?')} simulations in {res.history.get('seconds', 0):.1f} s",
+             f"  {'':<22s} {'scenario gains':>16s} {'tuned':>16s}"]
+    for p in res.params:
+        lines.append(f"  {p:<22s} {res.baseline[p]:>16.6g} {res.best[p]:>16.6g}")
+    for k in (res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A"):
+        if k in v["baseline"] or k in v["tuned"]:
+            lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
+    lines.append(f"  limits: {', '.join(f'{k} {x:.4g}' for k, x in res.limits.items())} "
+                 f"(penalty {PENALTY:g} × relative excess)")
+    lines.append(f"  improvement of {res.objective} over the scenario's gains (multibody validation): "
+                 f"{100 * res.improvement:.1f} %")
+    return "\n".join(lines)
