@@ -14,7 +14,8 @@ import importlib as _importlib
 
 #: controller type (scenario ``[modes.X] type``) → module providing ``from_params``
 TYPES = {"open": "controllers.openloop", "pid": "controllers.pid",
-         "smc": "controllers.smc"}
+         "smc": "controllers.smc",
+         "servo": "controllers.servo"}
 
 
 def make(params: dict, drive=None, mechanism=None):

@@ -59,6 +59,15 @@ class PID(Controller):
             return self.kp * (t if t < tm else tm)
         return self.kp
 
+    def divergence_hint(self, t, h):
+        """Explanation appended to a divergence error (seed 000 errata: the unbounded K_p·t)."""
+        if not self.kp_ramp:
+            return ""
+        return (f" The time-varying gain K_p·t = {np.max(self.gain_p(t)):.4g} V·s/rad at t = {t:.4g} s grows "
+                f"without bound (Eq 15): past some t it exceeds the stability limit of the loop sampled "
+                f"at h = {h:g} s. Use a smaller step (--set simulation.dt=...) or bound the ramp "
+                f"(--set modes.<mode>.t_ramp_max=...).")
+
     def __call__(self, t, y):
         phi_r, omega_r, acc_r = self.reference(t, y)
         e = omega_r - y.omega

@@ -147,7 +147,7 @@ class DCMotorDrive:
     def friction_torque_motor(self, omega_m):
         """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""
         if isinstance(omega_m, float):
-            sgn = (omega_m > 0) - (omega_m < 0)
+            sgn = 1.0 if omega_m > 0 else (-1.0 if omega_m < 0 else 0.0)
         else:
             sgn = np.sign(omega_m)
         return self.T_0 * sgn + self.lam * omega_m
@@ -161,7 +161,7 @@ class DCMotorDrive:
             return self.z * (self.k_m * I - self.friction_torque_motor(self.z * crank_speed))
         omega_m = self.z * crank_speed
         if isinstance(omega_m, float):
-            sgn = (omega_m > 0) - (omega_m < 0)
+            sgn = 1.0 if omega_m > 0 else (-1.0 if omega_m < 0 else 0.0)
         else:
             sgn = np.sign(omega_m)
         return self.z * (self.k_m * I - self.T_0 * sgn)

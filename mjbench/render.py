@@ -284,6 +284,15 @@ class MechanismView:
         self.trail_rgba = self._line_rgba(TRACE_TRAIL_RGBA, gain)
 
     @staticmethod
+    def set_flags(scene):
+        """Scene render flags: no shadow maps (they triple the frame time on llvmpipe with the
+        full-frame backdrop) and no reflections."""
+        import mujoco
+
+        scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = 0
+        scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = 0
+
+    @staticmethod
     def _line_rgba(rgba, gain):
         c = np.array(rgba, np.float32)
         c[:3] /= gain
@@ -297,6 +306,7 @@ class MechanismView:
         self.data.qpos[:] = self.model.qpos0
         mujoco.mj_kinematics(self.model, self.data)
         self.renderer.update_scene(self.data, camera=self.camera, scene_option=self.opt)
+        self.set_flags(self.renderer.scene)
         c = np.array(self.camera.lookat, dtype=float)
         hw = 2.0 * self.camera.distance
         ref = 0.2
@@ -355,6 +365,7 @@ class MechanismView:
         d.qpos[:] = self.mech.initial_qpos(m, float(q))
         mujoco.mj_kinematics(m, d)
         self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
+        self.set_flags(self.renderer.scene)
         for segs, w, rgba in self._static:
             self._segments(segs, w, rgba)
         if trail_q is not None and len(trail_q) > 1:

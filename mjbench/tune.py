@@ -88,6 +88,7 @@ class Problem:
             except ImportError:
                 raise ParameterError("--controller smc: controllers/smc.py is not available") from None
         self.scn = copy.deepcopy(scn)
+        self.scn_orig = copy.deepcopy(scn)  # the scenario's own controller (baseline)
         self.mode = find_mode(self.scn, ctype)
         table = self.scn["modes"][self.mode]
         for k, v in fixed.items():
@@ -154,6 +155,16 @@ class Problem:
 
         X = np.atleast_2d(X)
         scores, mets = np.full(len(X), DIVERGED), [None] * len(X)
+        if len(X) == 1:  # one simulation: the single-run loop (same numbers, less overhead)
+            from .errors import SimulationDiverged
+            try:
+                m, _ = self.validate(X[0])
+                mets[0] = m
+                scores[0] = m["score"]
+            except (SimulationDiverged, MjbenchError, ValueError):
+                pass
+            self.nfev += 1
+            return scores, mets
         for s in range(0, len(X), self.batch_size):
             idx = range(s, min(len(X), s + self.batch_size))
             machines, ok = [], []
@@ -177,11 +188,13 @@ class Problem:
         self.nfev += len(X)
         return scores, mets
 
-    def validate(self, x):
-        """Single-run multibody simulation of gains x → metrics + objective."""
+    def validate(self, x, baseline=False):
+        """Single-run multibody simulation of gains x (``baseline``: the scenario's controller as
+        written, e.g. K_p·t when tuning a constant-K_p PID) → metrics + objective."""
         from .backends import multibody
 
-        tr = multibody.simulate(self.machine(x), self.t_end, record_dt=self.record_dt, options=self.options)
+        machine = S.make_machine(copy.deepcopy(self.scn_orig), self.mode) if baseline else self.machine(x)
+        tr = multibody.simulate(machine, self.t_end, record_dt=self.record_dt, options=self.options)
         m = self.metrics(tr)
         m["objective"] = m.get(self.objective, float("nan"))
         m["score"] = self.score(m)
@@ -196,7 +209,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
 
     prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size)
     t0 = time.perf_counter()
-    base_m, _ = prob.validate(prob.x0)
+    base_m, _ = prob.validate(prob.x0, baseline=True)
     lim = dict(limits or {})
     lim.setdefault("voltage", base_m["peak_voltage_V"])
     lim.setdefault("current", base_m["peak_current_A"])
@@ -217,10 +230,10 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     sob = qmc.Sobol(len(lo), scramble=True, seed=seed)
     U = sob.random(max(1, n_global))
     Z = lo + U * (hi - lo)
-    X = np.vstack([prob.x0[None, :], np.exp(Z)])
+    X = np.vstack([prob.x0[None, :], np.exp(Z)])  # the scenario's gains (in the tuned form) first
     scores, mets = prob.evaluate(X)
     log(f"global stage: {len(X)} candidates in {time.perf_counter() - t0:.1f} s, best score "
-        f"{scores.min():.5g} (scenario gains {scores[0]:.5g})")
+        f"{scores.min():.5g} (scenario gains in the tuned form {scores[0]:.5g})")
     order = np.argsort(scores)
     best_x, best_s = X[order[0]].copy(), float(scores[order[0]])
     hist = {"global_X": X.tolist(), "global_scores": scores.tolist(), "local": []}
@@ -243,6 +256,10 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
         if opt.fun < best_s:
             best_x, best_s = x, float(opt.fun)
     tuned_m, _ = prob.validate(best_x)
+    zb = np.log(best_x)
+    hist["at_bound"] = [p for k, p in enumerate(prob.params)
+                        if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
+    hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
     hist["evaluations"] = prob.nfev
     hist["seconds"] = time.perf_counter() - t0
     return TuneResult(controller, objective, prob.mode, list(prob.params),
@@ -254,10 +271,11 @@ def report(res: TuneResult) -> str:
     v = res.validation
     lines = [f"controller {res.controller} (mode {res.mode}), objective {res.objective}; "
              f"{res.history.get('evaluations', '?')} simulations in {res.history.get('seconds', 0):.1f} s",
-             f"  {'':<22s} {'scenario gains':>16s} {'tuned':>16s}"]
+             f"  {'':<22s} {'scenario ctrl':>16s} {'tuned':>16s}"]
     for p in res.params:
-        lines.append(f"  {p:<22s} {res.baseline[p]:>16.6g} {res.best[p]:>16.6g}")
-    for k in (res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A"):
+        at = "  (at a search bound)" if p in res.history.get("at_bound", []) else ""
+        lines.append(f"  {p:<22s} {res.baseline[p]:>16.6g} {res.best[p]:>16.6g}{at}")
+    for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A")):
         if k in v["baseline"] or k in v["tuned"]:
             lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
     lines.append(f"  limits: {', '.join(f'{k} {x:.4g}' for k, x in res.limits.items())} "

@@ -536,7 +536,105 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
                 rep["laws"][name]["E_T_multibody_J"] = residual_energy_multibody(plat, laws[name], dt=dt)
         rep["multibody"] = {"integrator": "RK4", "dt_s": dt, "drive": "kinematic (inverse dynamics per stage)"}
         tick()
+    srv = {k: v for k, v in scn.get("servo", {}).items() if not k.startswith("_")}
+    if srv.pop("enabled", False):
+        rep["servo"] = servo_study(plat, laws, srv, t_after=float(chk.get("t_after", 0.5)))
     E0, E1 = rep["laws"]["initial"]["E_T_J"], rep["laws"]["optimised"]["E_T_J"]
     rep["reduction_orders"] = float(np.log10(E0 / max(E1, 1e-300)))
     return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,
                                        "sens_fine": (fine, sens_fine), "t_after": float(chk.get("t_after", 0.5))}}
+
+
+# ====================================================================== real servo (option)
+def simulate_servo(platform, law, drive, controller, t_end=None, dt=1e-4):
+    """The platform driven by a DC motor (``mjbench.drive.DCMotorDrive`` with z = 1: its shaft
+    is the motor shaft φ of the law) under a sampled controller (voltage held over each control
+    period dt), instead of the ideal servo.  Reduced model, classical RK4 at step dt:
+
+        J_s·φ̈ = k_m·I − T_0·sgn φ̇ − λ_f·φ̇ + ρ·(k·ψ + c·ψ̇)      (motor shaft, J_s = J_eq + J_motor)
+        J·ϑ̈  = −(k·ψ + c·ψ̇),  ψ = ϑ − ρ·φ                       (platform, seed 001 Eq 3)
+        L·İ  = V − R·I − k_m·φ̇                                     (seed 000 Eq 7)
+
+    Returns a dict of arrays (t, motor angle/speed, ψ, ψ̇, current, voltage) sampled every dt."""
+    from controllers.base import Measurement
+
+    if float(np.max(drive.z)) != 1.0:
+        raise ParameterError("simulate_servo: drive.z must be 1 (the platform model holds the reducer)")
+    osc = platform.oscillator()
+    t_end = law.T + 0.5 if t_end is None else float(t_end)
+    J_s = float(drive.J_eq) + float(getattr(platform, "J_motor", 0.0))
+    rho, k, c, J = osc.ratio, osc.k, osc.c, osc.J
+    km, lam, T0 = float(drive.k_m), float(drive.lam), float(drive.T_0)
+    R, L = float(drive.R), float(drive.L)
+    if L <= 0:
+        raise ParameterError("simulate_servo needs drive.L > 0")
+
+    def rhs(x, V):
+        phi, om, psi, psid, I = x
+        tr = k * psi + c * psid
+        phidd = (km * I - T0 * np.sign(om) - lam * om + rho * tr) / J_s
+        thdd = -tr / J
+        return np.array([om, phidd, psid, thdd - rho * phidd, (V - R * I - km * om) / L])
+
+    n = int(round(t_end / dt))
+    rec = np.empty((n + 1, 7))
+    x = np.zeros(5)
+    y = Measurement(z=1.0)
+    controller.reset()
+    for i in range(n + 1):
+        t = i * dt
+        f0 = rhs(x, 0.0)
+        V = drive.limit(controller(t, y.set(t, x[0], x[1], f0[1], x[4])))
+        rec[i] = (t, x[0], x[1], x[2], x[3], x[4], V)
+        if i == n:
+            break
+        k1 = rhs(x, V)
+        k2 = rhs(x + 0.5 * dt * k1, V)
+        k3 = rhs(x + 0.5 * dt * k2, V)
+        k4 = rhs(x + dt * k3, V)
+        x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if not np.all(np.isfinite(x)) or abs(x[1]) > 1e6:
+            from .errors import SimulationDiverged
+            raise SimulationDiverged(f"servo simulation diverged at t = {t:.6g} s: state {x.tolist()}", t=t)
+    names = ("t", "motor_angle", "motor_speed", "psi", "psid", "current", "voltage")
+    return {nm: rec[:, j] for j, nm in enumerate(names)}
+
+
+def servo_summary(platform, law, drive, controller, t_after=0.5, dt=1e-4):
+    """E(T) (Eq 25 with the actual motor speed), the platform's vibration amplitude after T
+    (max |ψ| on [T, T + t_after]), the final energy at T + t_after, and the motor's peak tracking error."""
+    osc = platform.oscillator()
+    r = simulate_servo(platform, law, drive, controller, t_end=law.T + t_after, dt=dt)
+    iT = int(round(law.T / dt))
+    E_T = float(energy_from_state(r["psi"][iT], r["psid"][iT], osc, r["motor_speed"][iT]))
+    E_end = float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
+    err = law.position(r["t"]) - r["motor_angle"]
+    return {"E_T_J": E_T, "E_end_J": E_end, "residual_amplitude_rad": float(np.max(np.abs(r["psi"][iT:]))),
+            "max_tracking_error_rad": float(np.max(np.abs(err))),
+            "peak_current_A": float(np.max(np.abs(r["current"]))),
+            "peak_voltage_V": float(np.max(np.abs(r["voltage"])))}
+
+
+def servo_study(platform, laws: dict, params: dict, t_after=0.5) -> dict:
+    """Scenario ``[servo]`` table → the laws run by a DC motor + cascade servo (controllers.servo).
+    Keys: dt [s]; drive = {DCMotorDrive fields, z = 1}; controller = {kpp, kvp, kvi, kffv, kffa, v_limit}."""
+    import controllers.servo as servo_mod
+
+    from .drive import DCMotorDrive
+
+    p = dict(params)
+    dt = float(p.pop("dt", 1e-4))
+    dparams = {k: v for k, v in dict(p.pop("drive", {})).items() if not k.startswith("_")}
+    cparams = {k: v for k, v in dict(p.pop("controller", {})).items() if not k.startswith("_")}
+    if p:
+        raise ParameterError(f"unknown [servo] parameters: {sorted(p)}")
+    try:
+        drive = DCMotorDrive(**dparams)
+    except TypeError as e:
+        raise ParameterError(f"[servo.drive]: {e}") from None
+    out = {"drive": drive.as_dict(), "controller": dict(cparams), "dt_s": dt, "laws": {}}
+    for name in ("initial", "optimised"):
+        law = laws[name]
+        ctrl = servo_mod.from_params(cparams, drive=drive, mechanism=platform, reference=law.as_reference())
+        out["laws"][name] = servo_summary(platform, law, drive, ctrl, t_after=t_after, dt=dt)
+    return out

@@ -49,6 +49,31 @@ def test_paper_eq13_and_eq18_agree_with_derivation(mech):
     assert np.allclose(dg1, dG1, atol=1e-12)
 
 
+def test_paper_eq19_as_printed_is_wrong(mech):
+    """SEED-ERRATA 004: Eq 19 (g2') as printed disagrees with finite differences; ours agrees."""
+    k = mech.kin(Q)
+    q, p1, p2 = Q, k["th3"], k["th4"]
+    r2, r3, r4, a = mech.r2, mech.r3, mech.r4, mech.a
+    D = a * np.sin(p1) + r2 * np.cos(q - p1)
+    g1, g2 = k["g1"], k["g2"]
+    eq19 = ((r2 * r3 * (a * np.cos(q - p1) - a * np.sin(q - p1) * np.sin(p1) * np.cos(p1))
+             + r2 * np.cos(q - p1) ** 2 * np.sin(p1)) / (r4 * np.cos(p2) * D ** 2) * g1
+            - r2 * r3 * np.cos(q - p1) * np.cos(p1) * np.sin(p2) / (r4 * np.cos(p2) ** 2 * D) * g2
+            + a * r2 * r3 * np.sin(q - p1) * np.cos(p1) * np.sin(p1) / (r4 * np.cos(p2) * D ** 2))
+    h = 1e-6
+    fd = (mech.kin(Q + h)["g2"] - mech.kin(Q - h)["g2"]) / (2 * h)
+    assert np.max(np.abs(fd - k["dg2"])) < 1e-7
+    assert np.max(np.abs(fd - eq19)) > 0.1 * np.max(np.abs(fd))
+
+
+def test_every_mode_runs_through_make_machine():
+    scn = scenario.load("yigit2023")
+    for mode in ("open", "smc", "pid"):
+        for be in ("reduced", "multibody"):
+            tr = simulate(scenario.make_machine(scn, mode), be, 0.05, dt=1e-4, record_dt=1e-3)
+            assert tr.n == 51 and np.all(np.isfinite(tr.data))
+
+
 def test_reduced_inertia_from_independent_kinetic_energy(mech):
     """J(q) of Eq 25 vs Σ m v² + I ω² with velocities from finite differences of positions."""
     m, h = mech, 1e-6

@@ -116,7 +116,7 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
         if n % decim == 0:
             if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V)) \
                     or d.warning[bad_qacc].number:
-                _diverged("multibody", t, q, qd, I, V)
+                _diverged("multibody", t, q, qd, I, V, _hint(ctrl, t, h))
             r = traj.row()
             om = z * qd
             r[0] = t; r[1] = q; r[2] = qd; r[3] = qdd; r[4] = om; r[5] = I; r[6] = V
@@ -154,11 +154,16 @@ def _check_times(t_end, h, record_dt):
         raise ParameterError(f"record_dt = {record_dt!r}: must be > 0 [s]")
 
 
-def _diverged(backend, t, q, qd, I, V):
+def _hint(ctrl, t, h):
+    fn = getattr(ctrl, "divergence_hint", None)
+    return fn(t, h) if fn is not None else ""
+
+
+def _diverged(backend, t, q, qd, I, V, hint=""):
     raise SimulationDiverged(
         f"{backend} simulation diverged at t = {t:.6g} s: crank angle = {q:.6g} rad, crank speed = "
         f"{qd:.6g} rad/s, current = {I:.6g} A, voltage = {V:.6g} V (limits |α̇| < {MAX_SPEED:g} rad/s, "
-        f"|I| < {MAX_CURRENT:g} A, finite values). Reduce the time step or check gains/parameters.",
+        f"|I| < {MAX_CURRENT:g} A, finite values). Reduce the time step or check gains/parameters." + hint,
         t=t, state={"q": q, "qd": qd, "I": I, "V": V})
 
 

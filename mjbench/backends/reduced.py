@@ -25,7 +25,7 @@ from controllers.base import Measurement
 
 from ..errors import ParameterError, SimulationDiverged
 from ..trajectory import Trajectory
-from .multibody import MAX_CURRENT, MAX_SPEED, _check_times
+from .multibody import MAX_CURRENT, MAX_SPEED, _check_times, _hint
 
 
 def make_rhs(machine):
@@ -77,7 +77,7 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
         if n % decim == 0:
             if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V) and math.isfinite(q)):
-                _diverged(t, q, qd, I, V)
+                _diverged(t, q, qd, I, V, _hint(ctrl, t, h))
             r = traj.row()
             om = z * qd
             r[0] = t; r[1] = q; r[2] = qd; r[3] = qdd; r[4] = om; r[5] = I; r[6] = V
@@ -99,14 +99,14 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
             sol = solve_ivp(lambda tt, u: rhs(tt, u[0], u[1], u[2], V), (t, t + h), (q, qd, I),
                             method="DOP853", rtol=rtol, atol=atol)
             if not sol.success:
-                _diverged(t, q, qd, I, V)
+                _diverged(t, q, qd, I, V, _hint(ctrl, t, h))
             q, qd, I = (float(v) for v in sol.y[:, -1])
     return traj.trim()
 
 
-def _diverged(t, q, qd, I, V):
+def _diverged(t, q, qd, I, V, hint=""):
     raise SimulationDiverged(
         f"reduced simulation diverged at t = {t:.6g} s: crank angle = {q:.6g} rad, crank speed = "
         f"{qd:.6g} rad/s, current = {I:.6g} A, voltage = {V:.6g} V (limits |α̇| < {MAX_SPEED:g} rad/s, "
         f"|I| < {MAX_CURRENT:g} A, finite values). Reduce the time step (RK4 is only conditionally "
-        f"stable) or check gains/parameters.", t=t, state={"q": q, "qd": qd, "I": I, "V": V})
+        f"stable) or check gains/parameters." + hint, t=t, state={"q": q, "qd": qd, "I": I, "V": V})

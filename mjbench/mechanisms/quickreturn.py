@@ -309,7 +309,8 @@ class QuickReturn(Mechanism):
             if prof == "window":
                 w = (frac >= self.cut_start) & (frac <= self.cut_end)
             else:  # sine: F0·sin(π·fraction), smooth start and end
-                w = xp.sin(math.pi * frac) if xp is math else np.sin(np.pi * np.clip(frac, 0.0, 1.0))
+                w = (math.sin(math.pi * min(max(frac, 0.0), 1.0)) if xp is math
+                     else np.sin(np.pi * np.clip(frac, 0.0, 1.0)))
         if xp is math:
             return -self._work_sign * F0 * float(w) if on else 0.0
         return np.where(on, -self._work_sign * F0 * np.asarray(w, dtype=float), 0.0)

@@ -1,7 +1,7 @@
 """Video rendering: cost per frame of mjbench's renderer vs a bare mujoco.Renderer.render().
 
 Both render the same model (the mechanism's MJCF plus the display-only backdrop) at the same
-size (960x540) and camera.  "bare" = ``update_scene(data) + render()`` with the pose already set;
+size (960x540), camera and scene flags (no shadows).  "bare" = ``update_scene(data) + render()`` with the pose already set;
 "frame" = what ``mjbench render`` does per frame: pose from the crank angle (initial_qpos +
 mj_kinematics), scene update, traced path / trail / grid lines, render, text overlay.  Encoding
 (imageio-ffmpeg, H.264, separate process) is timed separately.  Blocks of the two loops alternate
@@ -44,6 +44,7 @@ def run(args):
         t0 = time.perf_counter()
         for _ in range(nfr):
             bare.update_scene(d, camera=view.camera)
+            view.set_flags(bare.scene)  # same scene settings (no shadows)
             bare.render(out=buf)
         t_bare.append((time.perf_counter() - t0) / nfr)
         t0 = time.perf_counter()

@@ -1,0 +1,121 @@
+"""``mjbench tune``: autotune controller gains (batched global search + Nelder–Mead + validation)."""
+from __future__ import annotations
+
+import json
+import os
+
+
+def register(sub):
+    p = sub.add_parser(
+        "tune", help="autotune controller gains on the batched backend",
+        description="Search the gains of the scenario's controller minimising --objective: a global stage "
+                    "(Sobol candidates simulated together on mujoco.batch), local Nelder-Mead refinement, "
+                    "then validation of the winner and of the scenario's own gains on the single-run "
+                    "multibody backend. Peaks of |voltage| and |current| above --limit are penalised "
+                    "(default limits: the peaks of the scenario's gains).")
+    p.add_argument("scenario", help="built-in scenario name or TOML path")
+    p.add_argument("--controller", required=True, choices=["pid", "pid-tv", "smc"],
+                   help="pid: constant K_p; pid-tv: K_p·t (seed 000 Eq 15); smc: sliding mode (λ, K)")
+    p.add_argument("--objective", default="chi", choices=["chi", "chi_cycle", "ise", "iae", "itae"],
+                   help="chi: χ on the scenario's metrics.chi_window (default); chi_cycle: last crank cycle; "
+                        "ise/iae/itae: crank-speed error to the set-point")
+    p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
+                   help="allowed peak |voltage| [V] and |current| [A]")
+    p.add_argument("--bounds", action="append", default=[], metavar="GAIN=LO:HI",
+                   help="search interval of a gain (default: scenario value ×/÷ --span)")
+    p.add_argument("--span", type=float, default=10.0, help="default search factor around the scenario's gains")
+    p.add_argument("--global", dest="n_global", type=int, default=64, help="global-stage candidates (default 64)")
+    p.add_argument("--starts", type=int, default=1, help="local refinements from the best global candidates")
+    p.add_argument("--maxfev", type=int, default=80, help="simulations per local refinement")
+    p.add_argument("--t-end", type=float, help="simulated time per candidate [s] (default: χ window end)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads (0: all CPUs)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+    p.add_argument("--out", help="write tune.json and a speed comparison plot here")
+    p.set_defaults(func=cmd_tune)
+
+
+def parse_limits(items):
+    from ..errors import ParameterError
+
+    out = {}
+    for item in items:
+        for part in item.split(","):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise ParameterError(f"--limit {part!r}: expected voltage=V or current=A")
+            k, v = (s.strip() for s in part.split("=", 1))
+            if k not in ("voltage", "current"):
+                raise ParameterError(f"--limit {k!r}: choose voltage or current")
+            try:
+                out[k] = float(v.rstrip("VA"))
+            except ValueError:
+                raise ParameterError(f"--limit {part!r}: {v!r} is not a number") from None
+            if out[k] <= 0:
+                raise ParameterError(f"--limit {part!r}: must be > 0")
+    return out
+
+
+def parse_bounds(items):
+    from ..errors import ParameterError
+
+    out = {}
+    for item in items:
+        try:
+            k, v = item.split("=", 1)
+            lo, hi = (float(x) for x in v.split(":"))
+        except ValueError:
+            raise ParameterError(f"--bounds {item!r}: expected GAIN=LO:HI") from None
+        out[k.strip()] = (lo, hi)
+    return out
+
+
+def cmd_tune(args):
+    from .. import scenario as S
+    from ..tune import report, tune
+
+    scn = S.load(args.scenario, args.overrides)
+    res = tune(scn, args.controller, args.objective, limits=parse_limits(args.limit), n_global=args.n_global,
+               starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=parse_bounds(args.bounds),
+               seed=args.seed, t_end=args.t_end, nthread=args.threads)
+    print(report(res))
+    if args.out:
+        from ..trajectory import atomic_write
+        os.makedirs(args.out, exist_ok=True)
+        doc = {"scenario": S.get(scn, "scenario.name"), "controller": res.controller, "mode": res.mode,
+               "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
+               "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
+               "history": res.history}
+        atomic_write(os.path.join(args.out, "tune.json"), lambda f: json.dump(doc, f, indent=1, default=float))
+        _plot(scn, res, os.path.join(args.out, "tune_speed.png"))
+        print(f"results written to {args.out}")
+    return 0
+
+
+def _plot(scn, res, path):
+    import numpy as np
+
+    from .. import plots as P
+    from ..tune import Problem
+    import matplotlib.pyplot as plt
+
+    prob = Problem(scn, res.controller, res.objective, res.limits)
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    for label, gains, st in (("scenario controller", res.baseline, dict(color="tab:gray")),
+                             (f"tuned {res.controller}", res.best, dict(color="tab:blue"))):
+        _, tr = prob.validate(np.array([gains[p] for p in prob.params]), baseline=gains is res.baseline)
+        axes[0].plot(tr.t, tr.omega, label=label, **st)
+        axes[1].plot(tr.t, tr.voltage, **st)
+        axes[2].plot(tr.t, tr.current, **st)
+    if prob.window:
+        for ax in axes:
+            ax.axvspan(*prob.window, color="tab:orange", alpha=0.12)
+    axes[0].set_ylabel("motor speed [rad/s]")
+    axes[1].set_ylabel("voltage [V]")
+    axes[2].set_ylabel("current [A]")
+    axes[2].set_xlabel("t [s]")
+    axes[0].legend()
+    axes[0].set_title(f"{res.controller}: {res.objective} {res.validation['baseline']['objective']:.4g} → "
+                      f"{res.validation['tuned']['objective']:.4g}")
+    P.save(fig, path)

@@ -1,0 +1,36 @@
+"""Autotuning (issue 7): for seed 000 the tuned PID beats the paper's gains on χ in the paper's
+window 0.375–0.5 s without exceeding the paper run's voltage and current peaks."""
+import numpy as np
+import pytest
+
+from mjbench import cli, scenario
+from mjbench.errors import ParameterError
+from mjbench.tune import Problem, tune
+
+
+def test_tuned_pid_beats_paper_gains_on_chi():
+    scn = scenario.load("incerti2012")
+    res = tune(scn, "pid-tv", "chi", n_global=12, maxfev=12, log=lambda *a: None)
+    base, tuned = res.validation["baseline"], res.validation["tuned"]
+    assert base["chi"] == pytest.approx(0.07235, abs=2e-4)  # paper gains, our stated model
+    assert tuned["chi"] < 0.8 * base["chi"]
+    # allowed peaks: those of the paper's gains (defaults of --limit)
+    assert tuned["peak_voltage_V"] <= res.limits["voltage"] + 1e-9
+    assert tuned["peak_current_A"] <= res.limits["current"] * (1 + 1e-9)
+    assert res.improvement > 0.2
+    # the batch and the single-run validation agree on the winner's χ
+    prob = Problem(scn, "pid-tv", "chi", res.limits)
+    x = np.array([res.best[p] for p in prob.params])
+    _, mets = prob.evaluate(np.vstack([x, x]))  # 2 rows: the batched path
+    assert mets[0]["chi"] == pytest.approx(tuned["chi"], rel=1e-9)
+
+
+def test_tune_cli_limits_and_errors(tmp_path, capsys):
+    rc = cli.main(["tune", "incerti2012", "--controller", "pid", "--objective", "ise", "--global", "4",
+                   "--maxfev", "4", "--t-end", "0.2", "--limit", "voltage=40,current=25", "--out", str(tmp_path)])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "improvement of ise" in out and (tmp_path / "tune.json").exists()
+    assert (tmp_path / "tune_speed.png").stat().st_size > 1000
+    with pytest.raises(ParameterError, match="objective"):
+        Problem(scenario.load("incerti2012"), "pid", "nope")
