@@ -117,6 +117,8 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
         if len(steady):
             out["chi_steady_mean"] = float(np.mean(steady))
         out["n_cycles"] = int(len(vals))
+        out["chi_cycles"] = [{"t_start_s": float(a), "t_end_s": float(b), "chi": float(v)}
+                             for (a, b), v in zip(cyc, vals)]
     if chi_window is not None:
         t0, t1 = chi_window
         if t[-1] >= t1 - 1e-9:

@@ -133,6 +133,10 @@ def test_cutting_force_profiles(mech):
     win = QuickReturn(cut_profile="window", cut_start=0.1, cut_end=0.9)
     Ww = -np.trapezoid(win.external_torque(qq, 1.0, 0.0), qq)
     assert Ww == pytest.approx(50.0 * 0.8 * mech.stroke, rel=2e-3)
+    sine = QuickReturn(cut_profile="sine")
+    Ws = -np.trapezoid(sine.external_torque(qq, 1.0, 0.0), qq)
+    assert Ws == pytest.approx(50.0 * 2 / np.pi * mech.stroke, rel=1e-4)
+    assert sine.external_torque(2.0, 1.0, 0.0) == pytest.approx(float(sine.external_torque(np.array([2.0]), 1.0, 0.0)[0]))
     none = QuickReturn(cut_profile="none")
     assert np.all(none.external_torque(Q, 1.0, 0.0) == 0)
 

@@ -443,6 +443,7 @@ class FourBar(Mechanism):
         if jm.get("C", 0.0) > 0:
             tip = rocker_b.add_body(name="bearing_C", pos=[self.c, 0, 0])
             tip.mass = jm["C"]
+            tip.ipos = [0.0, 0.0, 0.0]  # explicit: MjSpec otherwise puts the inertial frame at pos (2c from D)
             tip.inertia = [1e-9, 1e-9, 1e-9]
             tip.explicitinertial = True
         for j in (coupler.joints[0], rocker_b.joints[0]):
