@@ -53,7 +53,8 @@ class SlidingMode(Controller):
         self.reset()
 
     def reset(self):
-        self._t_next = -math.inf
+        self._t0 = None
+        self._k = None
         self._u = 0.0
         self._i_prev = None
         self._t_prev = None
@@ -100,11 +101,15 @@ class SlidingMode(Controller):
         return u
 
     def __call__(self, t, y):
-        if self.Ts <= 0.0 or t >= self._t_next - 1e-9 * max(self.Ts, 1e-12):
+        if self.Ts <= 0.0:
             self._u = self.compute(t, y)
-            self._t_next = (t if self._t_next == -math.inf else self._t_next) + self.Ts
-            if self._t_next <= t:  # a call skipped samples: resynchronise
-                self._t_next = t + self.Ts
+            return self._u
+        if self._t0 is None:
+            self._t0 = t
+        k = math.floor((t - self._t0) / self.Ts + 1e-6)  # sample index (robust to rounding of t)
+        if k != self._k:
+            self._k = k
+            self._u = self.compute(t, y)
         return self._u
 
 

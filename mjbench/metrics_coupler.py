@@ -12,8 +12,8 @@
 * settling time t_s: the instant after which |V_C/V_des − 1| stays ≤ ``band_rel`` (10 %) until
   the end of the run (nan if it never does);  ``crank_settling_time``: the same with
   |e| ≤ ``crank_error_band`` (0.1 rad/s);
-* ``coupler_dev_windows``: max |V_C − V_des| over consecutive 1 s windows (does the deviation
-  shrink with time after the transient?).
+* ``coupler_dev_windows``: max |V_C − V_des| and max |e| over consecutive 1 s windows from
+  ``settle_time`` to the end (does the deviation shrink with time after the transient?).
 """
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def compute(traj, mechanism, reference, settle_time=1.5, band_rel=0.10, rise_fra
     out["overshoot_rel"] = float(np.nanmax(ratio) - 1.0)
     out["settling_time_s"] = _last_exceed(t, ~(np.abs(ratio - 1.0) <= band_rel))
     out["crank_settling_time_s"] = _last_exceed(t, np.abs(e) > crank_error_band)
-    edges = np.arange(math.floor(settle_time), math.ceil(t[-1]) + 1e-9, 1.0)
+    edges = list(np.arange(settle_time, t[-1] - 1e-9, 1.0)) + [float(t[-1])]
     wins = []
     for a, b in zip(edges[:-1], edges[1:]):
         m = (t >= a) & (t <= b)

@@ -322,7 +322,6 @@ def make_law(params: dict) -> MotionLaw:
         law = BezierLaw(Phi, T, int(p.pop("m", 2)), int(p.pop("p", 3)), interior)
     else:
         raise ParameterError(f"law.kind = {kind!r}: choose 'pseudopoly' or 'bezier'")
-    p.pop("start", None)  # optimiser start, read by mjbench.vibration
     if p:
         raise ParameterError(f"unknown [law] parameters: {sorted(p)}")
     return law

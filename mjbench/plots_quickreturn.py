@@ -146,3 +146,24 @@ def draw_geometry(mech, path=None, q=2.0):
     if path:
         return _save(fig, path)
     return fig
+
+
+def docs_figures(outdir="docs", t_end=5.0, backend="multibody"):
+    """Regenerate docs/quickreturn_{geometry,fig6,fig7}.png from the yigit2023 scenario
+    (open 48 V, SMC, PID; ≈ 5 s of computing per mode)."""
+    from . import scenario
+    from .backends import simulate
+
+    scn = scenario.load("yigit2023")
+    runs = {}
+    for mode in ("open", "smc", "pid"):
+        runs[mode] = simulate(scenario.make_machine(scn, mode), backend, t_end, dt=1e-4,
+                              record_dt=1e-3 if mode == "open" else 1e-4)
+    Ts = scn["modes"]["smc"]["Ts"]
+    out = [draw_geometry(scenario.make_mechanism(scn), os.path.join(outdir, "quickreturn_geometry.png")),
+           plot_speed([runs["open"], runs["smc"], runs["pid"]],
+                      ["open loop 48 V", f"SMC (λ=50, K=1000, Ts={1e3 * Ts:g} ms)", "PID (our gains)"],
+                      os.path.join(outdir, "quickreturn_fig6.png"), omega_d=5.0, zoom=(3.0, 4.0), band=(6.1, 6.4)),
+           plot_voltage([runs["smc"], runs["pid"]], ["SMC", "PID"], os.path.join(outdir, "quickreturn_fig7.png"),
+                        window=(3.0, 3.05), v_limit=48.0)]
+    return out

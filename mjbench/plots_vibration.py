@@ -110,9 +110,10 @@ def fig_sensitivity(errors, table, path, title="Residual energy vs error in ω_n
     """E(T_end) of each law (designed for the nominal ω_n) against the relative error of ω_n."""
     fig, ax = plt.subplots(figsize=(8, 5))
     errors = np.asarray(errors)
-    for name, rows in table.items():
+    styles = ["-", "--", "-.", ":"]
+    for i, (name, rows) in enumerate(table.items()):
         E = np.array([r[1] for r in rows])
-        ax.semilogy(100 * errors, np.maximum(E, 1e-30), lw=1.4, label=name)
+        ax.semilogy(100 * errors, np.maximum(E, 1e-30), lw=1.6, ls=styles[i % len(styles)], label=name)
     ax.set_xlabel("error in ω_n [%]")
     ax.set_ylabel("residual energy E(T_end) [J]")
     ax.set_ylim(bottom=max(1e-16, ax.get_ylim()[0]))
@@ -137,4 +138,27 @@ def fig_laws(laws: dict, path, title="Motor laws"):
     ax[0].legend(fontsize=8)
     ax[2].set_xlabel("t [s]")
     ax[0].set_title(title)
+    return save(fig, path)
+
+
+def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
+    """Transmission deflection ψ(t) from MuJoCo (RK4, driven joint imposed per stage) over the
+    reduced ODE, and their difference."""
+    from .vibration import simulate_multibody
+
+    t_end = law.T + t_after
+    r = simulate_multibody(platform, law, t_end=t_end, dt=dt, record_dt=max(dt, 1e-3))
+    t, psi, _, _ = ode_response(law, osc, t_end=t_end, t_eval=r["t"])
+    fig, ax = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    ax[0].plot(t, 1e3 * psi, "k-", lw=1.4, label="reduced ODE (DOP853)")
+    ax[0].plot(r["t"], 1e3 * r["psi"], "r--", lw=1.0, label=f"MuJoCo RK4 h = {dt:g} s")
+    ax[0].set_ylabel("deflection ψ [mrad]")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(t, r["psi"] - psi, "b-", lw=1)
+    ax[1].set_ylabel("MuJoCo − ODE [rad]")
+    ax[1].set_xlabel("t [s]")
+    for a in ax:
+        a.axvline(law.T, color="0.6", lw=0.8, ls=":")
+        a.grid(alpha=0.3)
+    ax[0].set_title("Multibody vs reduced model (initial law)")
     return save(fig, path)

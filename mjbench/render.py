@@ -154,6 +154,7 @@ def build_render_model(mechanism, armature: float, options: dict | None, bounds,
             geom.size[0] *= LINK_SCALE
     for site in spec.sites:
         site.size[0] *= LINK_SCALE
+    _coupler_plate(spec)
     xmin, xmax, ymin, ymax = bounds
     span = max(xmax - xmin, ymax - ymin, 1e-3)
     step = _nice_step(span)
@@ -169,6 +170,39 @@ def build_render_model(mechanism, armature: float, options: dict | None, bounds,
     model.vis.headlight.diffuse[:] = 0.55
     model.vis.headlight.specular[:] = 0.1
     return model, step, (cx, cy)
+
+
+def _coupler_plate(spec):
+    """If the traced point is a site ``coupler_point`` off the coupler line (four-bar with a
+    triangular coupler, seed 002), draw the rigid coupler triangle B-P-C with two thin, massless,
+    collision-free capsules in the coupler's colour (display only)."""
+    import mujoco
+
+    try:
+        site = spec.site("coupler_point")
+    except Exception:
+        return
+    if site is None:
+        return
+    body = site.parent
+    p = np.array(site.pos, dtype=float)
+    link = next((g for g in body.geoms if g.type == mujoco.mjtGeom.mjGEOM_CAPSULE), None)
+    if link is None:
+        return
+    ft = np.array(link.fromto, dtype=float)
+    a, b = ft[:3], ft[3:]
+    ab = b - a
+    L = float(np.linalg.norm(ab))
+    if L <= 0:
+        return
+    off = np.linalg.norm(np.cross(ab, p - a)) / L
+    if off < 0.05 * L:  # on the link line: nothing to add
+        return
+    rgba = list(link.rgba)
+    rgba[3] = 0.85
+    for end in (a, b):
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[*end, *p], size=[0.6 * link.size[0], 0, 0],
+                      rgba=rgba, contype=0, conaffinity=0, mass=0, group=0)
 
 
 def frame_camera(bounds, width, height, fovy_deg, margin=0.12, top_band_px=0):

@@ -104,7 +104,10 @@ def run(scn: dict, out_dir, mode=None, backend="both", t_end=None, progress=True
 
 
 def _setpoint(scn, mode):
+    """Motor-speed set-point drawn on the speed plot (PID ``omega0``, SMC ``omega_d`` × z)."""
     v = S.get(scn, f"modes.{mode}.omega0")
+    if v is None and S.get(scn, f"modes.{mode}.omega_d") is not None:
+        v = float(S.get(scn, f"modes.{mode}.omega_d")) * float(S.get(scn, "drive.z", 1.0))
     return float(v) if v is not None else None
 
 

@@ -228,7 +228,8 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
             raise ParameterError(f"--bounds {p}={b[0]}:{b[1]}: need 0 < lo < hi (searched in log scale)")
         lo[k], hi[k] = math.log(b[0]), math.log(b[1])
     sob = qmc.Sobol(len(lo), scramble=True, seed=seed)
-    U = sob.random(max(1, n_global))
+    n_global = max(1, int(n_global))
+    U = sob.random_base2(max(0, math.ceil(math.log2(n_global))))[:n_global]  # first n of 2^m points
     Z = lo + U * (hi - lo)
     X = np.vstack([prob.x0[None, :], np.exp(Z)])  # the scenario's gains (in the tuned form) first
     scores, mets = prob.evaluate(X)

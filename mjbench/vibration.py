@@ -358,6 +358,8 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
     from scipy.optimize import minimize
 
     x0 = np.asarray(law0.params, dtype=float)
+    if x0.size == 0:
+        raise ParameterError(f"the {law0.kind} law has no shape parameter to optimise (e.g. law.p = 0)")
     r0 = _residual_vector(law0, osc)
     E0 = float(r0 @ r0)
     scale = 1.0 / E0 if E0 > 0 else 1.0
@@ -491,7 +493,7 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
 
     res = optimize(law0, osc, cons if cons.active() else None,
                    method=None if cons.active() else opt.get("method", "BFGS"),
-                   gtol=float(opt.get("gtol", 1e-13)))
+                   gtol=float(opt.get("gtol", 1e-13)), maxiter=int(opt.get("maxiter", 500)))
     tick()
     law1 = res.law
     laws = {"initial": law0, "optimised": law1}
@@ -539,6 +541,7 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
     srv = {k: v for k, v in scn.get("servo", {}).items() if not k.startswith("_")}
     if srv.pop("enabled", False):
         rep["servo"] = servo_study(plat, laws, srv, t_after=float(chk.get("t_after", 0.5)))
+        tick()
     E0, E1 = rep["laws"]["initial"]["E_T_J"], rep["laws"]["optimised"]["E_T_J"]
     rep["reduction_orders"] = float(np.log10(E0 / max(E1, 1e-300)))
     return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,

@@ -25,6 +25,11 @@ K_i·(φ_ref − φ) is K_i·∫e dt of Eq 21 with e = q̇_trj − q̇ (Eq 22) (
 (``derivative = "difference"``), the same operator the backends apply to the measured speed, so
 that K_d·(ω̇_ref − ω̇) is the digital derivative of the error, K_d·Δe/h, of Eq 21.  Alternatives:
 ``"analytic"`` (dq̇_trj/dq · q̇ measured, + dV_C/ds·S·q̇/S for profiles) and ``"zero"``.
+``kick = true`` (difference only): the derivative memory starts at q̇_trj = 0, so the D term
+sees the reference step at start-up (one control step late, as a sampled controller whose first
+sample has no predecessor), the way a continuous d e/dt with e(0⁻) = 0 (e.g. Simulink's
+filtered derivative with zero initial state) would; default false: the step is not
+differentiated.
 
 The object keeps state (previous time, φ_ref, q̇_trj): it must be called once per control step
 with non-decreasing t; ``reset()`` clears it (a call with t below the previous one also does).
@@ -47,7 +52,7 @@ class CouplerSpeed:
     ``arc_length(q)``/``path_length()`` (FourBar); ``z`` is the gear ratio (motor per crank)."""
 
     def __init__(self, mechanism, z=1.0, vc=0.1, profile="constant", s=None, v=None, v_rel=None,
-                 s_unit="m", blend=0.0, derivative="difference", qd_max=math.inf, t_ramp=0.0):
+                 s_unit="m", blend=0.0, derivative="difference", qd_max=math.inf, t_ramp=0.0, kick=False):
         self.mechanism = mechanism
         self.z = z
         self.vc = vc
@@ -58,6 +63,7 @@ class CouplerSpeed:
         if not self.qd_max > 0:
             raise ParameterError(f"reference.qd_max = {qd_max!r}: must be > 0 [rad/s]")
         self.t_ramp = float(t_ramp)
+        self.kick = bool(kick)
         if not (np.isfinite(self.t_ramp) and self.t_ramp >= 0):
             raise ParameterError(f"reference.t_ramp = {t_ramp!r}: must be finite >= 0 [s]")
         self.L = float(mechanism.path_length())
@@ -164,6 +170,7 @@ class CouplerSpeed:
         self._t = None
         self._phi = None
         self._qd = None
+        self._qd_d = None
 
     def __call__(self, t, y):
         q = y.q
@@ -183,6 +190,7 @@ class CouplerSpeed:
         z = self.z
         if self._t is None or t < self._t:  # first call of a run
             self._t, self._phi, self._qd = t, z * q, qd
+            self._qd_d = 0.0 * qd if self.kick else qd
             acc = 0.0 * qd
         elif t == self._t:  # repeated call at the same instant: do not advance
             acc = self._acc
@@ -190,13 +198,13 @@ class CouplerSpeed:
             h = t - self._t
             self._phi = self._phi + 0.5 * h * z * (qd + self._qd)
             if self.derivative == "difference":
-                acc = (qd - self._qd) / h
+                acc = (qd - self._qd_d) / h
             elif self.derivative == "analytic":
                 # d/dt (V/S) along the measured motion: (dV/ds·S − V·dS/dq/S)·q̇/S
                 acc = (dV * ramp - V * dS / (S * S)) * y.qd
             else:
                 acc = 0.0 * qd
-            self._t, self._qd = t, qd
+            self._t, self._qd, self._qd_d = t, qd, qd
         self._acc = acc
         return self._phi, z * qd, z * acc
 
@@ -209,7 +217,7 @@ def from_params(params, drive=None, mechanism=None):
     p = dict(params)
     z = float(drive.z) if drive is not None else float(p.pop("z", 1.0))
     p.pop("z", None)
-    allowed = {"vc", "profile", "s", "v", "v_rel", "s_unit", "blend", "derivative", "qd_max", "t_ramp"}
+    allowed = {"vc", "profile", "s", "v", "v_rel", "s_unit", "blend", "derivative", "qd_max", "t_ramp", "kick"}
     extra = set(p) - allowed
     if extra:
         raise ParameterError(f"unknown coupler_speed reference parameters: {sorted(extra)}; known: {sorted(allowed)}")

@@ -448,15 +448,34 @@ class QuickReturn(Mechanism):
         return qvel
 
     def multibody_load(self, model, data, t: float) -> None:
-        """Cutting force on the slider dof, F_x(q) with q the crank angle (same law as
-        ``external_torque``; held over the integrator step)."""
+        """Cutting force on the slider dof: F_x(q) of ``cutting_force`` (the law of
+        ``external_torque``).  The backend holds it over one integrator step, so it is evaluated
+        at the step's predicted mid-point q + ½·h·q̇ (second order for a smooth profile)."""
         adr = self._adr.get(id(model)) if hasattr(self, "_adr") else None
         if adr is None:
             if not hasattr(self, "_adr"):
                 self._adr = {}
-            adr = (int(model.joint(INPUT_JOINT).qposadr[0]), int(model.joint("slider").dofadr[0]))
+            j = model.joint(INPUT_JOINT)
+            adr = (int(j.qposadr[0]), int(j.dofadr[0]), int(model.joint("slider").dofadr[0]),
+                   0.5 * float(model.opt.timestep))
             self._adr[id(model)] = adr
-        data.qfrc_applied[adr[1]] = self.cutting_force(float(data.qpos[adr[0]]))
+        q = float(data.qpos[adr[0]]) + adr[3] * float(data.qvel[adr[1]])
+        data.qfrc_applied[adr[2]] = self.cutting_force(q)
+
+    def closure_error(self, model, data) -> float:
+        """Largest loop-closure gap [m]: |crank pin − block| and |rod end − slider pin| from
+        ``data.site_xpos`` (valid after mj_forward / mj_kinematics)."""
+        ids = self._sites.get(id(model)) if hasattr(self, "_sites") else None
+        if ids is None:
+            if not hasattr(self, "_sites"):
+                self._sites = {}
+            ids = tuple(int(model.site(n).id) for n in ("crank_pin", "block_pin", "rod_end", "slider_pin"))
+            self._sites[id(model)] = ids
+        x = data.site_xpos
+        a, b, c, d = ids
+        e1 = math.sqrt((x[a, 0] - x[b, 0]) ** 2 + (x[a, 1] - x[b, 1]) ** 2 + (x[a, 2] - x[b, 2]) ** 2)
+        e2 = math.sqrt((x[c, 0] - x[d, 0]) ** 2 + (x[c, 1] - x[d, 1]) ** 2 + (x[c, 2] - x[d, 2]) ** 2)
+        return e1 if e1 > e2 else e2
 
     def export_mjcf(self, path, armature: float = 0.0, options=None):
         """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""

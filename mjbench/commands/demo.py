@@ -1,0 +1,35 @@
+"""``mjbench demo --out DIR``: ``make demo`` — every paper case with short videos
+(``mjbench reproduce all --quick``), then prints where the report is."""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
+
+
+def register(sub):
+    from .reproduce import add_common
+
+    p = sub.add_parser("demo", help="run every paper case (short videos) and write DIR/report.html",
+                       description=__doc__)
+    add_common(p)
+    p.set_defaults(func=run, quick=True)
+
+
+def run(args) -> int:
+    import sys
+    import time
+
+    from .. import reproduce as R
+
+    t0 = time.perf_counter()
+    if not args.no_video:
+        from .. import render
+        render.gl_setup()
+    progress = not args.no_progress and sys.stderr.isatty()
+    R.reproduce("all", args.out, quick=True, video=not args.no_video, progress=progress,
+                width=args.width, height=args.height)
+    out = os.path.abspath(args.out)
+    print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
+          f"(or read {os.path.join(out, 'report.md')})")
+    return 0

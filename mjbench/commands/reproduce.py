@@ -1,0 +1,55 @@
+"""``mjbench reproduce CASE|all --out DIR``: paper cases end to end → figures, metrics, videos,
+``DIR/report.md`` + ``DIR/report.html`` (see mjbench/reproduce.py, docs/show_it.md)."""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
+
+
+def add_common(p, out_required=True):
+    p.add_argument("--out", required=out_required, default=None, help="output folder (report.md, report.html, one folder per case)")
+    p.add_argument("--quick", action="store_true",
+                   help="short videos (≤ 2 s, 640x360); simulations and figures unchanged")
+    p.add_argument("--no-video", action="store_true", help="skip the videos")
+    p.add_argument("--width", type=int, default=None, help="video width [px] (default 960, --quick 640)")
+    p.add_argument("--height", type=int, default=None, help="video height [px] (default 540, --quick 360)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+
+def register(sub):
+    p = sub.add_parser("reproduce", help="run the paper cases end to end and write a report",
+                       description=__doc__)
+    p.add_argument("case", nargs="?", default="all",
+                   help="case name, scenario name (all its cases) or 'all' (default); see --list")
+    p.add_argument("--list", action="store_true", help="list the registered cases and exit")
+    add_common(p, out_required=False)
+    p.set_defaults(func=run)
+
+
+def list_cases():
+    from .. import reproduce as R
+
+    for c in R.load_cases():
+        extra = f" modes {','.join(c.modes)}" if c.modes else ""
+        print(f"{c.name:<26s} seed {c.seed:<4s} {c.scenario:<20s} {c.kind:<12s}{extra}  {c.title}")
+    return 0
+
+
+def run(args) -> int:
+    import sys
+
+    from .. import reproduce as R
+
+    if args.list:
+        return list_cases()
+    if not args.out:
+        from ..errors import ParameterError
+        raise ParameterError("mjbench reproduce: --out DIR is required (the report folder)")
+    if not args.no_video:
+        from .. import render
+        render.gl_setup()
+    progress = not args.no_progress and sys.stderr.isatty()
+    R.reproduce(args.case, args.out, quick=args.quick, video=not args.no_video, progress=progress,
+                width=args.width, height=args.height)
+    return 0

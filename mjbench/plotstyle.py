@@ -1,0 +1,97 @@
+"""One matplotlib style for every mjbench figure (Agg backend, no display needed).
+
+* ``use()`` / ``context()``: rcParams — DejaVu Sans, 9-10 pt, light grid, thin axes, legends with
+  a white frame, 130 dpi PNG with a tight bounding box;
+* ``BACKEND``: one line style per simulator backend, so that multibody and reduced results are
+  told apart the same way in every figure (solid blue / dashed orange);
+* ``setpoint(ax, value, label)``: the paper's set-point line (seed 000 Fig. 4: horizontal dashed
+  black line);
+* ``label(quantity, unit)``: axis labels always carry the unit in brackets.
+"""
+from __future__ import annotations
+
+import contextlib
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+RC = {
+    "font.family": "DejaVu Sans",
+    "font.size": 9.5,
+    "axes.titlesize": 10,
+    "axes.labelsize": 9.5,
+    "axes.linewidth": 0.8,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "grid.linewidth": 0.6,
+    "legend.fontsize": 8,
+    "legend.framealpha": 0.9,
+    "legend.edgecolor": "0.7",
+    "lines.linewidth": 1.3,
+    "xtick.labelsize": 8.5,
+    "ytick.labelsize": 8.5,
+    "figure.dpi": 100,
+    "savefig.dpi": 130,
+    "savefig.bbox": "tight",
+    "figure.constrained_layout.use": False,
+    "axes.prop_cycle": matplotlib.cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
+                                                "tab:purple", "tab:brown", "tab:pink", "tab:gray"]),
+}
+
+#: line style per backend (the same in every figure)
+BACKEND = {
+    "multibody": dict(color="tab:blue", lw=1.4, ls="-", label="multibody (MuJoCo)"),
+    "reduced": dict(color="tab:orange", lw=1.0, ls="--", label="reduced J(α) model"),
+}
+#: the paper's set-point line (seed 000 Fig. 4 caption: "horizontal dashed line")
+SETPOINT = dict(color="k", ls="--", lw=0.9)
+#: a paper band or reported value range
+BAND = dict(color="0.6", alpha=0.25, lw=0)
+
+
+def use():
+    """Apply the mjbench rcParams globally."""
+    matplotlib.rcParams.update(RC)
+
+
+@contextlib.contextmanager
+def context():
+    """Temporarily apply the mjbench rcParams (``with plotstyle.context(): ...``)."""
+    with matplotlib.rc_context(RC):
+        yield
+
+
+def label(quantity: str, unit: str) -> str:
+    """'quantity [unit]' (every axis carries its unit)."""
+    return f"{quantity} [{unit}]" if unit else quantity
+
+
+def backend_style(backend: str, **extra) -> dict:
+    return {**BACKEND.get(backend, dict(label=backend)), **extra}
+
+
+def setpoint(ax, value, text="set-point", unit="rad/s"):
+    """Draw the set-point as the paper does (horizontal dashed line) and label it in the legend."""
+    if value is None:
+        return None
+    return ax.axhline(float(value), **SETPOINT, label=f"{text} {value:g} {unit}".strip())
+
+
+def band(ax, lo, hi, text):
+    """A shaded horizontal band (e.g. a range the paper reports)."""
+    return ax.axhspan(float(lo), float(hi), **BAND, label=text)
+
+
+def finish(fig, title=None):
+    if title:
+        fig.suptitle(title, fontsize=10.5)
+    fig.tight_layout()
+    return fig
+
+
+def new(nrows=1, ncols=1, **kw):
+    """``plt.subplots`` with the mjbench style active for the created figure."""
+    with context():
+        return plt.subplots(nrows, ncols, **kw)

@@ -1,0 +1,86 @@
+"""Batched seed-000 PID runs (mujoco.batch + vectorised drive/PID) vs a bare mujoco.batch step loop.
+
+Throughput = simulation-steps per second of the stepping loop: each figure is the difference of
+two run lengths (setup — model compile, reset, stacking — cancels), best of --repeat.  The bare
+loop steps the same model from the same assembled initial state with a constant crank torque
+(5 N·m) in qfrc_applied: the MuJoCo work per step is the same (dense RK4, Newton on the loop
+closure), only our Python drive + controller + recording is missing.  ratio = ours / bare (1 = no
+overhead; the issue's goal, overhead ≤ 20 %, is ratio ≥ 0.83).
+"""
+import os
+import time
+
+import mujoco
+from mujoco import batch as mjbatch
+
+from mjbench import scenario as S
+from mjbench.backends import batch, multibody
+
+NS = (1, 16, 64, 256)
+H = 1e-4
+
+
+def _best(fn, repeat):
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _throughput(make_fn, nsim, n1, n2, repeat):
+    """steps/s of the stepping loop: nsim·(n2 − n1) / (T(n2) − T(n1))."""
+    t1 = _best(make_fn(n1), repeat)
+    t2 = _best(make_fn(n2), repeat)
+    return nsim * (n2 - n1) / max(t2 - t1, 1e-9)
+
+
+def run(args):
+    repeat = max(1, getattr(args, "repeat", 3))
+    scn = S.load("incerti2012")
+    machine = S.make_machine(scn, "pid")
+    _, model = multibody.build_model(machine)
+    qpos0 = machine.mechanism.initial_qpos(model, 0.0)
+    ncpu = os.cpu_count() or 1
+
+    def ours(nsim, nthread):
+        machines = [S.make_machine(scn, "pid") for _ in range(nsim)]
+        models = [model] * nsim
+
+        def make(nsteps):
+            return lambda: batch.simulate(machines, nsteps * H, dt=H, record_dt=5e-4, nthread=nthread,
+                                          models=models)
+        return make
+
+    def bare(nsim, nthread):
+        b = mjbatch.Batch(model, nsim, nthread)
+
+        def make(nsteps):
+            def f():
+                b.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+                b.bind("qpos")[:] = qpos0
+                b.bind("qfrc_applied")[:, 0] = 5.0
+                b.forward()
+                step = b.step
+                for _ in range(nsteps):
+                    step()
+            return f
+        return make
+
+    rows = []
+    for n in NS:
+        n1 = max(40, 4000 // n)
+        n2 = 5 * n1
+        o = _throughput(ours(n, 0), n, n1, n2, repeat)
+        r = _throughput(bare(n, 0), n, n1, n2, repeat)
+        rows.append((f"batch_steps_per_s_N{n}", o, f"batched PID co-simulation, N = {n}, {ncpu} threads [steps/s]"))
+        rows.append((f"bare_batch_steps_per_s_N{n}", r, f"bare mujoco.batch step loop, N = {n} [steps/s]"))
+        rows.append((f"batch_ratio_N{n}", o / r, f"ours / bare at N = {n} (goal ≥ 0.83: overhead ≤ 20 %)"))
+    n = 64
+    n1, n2 = 60, 300
+    for name, mk in (("batch", ours), ("bare_batch", bare)):
+        t1 = _throughput(mk(n, 1), n, n1, n2, repeat)
+        t2 = _throughput(mk(n, ncpu), n, n1, n2, repeat)
+        rows.append((f"{name}_thread_speedup_N64", t2 / t1, f"{name}: {ncpu} threads vs 1 thread, N = 64"))
+    return rows
