@@ -13,7 +13,9 @@
   the end of the run (nan if it never does);  ``crank_settling_time``: the same with
   |e| ≤ ``crank_error_band`` (0.1 rad/s);
 * ``coupler_dev_windows``: max |V_C − V_des| and max |e| over consecutive 1 s windows from
-  ``settle_time`` to the end (does the deviation shrink with time after the transient?).
+  ``settle_time`` to the end (does the deviation shrink with time after the transient?);
+  ``coupler_dev_max_last_1s`` / ``crank_error_max_last_1s``: the same over the last second
+  (close to the periodic steady state at 5 s).
 """
 from __future__ import annotations
 
@@ -79,6 +81,9 @@ def compute(traj, mechanism, reference, settle_time=1.5, band_rel=0.10, rise_fra
         if m.any():
             wins.append([float(a), float(b), float(np.max(np.abs(dev[m]))), float(np.max(np.abs(e[m])))])
     out["coupler_dev_windows"] = wins  # [t_start, t_end, max|V_C − V_des| (m/s), max|e| (rad/s)]
+    last = t >= t[-1] - 1.0 - 1e-12
+    out["coupler_dev_max_last_1s_m_s"] = float(np.max(np.abs(dev[last])))
+    out["crank_error_max_last_1s_rad_s"] = float(np.max(np.abs(e[last])))
     out["voltage_max_V"] = float(np.max(np.abs(traj.voltage)))
     out["current_max_A"] = float(np.max(np.abs(traj.current)))
     return out

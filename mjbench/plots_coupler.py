@@ -67,13 +67,17 @@ def coupler_speed(trajs: dict, mechanism, reference, path, title="", paper_dev=N
 def deviation_vs_vc(rows, path, title=""):
     """Fig. 22 style: max coupler-speed deviation after settling vs V_C, per model, our simulation
     and the paper's (simulation, Table 3; experiment, Table 3 and §6).
-    ``rows``: list of dicts with keys model, vc, dev (ours), paper_sim, paper_exp (None if absent)."""
+    ``rows``: list of dicts with keys model, vc, dev (ours after settling), dev_last (ours, last
+    second; optional), paper_sim, paper_exp (None if absent)."""
     fig, ax = plt.subplots(figsize=(6, 3.8))
     models = sorted({r["model"] for r in rows})
     for i, mname in enumerate(models):
         rr = sorted((r for r in rows if r["model"] == mname), key=lambda r: r["vc"])
         vc = [r["vc"] for r in rr]
-        ax.plot(vc, [r["dev"] for r in rr], "o-", color=f"C{i}", label=f"{mname} (this model)")
+        ax.plot(vc, [r["dev"] for r in rr], "o-", color=f"C{i}", label=f"{mname} (this model, after 1.5 s)")
+        if all(r.get("dev_last") is not None for r in rr):
+            ax.plot(vc, [r["dev_last"] for r in rr], "o--", mfc="none", color=f"C{i}",
+                    label=f"{mname} (this model, last 1 s)")
         ps = [(r["vc"], r["paper_sim"]) for r in rr if r.get("paper_sim") is not None]
         if ps:
             ax.plot(*zip(*ps), "s", mfc="none", color=f"C{i}", label=f"{mname} paper simulation")

@@ -162,3 +162,21 @@ def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
         a.grid(alpha=0.3)
     ax[0].set_title("Multibody vs reduced model (initial law)")
     return save(fig, path)
+
+
+def fig_servo(laws: dict, runs: dict, osc, path, t_after=0.5, title="Ideal vs real servo"):
+    """Deflection ψ(t) with the ideal servo (law followed exactly, ODE) and with the DC motor +
+    cascade servo (``vibration.simulate_servo``), for each law in ``runs``."""
+    fig, ax = plt.subplots(len(runs), 1, figsize=(9, 3.2 * len(runs)), sharex=True, squeeze=False)
+    for a, (name, r) in zip(ax[:, 0], runs.items()):
+        law = laws[name]
+        t, psi, _, _ = ode_response(law, osc, t_end=float(r["t"][-1]), t_eval=r["t"][::10])
+        a.plot(t, 1e3 * psi, "k-", lw=1.3, label="ideal servo (ODE)")
+        a.plot(r["t"], 1e3 * r["psi"], "r--", lw=1.0, label="DC motor + cascade servo")
+        a.axvline(law.T, color="0.6", lw=0.8, ls=":")
+        a.set_ylabel(f"{name}: ψ [mrad]")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    ax[-1, 0].set_xlabel("t [s]")
+    ax[0, 0].set_title(title)
+    return save(fig, path)

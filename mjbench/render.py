@@ -246,32 +246,54 @@ def _font(size: int):
 
 
 class TextBox:
-    """Text drawn into a fixed top-left box of a frame (only that crop goes through Pillow)."""
+    """Text in a fixed top-left panel of a frame.  The font is monospaced (DejaVu Sans Mono), so
+    every character is rendered once by Pillow into an alpha mask and cached; a line is then the
+    concatenation of its characters' masks, blended with NumPy (≈10× cheaper than drawing with
+    Pillow on every frame)."""
+
+    COLOR = np.array([20, 20, 30], np.float32)
 
     def __init__(self, width, height, nlines, scale=1.0):
         self.size = max(11, int(round(18 * scale)))
         self.pad = max(4, self.size // 3)
         self.line_h = int(self.size * 1.3)
-        self.w = min(width, int(self.size * 0.62 * 46) + 2 * self.pad)
-        self.h = min(height, nlines * self.line_h + 2 * self.pad)
+        font = _font(self.size)
+        try:
+            self.adv = max(1, int(round(font.getlength("M"))))
+        except AttributeError:  # pragma: no cover - bitmap default font
+            self.adv = max(1, int(self.size * 0.62))
+        self.w = min(width - 4, self.adv * 47 + 2 * self.pad)
+        self.h = min(height - 4, nlines * self.line_h + 2 * self.pad)
         self.x0 = self.y0 = max(2, self.size // 2)
+        self._glyphs = {}
 
     @property
     def band_px(self):
         return self.y0 + self.h
 
+    def _glyph(self, ch):
+        g = self._glyphs.get(ch)
+        if g is None:
+            from PIL import Image, ImageDraw
+            img = Image.new("L", (self.adv, self.line_h), 0)
+            ImageDraw.Draw(img).text((0, 0), ch, fill=255, font=_font(self.size))
+            g = self._glyphs[ch] = np.asarray(img, dtype=np.float32) / 255.0
+        return g
+
     def draw(self, frame, lines):
-        from PIL import Image, ImageDraw
         y0, x0, h, w = self.y0, self.x0, self.h, self.w
         crop = frame[y0:y0 + h, x0:x0 + w]
-        # translucent white panel
-        crop[:] = (crop.astype(np.uint16) * 3 // 10 + 178).astype(np.uint8)
-        img = Image.fromarray(crop)
-        dr = ImageDraw.Draw(img)
-        font = _font(self.size)
+        crop[:] = (crop.astype(np.uint16) * 3 // 10 + 178).astype(np.uint8)  # translucent white panel
+        maxc = (w - 2 * self.pad) // self.adv
         for i, line in enumerate(lines):
-            dr.text((self.pad, self.pad + i * self.line_h), line, fill=(20, 20, 30), font=font)
-        frame[y0:y0 + h, x0:x0 + w] = np.asarray(img)
+            line = line[:maxc]
+            if not line:
+                continue
+            a = np.hstack([self._glyph(c) for c in line])[..., None]
+            top = self.pad + i * self.line_h
+            reg = crop[top:top + a.shape[0], self.pad:self.pad + a.shape[1]]
+            a = a[: reg.shape[0], : reg.shape[1]]
+            reg[:] = (reg - (reg - self.COLOR) * a).astype(np.uint8)
         return frame
 
 
@@ -375,6 +397,18 @@ class MechanismView:
         pts = np.stack([x, np.zeros_like(x), y], axis=1)  # paper (x, y) → MuJoCo (x, z)
         return pts[np.all(np.isfinite(pts), axis=1)]
 
+    def _add_static(self, scn):
+        """Grid and full trace path.  ``update_scene`` rewrites only the first ``ngeom`` slots and
+        the model's slot count is the same every frame, so the static lines are written once into
+        the slots after the model's and re-enabled by raising ``ngeom`` (no per-frame cost)."""
+        n0 = scn.ngeom
+        if getattr(self, "_static_at", None) != n0:
+            for segs, w, rgba in self._static:
+                self._segments(segs, w, rgba)
+            self._static_at, self._static_n = n0, scn.ngeom - n0
+        else:
+            scn.ngeom = n0 + self._static_n
+
     def _segments(self, segs, width, rgba):
         """Append line connectors segs (k, 2, 3) to the scene (mjGEOM_LINE: width in pixels;
         capsules would cost 4× the frame on llvmpipe)."""
@@ -400,8 +434,7 @@ class MechanismView:
         mujoco.mj_kinematics(m, d)
         self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
         self.set_flags(self.renderer.scene)
-        for segs, w, rgba in self._static:
-            self._segments(segs, w, rgba)
+        self._add_static(self.renderer.scene)
         if trail_q is not None and len(trail_q) > 1:
             pts = self._trace(trail_q)
             if pts is not None and len(pts) > 1:

@@ -147,13 +147,17 @@ def row_scenario(scn: dict, row: dict, keys) -> dict:
 
 # ======================================================================== simulation of a chunk
 def settings(spec: SweepSpec, scn: dict) -> dict:
-    from .runner import backend_options
-
     mode = spec.mode or S.get(scn, "simulation.mode")
     if mode not in scn.get("modes", {}):
         raise ScenarioError(f"mode {mode!r} is not defined in the scenario; modes: {S.modes(scn)}")
-    return {"mode": mode,
-            "t_end": float(spec.t_end if spec.t_end is not None else S.get(scn, "simulation.t_end", 2.0)),
+    return {"mode": mode, "t_end_fixed": spec.t_end, **_run_settings(scn, spec.t_end)}
+
+
+def _run_settings(scn, t_end_fixed):
+    """Per-row run settings (a sweep may vary simulation.dt, the integrator, the χ window ...)."""
+    from .runner import backend_options
+
+    return {"t_end": float(t_end_fixed if t_end_fixed is not None else S.get(scn, "simulation.t_end", 2.0)),
             "record_dt": float(S.get(scn, "simulation.record_dt", 1e-3)),
             "options": backend_options(scn, "multibody"),
             "chi_window": S.get(scn, "metrics.chi_window"),
@@ -172,38 +176,46 @@ def run_chunk(scn: dict, rows: list, keys: list, st: dict, nthread: int = 0) -> 
     from .backends import batch
 
     out = {r["row"]: dict(r) for r in rows}
-    machines, ok_rows = [], []
+    machines, ok_rows, models, sts, cache = [], [], [], [], {}
     for r in rows:
         try:
             s = row_scenario(scn, r, keys)
-            machines.append(S.make_machine(s, st["mode"]))
+            st_r = _run_settings(s, st.get("t_end_fixed"))
+            mc = S.make_machine(s, st["mode"])
+            o = {**batch.DEFAULT_OPTIONS, **st_r["options"]}
+            key = batch._model_key(mc, o)
+            if key not in cache:
+                cache[key] = batch.build_models([mc], o)[0]
+            models.append(cache[key])
+            machines.append(mc)
+            sts.append(st_r)
             ok_rows.append(r)
-        except MjbenchError as e:  # invalid parameter combination: a row of the table, not a crash
+        except (MjbenchError, ValueError) as e:  # invalid combination: a row of the table, not a crash
             out[r["row"]].update(status="error", message=str(e))
-    if machines:
-        o = {**batch.DEFAULT_OPTIONS, **st["options"]}
-        models = batch.build_models(machines, o)
-        groups = {}
-        for i, m in enumerate(models):
-            sig = (m.nq, m.nv, m.nbody, m.neq, m.nsite, m.nu, m.na, m.opt.timestep)
-            groups.setdefault(sig, []).append(i)
-        for idx in groups.values():
-            try:
-                res = batch.simulate([machines[i] for i in idx], st["t_end"], record_dt=st["record_dt"],
-                                     options=o, nthread=nthread, models=[models[i] for i in idx])
-            except MjbenchError as e:
-                for i in idx:
-                    out[ok_rows[i]["row"]].update(status="error", message=str(e))
+    groups = {}
+    for i, m in enumerate(models):
+        sig = (m.nq, m.nv, m.nbody, m.neq, m.nsite, m.nu, m.na,
+               repr(sorted(sts[i]["options"].items())), sts[i]["t_end"], sts[i]["record_dt"])
+        groups.setdefault(sig, []).append(i)
+    for idx in groups.values():
+        st0 = sts[idx[0]]
+        try:
+            res = batch.simulate([machines[i] for i in idx], st0["t_end"], record_dt=st0["record_dt"],
+                                 options={**batch.DEFAULT_OPTIONS, **st0["options"]}, nthread=nthread,
+                                 models=[models[i] for i in idx])
+        except MjbenchError as e:
+            for i in idx:
+                out[ok_rows[i]["row"]].update(status="error", message=str(e))
+            continue
+        for j, i in enumerate(idx):
+            rr = out[ok_rows[i]["row"]]
+            if res.diverged[j]:
+                rr.update(status="diverged", message=res.messages[j])
                 continue
-            for j, i in enumerate(idx):
-                rr = out[ok_rows[i]["row"]]
-                if res.diverged[j]:
-                    rr.update(status="diverged", message=res.messages[j])
-                    continue
-                try:
-                    rr.update(status="ok", **row_metrics(res.trajectory(j), st))
-                except MjbenchError as e:
-                    rr.update(status="error", message=str(e))
+            try:
+                rr.update(status="ok", **row_metrics(res.trajectory(j), sts[i]))
+            except MjbenchError as e:
+                rr.update(status="error", message=str(e))
     return [out[r["row"]] for r in rows]
 
 

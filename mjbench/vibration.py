@@ -269,16 +269,20 @@ def simulate_multibody(platform, law, t_end=None, dt=1e-4, integrator="RK4", rec
     x = np.zeros((1, nv))
     y = np.zeros((1, nv))
     f = np.zeros((1, nv))
-    acc = law.acceleration
+    nsteps = int(round(t_end / dt))
+    # the law's acceleration at every RK4 stage time (multiples of dt/2), precomputed: the
+    # callback only looks it up (no evaluation or allocation per stage)
+    acc_grid = rho_d * law.acceleration(0.5 * dt * np.arange(2 * nsteps + 3))
+    acc_grid = acc_grid.tolist()
+    two_over_dt = 2.0 / dt
 
     def control(mm, dd):
         dd.qfrc_applied[va] = 0.0
         np.subtract(dd.qfrc_passive, dd.qfrc_bias, out=f[0])
         mujoco.mj_solveM(mm, dd, x, f)
         mujoco.mj_solveM(mm, dd, y, e)
-        dd.qfrc_applied[va] = (rho_d * float(acc(dd.time)) - x[0, va]) / y[0, va]
+        dd.qfrc_applied[va] = (acc_grid[int(round(dd.time * two_over_dt))] - x[0, va]) / y[0, va]
 
-    nsteps = int(round(t_end / dt))
     decim = 1 if record_dt is None else max(1, int(round(record_dt / dt)))
     nrec = nsteps // decim + 1
     rec = np.empty((nrec, 6))
@@ -538,14 +542,15 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
                 rep["laws"][name]["E_T_multibody_J"] = residual_energy_multibody(plat, laws[name], dt=dt)
         rep["multibody"] = {"integrator": "RK4", "dt_s": dt, "drive": "kinematic (inverse dynamics per stage)"}
         tick()
+    servo_runs = {}
     srv = {k: v for k, v in scn.get("servo", {}).items() if not k.startswith("_")}
     if srv.pop("enabled", False):
-        rep["servo"] = servo_study(plat, laws, srv, t_after=float(chk.get("t_after", 0.5)))
+        rep["servo"] = servo_study(plat, laws, srv, t_after=float(chk.get("t_after", 0.5)), runs=servo_runs)
         tick()
     E0, E1 = rep["laws"]["initial"]["E_T_J"], rep["laws"]["optimised"]["E_T_J"]
     rep["reduction_orders"] = float(np.log10(E0 / max(E1, 1e-300)))
     return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,
-                                       "sens_fine": (fine, sens_fine), "t_after": float(chk.get("t_after", 0.5))}}
+                                       "sens_fine": (fine, sens_fine), "servo_runs": servo_runs, "t_after": float(chk.get("t_after", 0.5))}}
 
 
 # ====================================================================== real servo (option)
@@ -572,38 +577,48 @@ def simulate_servo(platform, law, drive, controller, t_end=None, dt=1e-4):
     if L <= 0:
         raise ParameterError("simulate_servo needs drive.L > 0")
 
-    def rhs(x, V):
-        phi, om, psi, psid, I = x
+    def acc(om, psi, psid, I):  # (φ̈, ψ̈), scalar floats
         tr = k * psi + c * psid
-        phidd = (km * I - T0 * np.sign(om) - lam * om + rho * tr) / J_s
-        thdd = -tr / J
-        return np.array([om, phidd, psid, thdd - rho * phidd, (V - R * I - km * om) / L])
+        sg = (om > 0.0) - (om < 0.0)
+        phidd = (km * I - T0 * sg - lam * om + rho * tr) / J_s
+        return phidd, -tr / J - rho * phidd
 
     n = int(round(t_end / dt))
     rec = np.empty((n + 1, 7))
-    x = np.zeros(5)
+    phi = om = psi = psid = I = 0.0
     y = Measurement(z=1.0)
     controller.reset()
+    h2, h6 = 0.5 * dt, dt / 6.0
     for i in range(n + 1):
         t = i * dt
-        f0 = rhs(x, 0.0)
-        V = drive.limit(controller(t, y.set(t, x[0], x[1], f0[1], x[4])))
-        rec[i] = (t, x[0], x[1], x[2], x[3], x[4], V)
+        a0, _ = acc(om, psi, psid, I)
+        V = drive.limit(controller(t, y.set(t, phi, om, a0, I)))
+        r = rec[i]
+        r[0] = t; r[1] = phi; r[2] = om; r[3] = psi; r[4] = psid; r[5] = I; r[6] = V  # noqa: E702
         if i == n:
             break
-        k1 = rhs(x, V)
-        k2 = rhs(x + 0.5 * dt * k1, V)
-        k3 = rhs(x + 0.5 * dt * k2, V)
-        k4 = rhs(x + dt * k3, V)
-        x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if not np.all(np.isfinite(x)) or abs(x[1]) > 1e6:
+        # classical RK4 on (φ, φ̇, ψ, ψ̇, I) with V held
+        a1, b1 = acc(om, psi, psid, I); d1 = (V - R * I - km * om) / L
+        o2, p2, I2 = om + h2 * a1, psid + h2 * b1, I + h2 * d1
+        a2, b2 = acc(o2, psi + h2 * psid, p2, I2); d2 = (V - R * I2 - km * o2) / L
+        o3, p3, I3 = om + h2 * a2, psid + h2 * b2, I + h2 * d2
+        a3, b3 = acc(o3, psi + h2 * p2, p3, I3); d3 = (V - R * I3 - km * o3) / L
+        o4, p4, I4 = om + dt * a3, psid + dt * b3, I + dt * d3
+        a4, b4 = acc(o4, psi + dt * p3, p4, I4); d4 = (V - R * I4 - km * o4) / L
+        phi += h6 * (om + 2 * o2 + 2 * o3 + o4)
+        psi += h6 * (psid + 2 * p2 + 2 * p3 + p4)
+        om += h6 * (a1 + 2 * a2 + 2 * a3 + a4)
+        psid += h6 * (b1 + 2 * b2 + 2 * b3 + b4)
+        I += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
+        if not (abs(om) < 1e6 and math.isfinite(psi) and abs(I) < 1e6):
             from .errors import SimulationDiverged
-            raise SimulationDiverged(f"servo simulation diverged at t = {t:.6g} s: state {x.tolist()}", t=t)
+            raise SimulationDiverged(f"servo simulation diverged at t = {t:.6g} s: motor speed {om:.6g} rad/s, "
+                                     f"deflection {psi:.6g} rad, current {I:.6g} A", t=t)
     names = ("t", "motor_angle", "motor_speed", "psi", "psid", "current", "voltage")
     return {nm: rec[:, j] for j, nm in enumerate(names)}
 
 
-def servo_summary(platform, law, drive, controller, t_after=0.5, dt=1e-4):
+def servo_summary(platform, law, drive, controller, t_after=0.5, dt=1e-4, runs=None):
     """E(T) (Eq 25 with the actual motor speed), the platform's vibration amplitude after T
     (max |ψ| on [T, T + t_after]), the final energy at T + t_after, and the motor's peak tracking error."""
     osc = platform.oscillator()
@@ -612,13 +627,15 @@ def servo_summary(platform, law, drive, controller, t_after=0.5, dt=1e-4):
     E_T = float(energy_from_state(r["psi"][iT], r["psid"][iT], osc, r["motor_speed"][iT]))
     E_end = float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
     err = law.position(r["t"]) - r["motor_angle"]
+    if runs is not None:
+        runs.append(r)
     return {"E_T_J": E_T, "E_end_J": E_end, "residual_amplitude_rad": float(np.max(np.abs(r["psi"][iT:]))),
             "max_tracking_error_rad": float(np.max(np.abs(err))),
             "peak_current_A": float(np.max(np.abs(r["current"]))),
             "peak_voltage_V": float(np.max(np.abs(r["voltage"])))}
 
 
-def servo_study(platform, laws: dict, params: dict, t_after=0.5) -> dict:
+def servo_study(platform, laws: dict, params: dict, t_after=0.5, runs=None) -> dict:
     """Scenario ``[servo]`` table → the laws run by a DC motor + cascade servo (controllers.servo).
     Keys: dt [s]; drive = {DCMotorDrive fields, z = 1}; controller = {kpp, kvp, kvi, kffv, kffa, v_limit}."""
     import controllers.servo as servo_mod
@@ -639,5 +656,8 @@ def servo_study(platform, laws: dict, params: dict, t_after=0.5) -> dict:
     for name in ("initial", "optimised"):
         law = laws[name]
         ctrl = servo_mod.from_params(cparams, drive=drive, mechanism=platform, reference=law.as_reference())
-        out["laws"][name] = servo_summary(platform, law, drive, ctrl, t_after=t_after, dt=dt)
+        rr = []
+        out["laws"][name] = servo_summary(platform, law, drive, ctrl, t_after=t_after, dt=dt, runs=rr)
+        if runs is not None:
+            runs[name] = rr[0]
     return out

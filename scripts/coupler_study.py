@@ -66,9 +66,11 @@ def main():
             r = res[main_be]
             print(f"{name} V_C={vc}: " + ", ".join(
                 f"{be}: e1.5={res[be]['crank_error_max_after_rad_s']:.4f} rad/s dev={res[be]['coupler_dev_max_after_m_s']:.4f} m/s "
-                f"tr={res[be]['rise_time_s']:.3f} s ts={res[be]['settling_time_s']:.3f} s Vmax={res[be]['voltage_max_V']:.2f} V"
+                f"tr={res[be]['rise_time_s']:.3f} s ts={res[be]['settling_time_s']:.3f} s Vmax={res[be]['voltage_max_V']:.2f} V "
+                f"last1s: dev={res[be]['coupler_dev_max_last_1s_m_s']:.4f} e={res[be]['crank_error_max_last_1s_rad_s']:.3f}"
                 for be in args.backends) + (f" | diff {res['backend_diff']}" if 'backend_diff' in res else ""), flush=True)
             rows.append({"model": name.split("-")[-1], "vc": vc, "dev": r["coupler_dev_max_after_m_s"],
+                         "dev_last": r["coupler_dev_max_last_1s_m_s"],
                          "paper_sim": PAPER_SIM.get(vc), "paper_exp": PAPER_EXP.get(name, {}).get(vc)})
             ref = mach.controller.reference
             sg = metrics_coupler.signals(trajs[main_be], mach.mechanism, ref)

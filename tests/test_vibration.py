@@ -218,3 +218,34 @@ def test_study_and_cli(tmp_path, capsys):
     assert sv["initial"]["max_tracking_error_rad"] < 0.01
     scn = scenario.load("incerti-belt", ["law.gammas=[3.0, 4.0, 6.0]"])
     assert scn["law"]["gammas"] == [3.0, 4.0, 6.0]
+
+
+def test_paper_check_rounding_and_truncation(elastic):
+    from mjbench.commands.optimize_law import paper_check
+
+    osc = elastic.oscillator()
+    chk = paper_check(osc, {"omega_n": 53.3, "xi": 0.117})
+    assert chk["omega_n"]["match"] and chk["omega_n"]["how"] == "truncated"  # 53.357 printed 53.3
+    assert chk["xi"]["match"] and chk["xi"]["how"] == "rounded"  # 11.672 % printed 11.7 %
+    assert not paper_check(osc, {"omega_n": 50.0})["omega_n"]["match"]
+
+
+def test_servo_reduces_to_ideal_for_a_heavy_motor(belt):
+    """DC motor + cascade servo (controllers.servo): with a rotor 1500× the reflected load
+    inertia and stiff loops the motor is not disturbed by the belt, and E(T) tends to the
+    ideal-servo value (measured 1.3e-5 relative); the assumed real drive degrades it."""
+    import controllers.servo as sv
+    from mjbench.drive import DCMotorDrive
+
+    law = PseudoPolynomialLaw(PHI_001, 1.0)
+    osc = belt.oscillator()
+    E_ideal = vibration.residual_energy(law, osc)
+    drive = DCMotorDrive(R=1.0, L=1e-4, k_m=0.5, J_m=10.0, J_a=0.0, J_b=0.0, z=1.0, T_0=0.0, lam=0.0,
+                         v_max=math.inf)
+    ctrl = sv.from_params({"kpp": 200.0, "kvp": 2e4, "kvi": 2e6}, drive=drive, mechanism=belt,
+                          reference=law.as_reference())
+    s = vibration.servo_summary(belt, law, drive, ctrl, t_after=0.1, dt=1e-4)
+    assert s["E_T_J"] == pytest.approx(E_ideal, rel=1e-4)
+    assert s["max_tracking_error_rad"] < 1e-5
+    with pytest.raises(ParameterError, match="drive.z"):
+        vibration.simulate_servo(belt, law, DCMotorDrive(z=2.0), ctrl)

@@ -95,7 +95,11 @@ def _stack_value(vals, path):
         return np.stack(vals)
     if all(v is v0 for v in vals):
         return v0
-    if isinstance(v0, (str, bool, type(None), tuple, list, dict)) or isinstance(v0, (Mechanism,)):
+    if isinstance(v0, Mechanism):
+        if all(type(v) is type(v0) and v == v0 for v in vals):
+            return v0
+        return PerSimulation(vals)  # model-based controller, per-simulation mechanisms
+    if isinstance(v0, (str, bool, type(None), tuple, list, dict)):
         if all(type(v) is type(v0) and v == v0 for v in vals):
             return v0
         raise ParameterError(f"{path}: must be the same in every simulation of a batch, got "
@@ -103,6 +107,35 @@ def _stack_value(vals, path):
     if hasattr(v0, "__dict__"):
         return stack_objects(vals, path)
     raise ParameterError(f"{path}: cannot vectorise values of type {type(v0).__name__}")
+
+
+class PerSimulation:
+    """Stands in for one object (a mechanism a controller evaluates) when every simulation has its
+    own: a method call is dispatched to each simulation's object with its element of every (nsim,)
+    array argument, and the results are stacked ((nsim,) arrays, tuples of them).  Slower than a
+    vectorised object (one Python call per simulation), exact per simulation."""
+
+    def __init__(self, objs):
+        object.__setattr__(self, "_objs", list(objs))
+
+    def __getattr__(self, name):
+        objs = self._objs
+        attr0 = getattr(objs[0], name)
+        if not callable(attr0):
+            return _stack_value([getattr(o, name) for o in objs], f"mechanism.{name}")
+        n = len(objs)
+
+        def call(*args, **kw):
+            outs = []
+            for i, o in enumerate(objs):
+                a = [x[i] if isinstance(x, np.ndarray) and x.shape[:1] == (n,) else x for x in args]
+                a = [float(x) if isinstance(x, np.floating) else x for x in a]
+                k = {key: (x[i] if isinstance(x, np.ndarray) and x.shape[:1] == (n,) else x) for key, x in kw.items()}
+                outs.append(getattr(o, name)(*a, **k))
+            if isinstance(outs[0], tuple):
+                return tuple(np.array(c) for c in zip(*outs))
+            return np.array(outs)
+        return call
 
 
 def stack_drives(drives):
@@ -172,11 +205,15 @@ def _connect_sites(m):
 # ================================================================= simulation
 def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3,
              options: dict | None = None, nthread: int = 0, models=None, progress=None,
-             closure: bool = True) -> BatchResult:
+             closure: bool = True, single_fast_path: bool = True) -> BatchResult:
     """Co-simulate the machines (a list, one per simulation) together for ``t_end`` seconds.
 
     ``nthread``: MuJoCo batch threads (0: all CPUs).  ``models``: compiled models per simulation
-    (default: :func:`build_models`).  Returns a :class:`BatchResult`; use ``.trajectory(i)``."""
+    (default: :func:`build_models`).  Returns a :class:`BatchResult`; use ``.trajectory(i)``.
+
+    One simulation (``nsim == 1``) goes through the single-run loop of ``multibody.simulate``
+    (same numbers; scalar floats cost a fifth of 1-element arrays) unless ``single_fast_path`` is
+    False; a divergence there leaves no rows (the single run raises before returning them)."""
     machines = list(machines)
     nsim = len(machines)
     if nsim == 0:
@@ -196,6 +233,8 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
                                  "joints, equalities ...); run them in separate batches")
         if m.opt.timestep != m0.opt.timestep:
             raise ParameterError("batch: every simulation needs the same time step")
+    if nsim == 1 and single_fast_path:
+        return _single(machines[0], t_end, h, record_dt, o, models[0], progress)
     b = mjbatch.Batch(m0, nsim, nthread)
     if len(distinct) > 1:
         b.set_models(models)
@@ -293,6 +332,23 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
     meta = {"dt": h, "record_dt": decim * h, "integrator": _integ_name(m0.opt.integrator),
             "nsim": nsim, "nthread": b.nthread}
     return BatchResult(data, nrows, diverged, t_div, messages, meta)
+
+
+def _single(machine, t_end, h, record_dt, o, model, progress):
+    from ..errors import SimulationDiverged
+    from .multibody import simulate as simulate_single
+
+    nrec = int(round(t_end / h)) // max(1, int(round(record_dt / h))) + 1
+    data = np.full((1, nrec, NCOL), np.nan)
+    meta = {"dt": h, "record_dt": max(1, int(round(record_dt / h))) * h,
+            "integrator": _integ_name(model.opt.integrator), "nsim": 1, "nthread": 1}
+    try:
+        tr = simulate_single(machine, t_end, record_dt=record_dt, options=o, model=model, progress=progress)
+    except SimulationDiverged as e:
+        return BatchResult(data, np.zeros(1, dtype=int), np.array([True]), np.array([e.t if e.t is not None else np.nan]),
+                           [str(e).replace("multibody simulation ", "")], meta)
+    data[0, : tr.n] = tr.data[: tr.n]
+    return BatchResult(data, np.array([tr.n]), np.array([False]), np.array([np.nan]), [""], meta)
 
 
 class _RowsView:

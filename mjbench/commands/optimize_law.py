@@ -48,6 +48,18 @@ def main(args) -> int:
     if checks:
         line += "   [paper: " + ", ".join(c["text"] for c in checks.values()) + "]"
     print(line)
+    if "table_II_pseudo_gammas" in pap:
+        from ..motionlaws import solve_coefficients
+
+        rows = []
+        for g, cp in ((pap.get("table_II_polynomial_gammas", [3.0, 4.0, 5.0]), pap.get("table_II_polynomial")),
+                      (pap["table_II_pseudo_gammas"], pap.get("table_II_pseudo_C"))):
+            C = solve_coefficients(g)
+            ok = cp is not None and bool(np.all(np.abs(C - np.asarray(cp)) <= 5e-4 + 1e-12))
+            rows.append({"gammas": list(g), "C": C.tolist(), "paper_C": cp, "match_3_decimals": ok})
+        rep["table_II"] = rows
+        print("  Table II (seed 001): " + "; ".join(
+            f"γ = {r['gammas']} → C = {np.round(r['C'], 4).tolist()} {'✓' if r['match_3_decimals'] else '✗'}" for r in rows))
     print(f"  optimiser: {rep['optimiser']['method']}, {rep['optimiser']['iterations']} iterations, "
           f"{rep['optimiser']['evaluations']} evaluations ({rep['optimiser']['message']})")
     hdr = (f"  {'law':<16s} {'T_end[s]':>8s} {'E(T) closed [J]':>16s} {'E(T) ODE [J]':>13s} {'E(T) MuJoCo':>12s} "
@@ -92,6 +104,9 @@ def main(args) -> int:
             files["multibody_check"] = pv.fig_multibody_check(obj["platform"], laws["initial"], osc,
                                                               os.path.join(out, "multibody_vs_ode.png"),
                                                               ta, dt=rep["multibody"]["dt_s"])
+        if obj.get("servo_runs"):
+            files["servo"] = pv.fig_servo(laws, obj["servo_runs"], osc, os.path.join(out, "servo_vs_ideal.png"), ta,
+                                          title=f"{name}: ideal vs real servo (transmission deflection)")
         files["laws"] = pv.fig_laws({**laws, **obj["shaped"]}, os.path.join(out, "laws.png"), title=f"{name}: motor laws")
     rep["files"] = {k: os.path.abspath(v) for k, v in files.items()}
     rep["scenario_source"] = scn["scenario"].get("source")

@@ -13,7 +13,7 @@ acceleration φ̈ (the motor follows its motion law exactly — the papers' idea
   ρ = z, ψ = β − z·φ.
 
 MJCF (``build_spec``): every joint is a hinge about the vertical z axis, gravity off (it does no
-work on vertical-axis hinges).  The driven joint (``DRIVEN_JOINT``) is kinematically driven by
+work on vertical-axis hinges).  The driven joint (``driven_joint`` of each class, ``driven_ratio`` rad per motor rad) is kinematically driven by
 ``mjbench.vibration.simulate_multibody`` (the generalised force that makes its acceleration
 equal the law's is computed at every integrator stage), so the motor follows the law exactly.
 
@@ -32,8 +32,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
-
-DRIVEN_JOINT = "drive"  # placeholder name; each class sets its own ``driven_joint``
 
 
 @dataclass

@@ -44,13 +44,13 @@ def run(args):
     qpos0 = machine.mechanism.initial_qpos(model, 0.0)
     ncpu = os.cpu_count() or 1
 
-    def ours(nsim, nthread):
+    def ours(nsim, nthread, fast=True):
         machines = [S.make_machine(scn, "pid") for _ in range(nsim)]
         models = [model] * nsim
 
         def make(nsteps):
             return lambda: batch.simulate(machines, nsteps * H, dt=H, record_dt=5e-4, nthread=nthread,
-                                          models=models)
+                                          models=models, single_fast_path=fast)
         return make
 
     def bare(nsim, nthread):
@@ -77,6 +77,10 @@ def run(args):
         rows.append((f"batch_steps_per_s_N{n}", o, f"batched PID co-simulation, N = {n}, {ncpu} threads [steps/s]"))
         rows.append((f"bare_batch_steps_per_s_N{n}", r, f"bare mujoco.batch step loop, N = {n} [steps/s]"))
         rows.append((f"batch_ratio_N{n}", o / r, f"ours / bare at N = {n} (goal ≥ 0.83: overhead ≤ 20 %)"))
+        if n == 1:
+            ob = _throughput(ours(1, 0, fast=False), 1, n1, n2, repeat)
+            rows.append(("batch_ratio_N1_via_batch", ob / r,
+                         "N = 1 forced through mujoco.batch (no single-run fast path) / bare"))
     n = 64
     n1, n2 = 60, 300
     for name, mk in (("batch", ours), ("bare_batch", bare)):
