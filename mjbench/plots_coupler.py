@@ -111,12 +111,19 @@ def coupler_curve(mechanism, reference, path, title=""):
     q = np.linspace(0, 2 * np.pi, 721)
     x, y = mechanism.coupler_point_position(q)
     qd = reference.crank_speed(q)
-    fig, ax = plt.subplots(figsize=(5, 4.5))
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
     sc = ax.scatter(np.asarray(x) * 1e3, np.asarray(y) * 1e3, c=qd, s=4, cmap="viridis")
     j = mechanism.joints(0.0)
     for nm in ("A", "D"):
         ax.plot(j[nm][0] * 1e3, j[nm][1] * 1e3, "ks")
-    fig.colorbar(sc, label="q̇_trj [rad/s]")
+    jj, cp = mechanism.joints(np.pi / 2), mechanism.coupler_point_position(np.pi / 2)
+    xs = [jj[k][0] * 1e3 for k in "ABCD"]
+    ys = [jj[k][1] * 1e3 for k in "ABCD"]
+    ax.plot(xs, ys, "-o", color="0.5", lw=1, ms=3, label="linkage at q = 90°")
+    ax.fill([jj["B"][0] * 1e3, jj["C"][0] * 1e3, cp[0] * 1e3], [jj["B"][1] * 1e3, jj["C"][1] * 1e3, cp[1] * 1e3],
+            color="0.8", alpha=0.6)
+    ax.legend(fontsize=7, loc="upper right")
+    fig.colorbar(sc, ax=ax, shrink=0.8, label="q̇_trj [rad/s]")
     ax.set_aspect("equal")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")

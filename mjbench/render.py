@@ -328,7 +328,7 @@ class MechanismView:
         px = self.height / 540.0  # line widths [px] scale with the frame
         # static lines: grid on the backdrop, trace path over one crank turn from the first angle
         segs = [self._grid_segments()]
-        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 121))
+        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 73))  # 5° per segment
         gain = self._line_gain()
         self._static = []  # ((k, 2, 3) segments, width px, rgba)
         self._static.append((segs[0], 1.0 * px, self._line_rgba(GRID_RGB + (1.0,), gain)))
@@ -551,7 +551,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
                          overlay_lines=4 if title else 3)
     writer = VideoWriter(out, width, height, fps, crf=crf)
-    # trail: the last crank turn, sampled at ≤ 90 points from the recorded steps
+    # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
         bar = tqdm(total=len(idx), unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
@@ -560,7 +560,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
         for k, i in enumerate(idx):
             lo = np.searchsorted(q[: i + 1], q[i] - 2 * np.pi * view.trail_turns) if qd[i] >= 0 else 0
             lo = max(0, min(lo, i))
-            trail = q[lo: i + 1][:: max(1, (i - lo) // 90)] if i > lo else None
+            trail = q[lo: i + 1][:: max(1, (i - lo) // 40)] if i > lo else None
             if trail is not None and trail[-1] != q[i]:
                 trail = np.append(trail, q[i])
             lines = ([title] if title else []) + [
@@ -594,7 +594,11 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
         raise ParameterError(f"--fps = {fps!r}: must be > 0")
     gl_setup()
     from . import scenario as scenario_mod
+    from .errors import ScenarioError
 
+    if not scn.get("modes"):
+        raise ScenarioError(f"scenario {scn.get('scenario', {}).get('name')!r} defines no [modes.*] machine to "
+                            f"simulate (a motion-law scenario? use `mjbench optimize-law`)")
     mode = mode or scenario_mod.get(scn, "simulation.mode")
     t0 = time.perf_counter()
     machine, traj = simulate_for_video(scn, mode, t_end)
@@ -607,3 +611,151 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
     info["sim_s"] = sim_s
     info["mode"] = mode
     return info
+
+
+# ============================================================================ platforms (seeds 001/003)
+class PlatformView:
+    """Top view of an elastic rotary platform (``mechanisms/platform.py``) driven by a motion law.
+
+    The residual vibration is a deflection ψ of milliradians, invisible at true scale, so two
+    needles are drawn from the platform centre: grey at the rigid-transmission angle ρ·φ and
+    magenta at ρ·φ + G·ψ (G printed in the overlay, chosen so that the largest |ψ| of the
+    reference run maps to 30°)."""
+
+    def __init__(self, platform, width=960, height=540, gain=1.0):
+        import mujoco
+
+        gl_setup()
+        if width < 16 or height < 16 or width % 2 or height % 2:
+            raise ParameterError(f"--width/--height = {width}x{height}: need even sizes >= 16 px (H.264)")
+        self.plat, self.width, self.height, self.gain = platform, int(width), int(height), float(gain)
+        spec = platform.build_spec({"timestep": 1e-4})
+        g = spec.visual.global_
+        g.offwidth, g.offheight = max(int(g.offwidth), self.width), max(int(g.offheight), self.height)
+        spec.visual.quality.offsamples = 4
+        self.model = m = spec.compile()
+        mujoco.mj_forward(m, mujoco.MjData(m))
+        # bounds of the discs (cylinders about z) in the x-y plane
+        d0 = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, d0)
+        xs, ys = [], []
+        for i in range(m.ngeom):
+            r = float(m.geom_rbound[i])
+            p = d0.geom_xpos[i]
+            xs += [p[0] - r, p[0] + r]
+            ys += [p[1] - r, p[1] + r]
+        span = max(max(xs) - min(xs), max(ys) - min(ys))
+        half = 3 * span
+        spec2 = platform.build_spec({"timestep": 1e-4})
+        spec2.visual.global_.offwidth, spec2.visual.global_.offheight = g.offwidth, g.offheight
+        spec2.visual.quality.offsamples = 4
+        cz = min(float(d0.geom_xpos[i][2] - m.geom_size[i][1]) for i in range(m.ngeom)) - 0.05 * span
+        spec2.worldbody.add_geom(name="mjb_backdrop", type=mujoco.mjtGeom.mjGEOM_BOX,
+                                 size=[half, half, 1e-3 * span], pos=[0.5 * (min(xs) + max(xs)), 0.5 * (min(ys) + max(ys)), cz],
+                                 rgba=list(BACKDROP_RGB) + [1.0], contype=0, conaffinity=0)
+        self.model = m = spec2.compile()
+        m.vis.headlight.ambient[:] = 0.45
+        m.vis.headlight.diffuse[:] = 0.55
+        self.data = mujoco.MjData(m)
+        self.renderer = mujoco.Renderer(m, self.height, self.width, max_geom=2000)
+        self.text = TextBox(self.width, self.height, 4, scale=self.height / 540)
+        bounds = (min(xs), max(xs), min(ys), max(ys))
+        # top view: camera above looking down −z; x right, y up
+        cam = frame_camera(bounds, self.width, self.height, float(m.vis.global_.fovy), top_band_px=self.text.band_px)
+        cam.elevation = -90.0
+        cam.lookat[:] = [cam.lookat[0], cam.lookat[2], float(d0.geom_xpos[0][2])]
+        self.camera = cam
+        self.opt = mujoco.MjvOption()
+        self._line = int(mujoco.mjtGeom.mjGEOM_LINE)
+        jn = {m.joint(i).name: i for i in range(m.njnt)}
+        self._qa = int(m.jnt_qposadr[jn[platform.driven_joint]])
+        self._elastic = int(m.jnt_qposadr[jn["elastic_joint"]]) if "elastic_joint" in jn else None
+        self._plat = int(m.jnt_qposadr[jn["platform"]]) if "platform" in jn else None
+        self._pbody = m.body("platform").id
+        self._needle = 0.9 * float(max(m.geom_rbound[i] for i in range(m.ngeom) if m.geom_bodyid[i] == self._pbody
+                                       and m.geom_type[i] == mujoco.mjtGeom.mjGEOM_CYLINDER))
+        mujoco.mj_kinematics(m, self.data)
+        top = [float(self.data.geom_xpos[i][2] + (m.geom_size[i][2] if m.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX
+                                             else m.geom_size[i][1]))
+               for i in range(m.ngeom) if m.geom_bodyid[i] == self._pbody]
+        self._top = max(top) + 0.02 * self._needle
+        self.grey = np.array([0.25, 0.25, 0.25, 1.0], np.float32)  # lines are lit ≈2× (see MechanismView)
+        self.magenta = np.array([0.5, 0.0, 0.45, 1.0], np.float32)
+
+    def frame(self, phi, theta, psi, lines=(), out=None):
+        import mujoco
+
+        m, d = self.model, self.data
+        rho_d, rho = float(self.plat.driven_ratio), float(self.plat.ratio)
+        d.qpos[:] = m.qpos0
+        d.qpos[self._qa] = rho_d * phi
+        if self._elastic is not None:
+            d.qpos[self._elastic] = psi
+        if self._plat is not None:
+            d.qpos[self._plat] = theta
+        mujoco.mj_kinematics(m, d)
+        self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
+        MechanismView.set_flags(self.renderer.scene)
+        c = np.array(d.xpos[self._pbody], dtype=float)
+        c[2] = self._top  # just above the platform's top face
+        scn = self.renderer.scene
+        for ang, rgba, w in ((rho * phi, self.grey, 4.0), (rho * phi + self.gain * psi, self.magenta, 6.0)):
+            if scn.ngeom >= scn.maxgeom:
+                break
+            g = scn.geoms[scn.ngeom]
+            tip = c + self._needle * np.array([math.cos(ang), math.sin(ang), 0.0])
+            mujoco.mjv_initGeom(g, self._line, np.zeros(3), np.zeros(3), np.eye(3).ravel(), rgba)
+            mujoco.mjv_connector(g, self._line, w * self.height / 540, c, tip)
+            scn.ngeom += 1
+        img = self.renderer.render(out=out)
+        if lines:
+            self.text.draw(img, lines)
+        return img
+
+    def close(self):
+        self.renderer.close()
+
+
+def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width=960, height=540,
+                         progress=True, dt=1e-4):
+    """Video of the platform driven by each law in turn (``laws`` = {name: MotionLaw}), each run
+    simulated by ``vibration.simulate_multibody`` (step ``dt``, every step recorded) over
+    [0, T + t_after] and played in real time.  Returns an info dict."""
+    from tqdm import tqdm
+
+    from .vibration import simulate_multibody
+
+    t0 = time.perf_counter()
+    runs = {k: simulate_multibody(platform, law, t_end=law.T + t_after, dt=dt) for k, law in laws.items()}
+    psimax = max(float(np.max(np.abs(r["psi"]))) for r in runs.values())
+    gain = math.radians(30.0) / psimax if psimax > 0 else 1.0
+    gain = float(f"{gain:.2g}")  # a round number for the overlay
+    view = PlatformView(platform, width, height, gain=gain)
+    writer = VideoWriter(out, width, height, fps)
+    nfr = 0
+    try:
+        total = sum(len(frame_indices(r["t"], fps)) for r in runs.values())
+        bar = tqdm(total=total, unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
+                   disable=not progress, leave=False)
+        buf = np.empty((view.height, view.width, 3), np.uint8)
+        for name, r in runs.items():
+            idx = frame_indices(r["t"], fps)
+            for i in idx:
+                lines = [f"{platform.variant} platform — {name} law, T = {laws[name].T:g} s",
+                         f"t = {r['t'][i]:6.3f} s   (real time, {fps:g} fps)",
+                         f"motor speed {r['motor_speed'][i]:8.2f} rad/s",
+                         f"deflection ψ {1e3 * r['psi'][i]:+8.3f} mrad   needle ×{gain:g}"]
+                writer.write(view.frame(r["motor_angle"][i], r["platform_angle"][i], r["psi"][i], lines, out=buf))
+                nfr += 1
+                bar.update(1)
+        bar.close()
+        writer.close()
+    except BaseException:
+        writer.abort()
+        raise
+    finally:
+        view.close()
+    wall = time.perf_counter() - t0
+    return {"frames": nfr, "width": width, "height": height, "fps": fps, "duration_s": nfr / fps,
+            "wall_s": wall, "frames_per_s": nfr / wall if wall > 0 else float("nan"), "gl": _GL_CHOICE,
+            "needle_gain": gain, "path": os.fspath(out)}

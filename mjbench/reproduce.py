@@ -158,10 +158,17 @@ def run_case(case: Case, out_dir, quick=False, video=True, progress=True, width=
             res["rows"] += [_normalise_row(r) for r in rows_hook(ctx)]
         fig_hook = _hook(case.figures)
         figs = fig_hook(ctx) if fig_hook is not None else (_default_figures(ctx) if case.kind == "run" else [])
+        figs = list(figs or [])
+        for mode, trajs in ctx.runs.items():  # every case that ran both backends: their comparison
+            if "multibody" in trajs and "reduced" in trajs:
+                figs.append(backend_comparison(trajs, out / f"backends_{mode}.png",
+                                               title=f"{case.name}, mode {mode}: multibody vs reduced"))
         res["figures"] += [os.path.relpath(os.fspath(p), out) for p in figs or []]
     res["sim_figures_s"] = time.perf_counter() - t0
     if video and case.video and case.kind == "run":
         res["video"] = _video(ctx, quick, progress, width, height)
+    elif video and case.video and case.kind == "optimize-law":
+        res["video"] = _platform_video(ctx, quick, progress, width, height)
     res["runtime_s"] = time.perf_counter() - t0
     _write_json(out / "metrics.json", res)
     return res
@@ -233,6 +240,26 @@ def _default_figures(ctx: CaseRun):
     return [p]
 
 
+def backend_comparison(trajs: dict, path, title=""):
+    """Crank speed of both backends (plotstyle.BACKEND) and their difference, with units."""
+    from . import plotstyle as ps
+    from .plots import save
+
+    ref, oth = trajs["reduced"], trajs["multibody"]
+    fig, (a0, a1) = ps.new(2, 1, figsize=(8, 5.5), sharex=True)
+    for b in ("multibody", "reduced"):
+        a0.plot(trajs[b].t, trajs[b].qd, **ps.backend_style(b))
+    a0.set_ylabel(ps.label("crank speed α̇", "rad/s"))
+    a0.legend(loc="lower right")
+    diff = np.interp(ref.t, oth.t, oth.qd) - ref.qd
+    a1.plot(ref.t, diff, color="k", lw=0.9, label="multibody − reduced")
+    a1.set_ylabel(ps.label("difference", "rad/s"))
+    a1.set_xlabel(ps.label("time t", "s"))
+    a1.legend(loc="upper left")
+    ps.finish(fig, title)
+    return save(fig, path)
+
+
 def _video(ctx: CaseRun, quick, progress, width=None, height=None):
     from . import render
 
@@ -247,6 +274,21 @@ def _video(ctx: CaseRun, quick, progress, width=None, height=None):
                                   t_end=t_vid, progress=progress)
     return {"file": "video.mp4", "mode": mode, "frames": info["frames"], "width": w, "height": h,
             "duration_s": info["duration_s"], "render_s": info["wall_s"], "frames_per_s": info["frames_per_s"]}
+
+
+def _platform_video(ctx: CaseRun, quick, progress, width=None, height=None):
+    """Seeds 001/003: the platform driven by the initial, then the optimised law (top view; the
+    deflection ψ is shown magnified by a needle, render.PlatformView)."""
+    from . import render
+
+    o = ctx.extra["study"]["objects"]
+    laws = {k: o["laws"][k] for k in ("initial", "optimised")}
+    w, h = (width or (640 if quick else 960)), (height or (360 if quick else 540))
+    info = render.render_platform_laws(o["platform"], laws, ctx.out / "video.mp4", t_after=o["t_after"], fps=30,
+                                       width=w, height=h, progress=progress)
+    return {"file": "video.mp4", "mode": "initial, then optimised law", "frames": info["frames"], "width": w,
+            "height": h, "duration_s": info["duration_s"], "render_s": info["wall_s"],
+            "frames_per_s": info["frames_per_s"], "needle_gain": info["needle_gain"]}
 
 
 # ============================================================================ rows
@@ -402,6 +444,17 @@ def rows_vibration(ctx: CaseRun) -> list:
             for i, (cp, co) in enumerate(zip(pap["table_II_polynomial"], c0)):
                 rows.append({"name": f"3-4-5 polynomial coefficient C{i + 1} (Table II)", "unit": "1", "paper": cp,
                              "ours": {"ours": co}, "reason": ""})
+    if "table_II_pseudo_gammas" in pap and "table_II_pseudo_C" in pap:
+        from .motionlaws import PseudoPolynomialLaw
+        law0 = ctx.extra["study"]["objects"]["laws"]["initial"]
+        try:
+            cs = PseudoPolynomialLaw(law0.Phi, law0.T, pap["table_II_pseudo_gammas"]).C
+        except Exception:  # noqa: BLE001 - a law the module rejects: no row
+            cs = []
+        g_txt = ", ".join(f"{g:g}" for g in pap["table_II_pseudo_gammas"])
+        for i, (cp, co) in enumerate(zip(pap["table_II_pseudo_C"], cs)):
+            rows.append({"name": f"pseudo-polynomial coefficient C{i + 1} for γ = {g_txt} (Table II)", "unit": "1",
+                         "paper": cp, "ours": {"ours": float(co)}, "reason": ""})
     for name in ("initial", "optimised", "paper_optimum"):
         if name in laws:
             lw = laws[name]
@@ -478,6 +531,7 @@ def write_report(results: list, out_dir, total_s=None) -> tuple:
           f"where they differ (|difference| > {100 * AGREE_REL:g} %).", ""]
     if total_s is not None:
         md += [f"Total runtime: {total_s:.0f} s.", ""]
+    md += [f"Environment: {_env_text()}.", ""]
     md += ["| case | scenario | seed | rows | within 5 % | runtime [s] |", "|---|---|---|---|---|---|"]
     for r in results:
         n_ok = sum(1 for row in r["rows"] if row.get("rel_difference") is not None and abs(row["rel_difference"]) <= AGREE_REL)
@@ -492,6 +546,26 @@ def write_report(results: list, out_dir, total_s=None) -> tuple:
     atomic_write(out / "report.md", lambda f: f.write(md_text))
     atomic_write(out / "report.html", lambda f: f.write(html_text))
     return out / "report.md", out / "report.html"
+
+
+def _env_text():
+    import platform
+    import sys
+
+    try:
+        import mujoco
+        mj = mujoco.__version__
+    except Exception:  # pragma: no cover
+        mj = "?"
+    try:
+        from importlib.metadata import version
+        me = version("mjbench")
+    except Exception:  # pragma: no cover
+        me = "?"
+    gl = os.environ.get("MUJOCO_GL", "")
+    return (f"mjbench {me}, MuJoCo {mj}, Python {sys.version.split()[0]}, {platform.system()} "
+            f"{platform.machine()}, {os.cpu_count()} CPUs, MUJOCO_GL={gl or 'unset'}, "
+            f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
 
 
 def _anchor(name):
@@ -535,6 +609,9 @@ def _case_md(r):
                f"{v['width']}×{v['height']} at 30 fps (real time, {v['duration_s']:.2f} s).", ""]
     elif r["kind"] == "optimize-law":
         md += ["No video: a motion-law case (`mjbench optimize-law`), evaluated on the platform model.", ""]
+    if v and v.get("needle_gain"):
+        md += [f"Top view of the platform; grey needle: rigid-transmission angle ρ·φ, magenta needle: ρ·φ + "
+               f"{v['needle_gain']:g}·ψ (the deflection ψ magnified ×{v['needle_gain']:g}).", ""]
     return md
 
 
@@ -572,6 +649,7 @@ def _html(results, total_s):
              f"(|difference| &gt; {100 * AGREE_REL:g} %).</p>"]
     if total_s is not None:
         parts.append(f'<p class="meta">Total runtime: {total_s:.0f} s.</p>')
+    parts.append(f'<p class="meta">Environment: {e(_env_text())}.</p>')
     parts.append("<table><tr><th>case</th><th>scenario</th><th>seed</th><th>rows</th><th>runtime [s]</th></tr>")
     for r in results:
         parts.append(f'<tr><td><a href="#{_anchor(r["case"])}">{e(r["case"])}</a></td><td>{e(r["scenario"])}</td>'
@@ -608,7 +686,9 @@ def _html(results, total_s):
         if v:
             parts.append(f'<div><video src="{e(case)}/{e(v["file"])}" controls muted loop preload="metadata" '
                          f'width="{v["width"]}"></video><p class="meta">mode {e(v["mode"])}, {v["frames"]} frames '
-                         f'{v["width"]}×{v["height"]} at 30 fps (real time, {v["duration_s"]:.2f} s)</p></div>')
+                         f'{v["width"]}×{v["height"]} at 30 fps (real time, {v["duration_s"]:.2f} s)'
+                         + (f'; grey needle: rigid angle ρ·φ, magenta: ρ·φ + {v["needle_gain"]:g}·ψ (deflection '
+                            f'magnified ×{v["needle_gain"]:g})' if v.get("needle_gain") else "") + "</p></div>")
         elif r["kind"] == "optimize-law":
             parts.append('<p class="meta">No video: a motion-law case (<code>mjbench optimize-law</code>), '
                          "evaluated on the platform model.</p>")

@@ -1,5 +1,4 @@
 """Batched multibody backend: N simulations stepped together equal N single runs (issue 7)."""
-import copy
 
 import numpy as np
 import pytest

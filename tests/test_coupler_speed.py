@@ -216,6 +216,19 @@ def test_multibody_matches_reduced(name):
     assert np.max(a.closure) < 1e-7
 
 
+def test_batched_backend_runs_the_coupler_reference_identically():
+    """The batched MuJoCo backend (sweeps) calls the reference with (nsim,) arrays and the hinge
+    friction through multibody_load on state columns: same trajectory as the single run."""
+    from mjbench.backends import batch
+    scn = S.load(M1, ["vc=0.2"])
+    a = multibody.simulate(S.make_machine(scn), 0.3, dt=1e-4, record_dt=2e-3)
+    res = batch.simulate([S.make_machine(scn), S.make_machine(S.load(M1, ["vc=0.3"]))], 0.3,
+                         record_dt=2e-3, options={"timestep": 1e-4})
+    b = res.trajectory(0)
+    assert np.max(np.abs(a.qd - b.qd[: a.n])) < 1e-9
+    assert res.trajectory(1).qd[-1] > b.qd[-1]  # the second simulation runs its own V_C
+
+
 # ----------------------------------------------------------------------------- tracking vs paper
 @pytest.fixture(scope="module")
 def runs5s():
@@ -232,8 +245,8 @@ def runs5s():
 def test_deviation_shrinks_after_transient(runs5s):
     for name, m in runs5s.items():
         w = m["coupler_dev_windows"]  # [1.5, 2.5], [2.5, 3.5], [3.5, 4.5], [4.5, 5]
-        assert w[-1][2] < 0.6 * w[0][2], (name, w)
-        assert w[-1][3] < 0.6 * w[0][3], (name, w)
+        assert w[-1][2] < 0.75 * w[0][2], (name, w)   # measured 0.44 (M1), 0.51 (M2)
+        assert w[-1][3] < 0.5 * w[0][3], (name, w)    # measured 0.23 (M1), 0.20 (M2)
 
 
 def test_paper_figures_vs_stated_model(runs5s):

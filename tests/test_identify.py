@@ -1,5 +1,4 @@
 """Motor identification (issue 7): known parameters recovered from a synthetic noisy record."""
-import numpy as np
 import pytest
 
 from mjbench import cli

@@ -40,7 +40,7 @@ def test_registry_covers_every_seed():
 def test_files_written(report):
     out, res, md, htm = report
     case_dir = out / "incerti2012-short"
-    for f in ("metrics.json", "fig4.png", "video.mp4", "trajectory_open_multibody.csv", "trajectory_pid_reduced.csv"):
+    for f in ("metrics.json", "fig4.png", "backends_open.png", "backends_pid.png", "video.mp4", "trajectory_open_multibody.csv", "trajectory_pid_reduced.csv"):
         assert (case_dir / f).stat().st_size > 0, f
     assert md.exists() and htm.exists()
     assert res["video"]["frames"] == 16  # 0.5 s at 30 fps: frames at k/30, k = 0..15
@@ -81,14 +81,14 @@ def _chromium(args, tmp_path, timeout=60):
 def test_html_opens_in_headless_chromium(report, tmp_path):
     import imageio.v3 as iio
 
-    out, _, _, htm = report
+    out, res, _, htm = report
     url = htm.resolve().as_uri()
     p = _chromium(["--dump-dom", url], tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     m = re.search(r'data-check="images (\d+)/(\d+) video-errors (\d+)/(\d+)"', p.stdout)
     assert m, "the report's load check did not run:\n" + p.stdout[:500] + p.stderr[-1500:]
     ok, n_img, verr, n_vid = map(int, m.groups())
-    assert n_img == 1 and ok == n_img, "an embedded figure did not load"
+    assert n_img == len(res["figures"]) == 3 and ok == n_img, "an embedded figure did not load"
     assert n_vid == 1 and verr == 0, "the embedded video reports a media error"
     assert "Uncaught" not in p.stderr and "SyntaxError" not in p.stderr
     shot = tmp_path / "shot.png"

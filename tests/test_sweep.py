@@ -7,7 +7,6 @@ import pytest
 from mjbench import cli, scenario
 from mjbench.backends import multibody
 from mjbench.errors import ScenarioError
-from mjbench.metrics import chi
 from mjbench.sweep import SweepSpec, make_rows, parse_grid, parse_perturb, read_table, run_sweep
 
 T_END = 0.06  # s: short runs, the point is the bookkeeping (metrics on the whole record)

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 import numbers
 
 import mujoco
@@ -419,4 +418,4 @@ def simulate_one(machine, t_end, **kw) -> Trajectory:
 
 
 __all__ = ["simulate", "simulate_one", "stack_objects", "stack_drives", "build_models", "BatchResult",
-           "math"]
+           "PerSimulation"]

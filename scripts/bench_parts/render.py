@@ -50,14 +50,14 @@ def run(args):
         t0 = time.perf_counter()
         for k in range(nfr):
             qk = q[b * nfr + k]
-            view.frame(qk, lines, trail_q=np.linspace(qk - 3.77, qk, 61), out=buf)
+            view.frame(qk, lines, trail_q=np.linspace(qk - 3.77, qk, 41), out=buf)
         t_ours.append((time.perf_counter() - t0) / nfr)
     # encoding cost: frames through the H.264 writer
     with tempfile.TemporaryDirectory() as tmp:
         w = render.VideoWriter(os.path.join(tmp, "b.mp4"), W, H, 30)
         t0 = time.perf_counter()
         for k in range(nfr * 2):
-            w.write(view.frame(q[k], lines, trail_q=np.linspace(q[k] - 3.77, q[k], 61), out=buf))
+            w.write(view.frame(q[k], lines, trail_q=np.linspace(q[k] - 3.77, q[k], 41), out=buf))
         w.close()
         t_enc = (time.perf_counter() - t0) / (nfr * 2)
     bare.close()
