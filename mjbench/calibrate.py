@@ -70,7 +70,7 @@ LEGIBLE = {
 }
 #: seed of the scenarios this calibration applies to
 SEEDS = ("000",)
-DEFAULT_PARAMS = ("a", "b", "c", "h_x", "m2", "m3", "R")
+DEFAULT_PARAMS = tuple(MISSING)
 
 #: box bounds of lengths [m] and R [Ω]
 BOUNDS = {"a": (0.03, 0.20), "b": (0.10, 0.60), "c": (0.10, 0.60), "h_x": (0.10, 0.60), "R": (0.3, 5.0)}

@@ -633,8 +633,7 @@ class PlatformView:
         g = spec.visual.global_
         g.offwidth, g.offheight = max(int(g.offwidth), self.width), max(int(g.offheight), self.height)
         spec.visual.quality.offsamples = 4
-        self.model = m = spec.compile()
-        mujoco.mj_forward(m, mujoco.MjData(m))
+        m = spec.compile()
         # bounds of the discs (cylinders about z) in the x-y plane
         d0 = mujoco.MjData(m)
         mujoco.mj_kinematics(m, d0)

@@ -22,6 +22,51 @@ import numpy as np
 
 INPUT_JOINT = "crank"  #: name of the driven joint in every generated MJCF model
 
+INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
+
+
+def integrator_enum(name):
+    """MuJoCo integrator enum from its name (case-insensitive); ParameterError otherwise."""
+    import mujoco
+
+    from ..errors import ParameterError
+
+    table = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4,
+             "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+             "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
+    try:
+        return table[str(name).lower()]
+    except KeyError:
+        raise ParameterError(f"multibody.integrator = {name!r}: choose one of {list(INTEGRATORS)}") from None
+
+
+def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 1080)):
+    """An MjSpec with the options every mjbench model shares.
+
+    ``options``: ``timestep`` [s] (default 1e-4), ``integrator`` (default RK4), ``iterations``,
+    ``tolerance``.  Always: dense Jacobian (MuJoCo 4.0.0's sparse Cholesky is wrong on closed
+    chains, upstream issue 3767), Newton solver, contacts off, energy computed, explicit inertials.
+    """
+    import mujoco
+
+    o = dict(options or {})
+    spec = mujoco.MjSpec()
+    spec.modelname = name
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.autolimits = True
+    opt = spec.option
+    opt.timestep = float(o.get("timestep", 1e-4))
+    opt.integrator = integrator_enum(o.get("integrator", "RK4"))
+    opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
+    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.iterations = int(o.get("iterations", 100))
+    opt.tolerance = float(o.get("tolerance", 1e-12))
+    opt.gravity = list(gravity)
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = offscreen
+    return spec
+
 
 class Mechanism(abc.ABC):
     """Abstract single-DOF mechanism driven at its input coordinate q (rad)."""

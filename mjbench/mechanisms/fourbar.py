@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from .base import INPUT_JOINT, Mechanism
+from .base import INPUT_JOINT, Mechanism, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo: paper angles are counter-clockwise in (x, z)
@@ -376,22 +376,7 @@ class FourBar(Mechanism):
 
         o = dict(options or {})
         h = float(o.get("timestep", 1e-4))
-        spec = mujoco.MjSpec()
-        spec.modelname = self.name
-        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-        spec.compiler.autolimits = True
-        opt = spec.option
-        opt.timestep = h
-        opt.integrator = _integrator(o.get("integrator", "Euler"))
-        opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
-        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-        opt.iterations = int(o.get("iterations", 100))
-        opt.tolerance = float(o.get("tolerance", 1e-12))
-        opt.gravity = [0.0, 0.0, -self.g]
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-        opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-        spec.visual.global_.offwidth = 1920
-        spec.visual.global_.offheight = 1080
+        spec = new_spec(self.name, o, gravity=(0.0, 0.0, -self.g))
 
         rad = 0.012 * max(self.a, self.b, self.c, math.hypot(self.h_x, self.h_y))
         colors = {"ground": [0.45, 0.45, 0.5, 1], "crank": [0.85, 0.25, 0.2, 1],
@@ -523,18 +508,6 @@ def _dof_cache(model):
         _DOF_CACHE.clear()
     _DOF_CACHE[id(model)] = (model, adr)
     return adr
-
-
-def _integrator(name):
-    import mujoco
-
-    table = {"euler": mujoco.mjtIntegrator.mjINT_EULER, "rk4": mujoco.mjtIntegrator.mjINT_RK4,
-             "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
-             "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST}
-    try:
-        return table[str(name).lower()]
-    except KeyError:
-        raise ParameterError(f"multibody.integrator = {name!r}: choose one of {sorted(table)}") from None
 
 
 def _angle_ranges(alpha, mask):

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
+from .base import new_spec
 
 
 @dataclass
@@ -82,25 +83,7 @@ def _check_positive(obj, names, allow_zero=()):
 
 
 def _spec_common(name, options):
-    import mujoco
-
-    from .fourbar import _integrator
-
-    o = dict(options or {})
-    spec = mujoco.MjSpec()
-    spec.modelname = name
-    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-    spec.compiler.autolimits = True
-    opt = spec.option
-    opt.timestep = float(o.get("timestep", 1e-4))
-    opt.integrator = _integrator(o.get("integrator", "RK4"))
-    opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE  # see pyproject (MuJoCo 4.0.0 issue 3767)
-    opt.gravity = [0.0, 0.0, 0.0]
-    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-    opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-    spec.visual.global_.offwidth = 1280
-    spec.visual.global_.offheight = 720
-    return spec
+    return new_spec(name, options, gravity=(0.0, 0.0, 0.0), offscreen=(1280, 720))
 
 
 def _inertial(body, Izz, mass=1.0):

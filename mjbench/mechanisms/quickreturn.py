@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import GeometryError, ParameterError
-from .base import INPUT_JOINT, Mechanism
+from .base import INPUT_JOINT, Mechanism, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²]
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo (paper angles counter-clockwise in (x, z))
@@ -334,26 +334,9 @@ class QuickReturn(Mechanism):
         """
         import mujoco
 
-        from .fourbar import _integrator
-
         o = dict(options or {})
         h = float(o.get("timestep", 1e-4))
-        spec = mujoco.MjSpec()
-        spec.modelname = self.name
-        spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-        spec.compiler.autolimits = True
-        opt = spec.option
-        opt.timestep = h
-        opt.integrator = _integrator(o.get("integrator", "RK4"))
-        opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
-        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-        opt.iterations = int(o.get("iterations", 100))
-        opt.tolerance = float(o.get("tolerance", 1e-12))
-        opt.gravity = [0.0, 0.0, -self.g]
-        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
-        opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-        spec.visual.global_.offwidth = 1920
-        spec.visual.global_.offheight = 1080
+        spec = new_spec(self.name, o, gravity=(0.0, 0.0, -self.g))
 
         H = self.a + self.b
         rad = 0.012 * max(self.r3, H)
