@@ -30,6 +30,10 @@ def main(argv=None) -> int:
     except MjbenchError as e:
         print(f"mjbench: error: {e}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # e.g. `mjbench list | head`
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         print("mjbench: interrupted", file=sys.stderr)
         return 130

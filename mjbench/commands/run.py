@@ -73,7 +73,7 @@ def cmd_list(args):
         except Exception as e:  # noqa: BLE001 - listing must not die on one bad file
             print(f"{name:<22s} (cannot load: {e})")
             continue
-        modes = ", ".join(S.modes(scn)) or "-"
+        modes = ", ".join(S.modes(scn)) or ("(optimize-law)" if "law" in scn else "-")
         print(f"{name:<22s} seed {S.get(scn, 'scenario.seed', '?'):<4s} modes: {modes:<18s} "
               f"{S.get(scn, 'scenario.title', '')}")
     return 0
