@@ -85,9 +85,11 @@ class PID(Controller):
                     u -= self.ki * d
                 u = vl if u > vl else (-vl if u < -vl else u)
             else:
-                frozen = ((u > vl) & (d > 0)) | ((u < -vl) & (d < 0))
-                self._offset = self._offset + np.where(frozen, d, 0.0)
-                u = np.minimum(np.maximum(u - np.where(frozen, self.ki * d, 0.0), -vl), vl)  # clip
+                # else freezing and clipping are no-ops (the common case); fmax ignores NaN rows
+                if np.fmax.reduce(np.abs(u) - vl) > 0:
+                    frozen = ((u > vl) & (d > 0)) | ((u < -vl) & (d < 0))
+                    self._offset = self._offset + np.where(frozen, d, 0.0)
+                    u = np.minimum(np.maximum(u - np.where(frozen, self.ki * d, 0.0), -vl), vl)  # clip
         self._epos_prev = epos
         return u
 

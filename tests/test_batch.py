@@ -79,9 +79,34 @@ def test_stack_objects_vectorises_pid_and_drive():
     pids = [controllers.PID(kp, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0) for kp in (60.0, 80.0)]
     st = batch.stack_objects(pids)
     assert isinstance(st.kp, np.ndarray) and st.kp.tolist() == [60.0, 80.0] and st.ki == 32.0
+    ramp = batch.stack_objects([controllers.PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, t_ramp_max=tm)
+                                for tm in (0.2, 1.0)])
+    ramp.reset()
+    np.testing.assert_array_equal(ramp.gain_p(0.5), [80.0 * 0.2, 80.0 * 0.5])
+    # per-simulation output limits: clipped (and frozen) row by row
+    # (a diverged, NaN row must not keep the others from being clipped)
+    vl = batch.stack_objects([controllers.PID(100.0, 0.0, 0.0, omega0=30.0, v_limit=v) for v in (10.0, 48.0, 48.0)])
+    vl.reset()
+    y = controllers.Measurement()
+    y.set(0.0, np.zeros(3), np.array([0.0, 0.0, np.nan]), np.zeros(3), np.zeros(3))
+    np.testing.assert_array_equal(vl(0.0, y), [10.0, 48.0, np.nan])
     drv = batch.stack_drives([DCMotorDrive(R=2.0, L=9e-3), DCMotorDrive(R=2.0, L=0.0)])
     assert drv.R == 2.0 and drv.L.tolist() == [9e-3, 0.0]
     drv.prepare(1e-4)
     # L = 0 row: algebraic current; L > 0 row: exact exponential decay
     I = drv.current_step(np.zeros(2), np.array([10.0, 10.0]), np.zeros(2), 1e-4)
     assert I[1] == pytest.approx(5.0) and 0 < I[0] < 5.0 * (1 - np.exp(-1e-4 * 2 / 9e-3)) + 1e-12
+
+
+def test_model_based_smc_per_simulation_mechanisms():
+    """Seed 004: the sliding-mode controller evaluates the reduced model of its mechanism; with a
+    different mass per simulation it gets a PerSimulation stand-in — still equal to single runs."""
+    pytest.importorskip("controllers.smc")
+    m4 = scenario.get(scenario.load("yigit2023"), "mechanism.m4")
+    sets = [("modes.smc.lam=80.0",), ("modes.smc.K=500.0", f"mechanism.m4={1.1 * m4}")]
+    ms = [scenario.make_machine(scenario.load("yigit2023", s), "smc") for s in sets]
+    res = batch.simulate(ms, 0.05, record_dt=1e-3)
+    assert isinstance(batch.stack_objects([m.controller for m in ms]).mechanism, batch.PerSimulation)
+    for i, s in enumerate(sets):
+        single = multibody.simulate(scenario.make_machine(scenario.load("yigit2023", s), "smc"), 0.05, record_dt=1e-3)
+        np.testing.assert_allclose(res.trajectory(i).data[:, :10], single.data[:, :10], rtol=1e-12, atol=1e-12)

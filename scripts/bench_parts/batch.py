@@ -91,6 +91,22 @@ def run(args):
             ob, obc = _throughput(ours(1, 1, fast=False), 1, n1, n2, repeat)
             rows.append(("batch_ratio_N1_via_batch", obc / rc1,
                          "N = 1 forced through mujoco.batch (no single-run fast path) / bare, CPU time"))
+    # the same split measured without MuJoCo in the loop: our per-step Python work (Batch.step
+    # replaced by a no-op) against the bare per-simulation step cost, both single-threaded minima
+    _, bare1 = _throughput(bare(64, 1), 64, 100, 400, repeat)
+    step_us = 1e6 / bare1
+    rows.append(("bare_batch_us_per_sim_step", step_us, "bare mujoco.batch, 1 thread: µs per simulation-step"))
+    real_step = mjbatch.Batch.step
+    try:
+        mjbatch.Batch.step = lambda self, ids=None, nstep=1, stage=0: None
+        for n in NS:
+            _, c = _throughput(ours(n, 1, fast=False), n, 200, 1000, repeat)
+            py_us = 1e6 * n / c
+            rows.append((f"batch_python_us_per_step_N{n}", py_us, f"drive + PID + record, per co-step of N = {n} [µs]"))
+            rows.append((f"batch_overhead_est_N{n}", py_us / (n * step_us),
+                         f"estimated overhead at N = {n}, 1 thread: Python µs / (N × bare µs)"))
+    finally:
+        mjbatch.Batch.step = real_step
     n = 64
     n1, n2 = 60, 300
     for name, mk in (("batch", ours), ("bare_batch", bare)):
