@@ -7,10 +7,10 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from .plotstyle import BACKEND as BACKEND_STYLE  # noqa: E402
+from .plotstyle import SETPOINT, context  # noqa: E402
 from .trajectory import atomic_write  # noqa: E402
 
-BACKEND_STYLE = {"multibody": dict(color="tab:blue", lw=1.4, label="multibody (MuJoCo)"),
-                 "reduced": dict(color="tab:orange", lw=1.0, ls="--", label="reduced J(α) model")}
 MODE_TITLE = {"open": "open loop", "pid": "closed loop (PID)", "smc": "sliding-mode control"}
 
 
@@ -25,6 +25,11 @@ def save(fig, path, dpi=130):
 def fig4(runs: dict, path, setpoint=None, title=None, chi=None):
     """Seed 000 Fig. 4.  ``runs`` = {mode: {backend: Trajectory}}; ``setpoint`` [rad/s] drawn dashed
     on the speed plots (the paper's ω₀); ``chi`` = {mode: text} annotated on the speed plots."""
+    with context():
+        return _fig4(runs, path, setpoint, title, chi)
+
+
+def _fig4(runs, path, setpoint, title, chi):
     modes = list(runs)
     fig, axes = plt.subplots(4, len(modes), figsize=(5.2 * len(modes), 10.5), sharex="col", squeeze=False)
     letters = "abcdefgh"
@@ -40,7 +45,7 @@ def fig4(runs: dict, path, setpoint=None, title=None, chi=None):
             col[3].plot(tr.t, tr.p_mech, **pm)
             col[3].plot(tr.t, tr.p_elec, **pe)
         if setpoint is not None:
-            col[0].axhline(setpoint, color="k", ls=":", lw=1.0, label=f"set-point ω₀ = {setpoint:g} rad/s")
+            col[0].axhline(setpoint, **SETPOINT, label=f"set-point ω₀ = {setpoint:g} rad/s")
         col[0].set_title(MODE_TITLE.get(mode, mode))
         if chi and mode in chi:
             col[0].text(0.98, 0.04, chi[mode], transform=col[0].transAxes, ha="right", va="bottom",
@@ -56,26 +61,5 @@ def fig4(runs: dict, path, setpoint=None, title=None, chi=None):
         col[-1].set_xlabel("time t [s]")
     if title:
         fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
-    return save(fig, path)
-
-
-def comparison(tr_ref, tr_other, path, column="crank_speed_rad_s", title=None):
-    """Two backends on one signal, with their difference underneath."""
-    import numpy as np
-
-    fig, (a0, a1) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    a0.plot(tr_ref.t, tr_ref[column], **BACKEND_STYLE.get(tr_ref.backend, {}))
-    a0.plot(tr_other.t, tr_other[column], **BACKEND_STYLE.get(tr_other.backend, {}))
-    a0.set_ylabel(column.replace("_", " "))
-    a0.legend()
-    a0.grid(True, alpha=0.3)
-    diff = np.interp(tr_ref.t, tr_other.t, tr_other[column]) - tr_ref[column]
-    a1.plot(tr_ref.t, diff, color="k", lw=1.0)
-    a1.set_ylabel(f"{tr_other.backend} − {tr_ref.backend}")
-    a1.set_xlabel("time t [s]")
-    a1.grid(True, alpha=0.3)
-    if title:
-        fig.suptitle(title)
     fig.tight_layout()
     return save(fig, path)
