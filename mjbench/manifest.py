@@ -40,7 +40,8 @@ def manifest(scn: dict, argv=None, extra=None) -> dict:
             "git_commit": git_commit(), "scenario": scn, **(extra or {})}
 
 
-def _default(o):
+def json_default(o):
+    """JSON encoder fallback for NumPy scalars/arrays and paths (shared by every JSON writer)."""
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -51,4 +52,4 @@ def _default(o):
 
 
 def write_json(path, obj):
-    atomic_write(path, lambda f: json.dump(obj, f, indent=2, default=_default, allow_nan=True))
+    atomic_write(path, lambda f: json.dump(obj, f, indent=2, default=json_default, allow_nan=True))

@@ -49,6 +49,7 @@ import numpy as np
 from . import scenario as S
 from .errors import ScenarioError
 from .trajectory import atomic_write
+from .manifest import json_default as _json_default
 
 AGREE_REL = 0.05  #: |relative difference| up to which a row counts as agreeing with the paper
 
@@ -219,23 +220,10 @@ def _optimize_law_kind(ctx: CaseRun, res: dict):
 def _default_figures(ctx: CaseRun):
     """Seed 000 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
     from .plots import fig4
+    from .runner import chi_text, setpoint
 
-    sp = None
-    for mode in ctx.case.modes:
-        v = S.get(ctx.scn, f"modes.{mode}.omega0")
-        if v is not None:
-            sp = float(v)
-    chi = {}
-    for mode, m in ctx.metrics.items():
-        parts = []
-        for b, mb in m["backends"].items():
-            if "chi_window" in mb:
-                t0, t1 = mb["chi_window_s"]
-                parts.append(f"{b}: χ({t0:g}–{t1:g} s) = {100 * mb['chi_window']:.2f} %")
-            if "chi_last_cycle" in mb:
-                parts.append(f"{b}: χ(last cycle) = {100 * mb['chi_last_cycle']:.2f} %")
-        if parts:
-            chi[mode] = "\n".join(parts)
+    sp = next((v for v in (setpoint(ctx.scn, m) for m in ctx.case.modes) if v is not None), None)
+    chi = {mode: txt for mode, m in ctx.metrics.items() if (txt := chi_text(m))}
     p = fig4(ctx.runs, ctx.out / "fig4.png", setpoint=sp, chi=chi or None,
              title=f"{ctx.case.name}: {ctx.case.title or S.get(ctx.scn, 'scenario.title', '')}")
     return [p]
@@ -698,14 +686,6 @@ def _html(results, total_s):
 
 
 # ============================================================================ driver
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    return str(o)
-
-
 def _clean(o):
     """JSON-safe copy (NaN/inf → None so that the file is strict JSON)."""
     if isinstance(o, dict):

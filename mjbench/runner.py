@@ -96,14 +96,14 @@ def run(scn: dict, out_dir, mode=None, backend="both", t_end=None, progress=True
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
     if figure:
         from .plots import fig4
-        chi_txt = _chi_text(res)
-        fig4({mode: trajs}, out / "fig4.png", setpoint=_setpoint(scn, mode),
+        chi_txt = chi_text(res)
+        fig4({mode: trajs}, out / "fig4.png", setpoint=setpoint(scn, mode),
              title=f"{S.get(scn, 'scenario.title', S.get(scn, 'scenario.name'))} — {mode}",
              chi={mode: chi_txt} if chi_txt else None)
     return res
 
 
-def _setpoint(scn, mode):
+def setpoint(scn, mode):
     """Motor-speed set-point drawn on the speed plot (PID ``omega0``, SMC ``omega_d`` × z)."""
     v = S.get(scn, f"modes.{mode}.omega0")
     if v is None and S.get(scn, f"modes.{mode}.omega_d") is not None:
@@ -111,7 +111,8 @@ def _setpoint(scn, mode):
     return float(v) if v is not None else None
 
 
-def _chi_text(res):
+def chi_text(res):
+    """χ annotation for the Fig.-4 speed plot from a mode's metrics dict."""
     parts = []
     for b, m in res["backends"].items():
         if "chi_window" in m:

@@ -9,6 +9,7 @@ import os
 import numpy as np
 
 from ..trajectory import atomic_write
+from ..manifest import json_default as _json_default
 
 
 def register(sub):
@@ -115,14 +116,6 @@ def main(args) -> int:
     atomic_write(path, lambda f: json.dump(rep, f, indent=2, default=_json_default))
     print(f"  wrote {path}" + (f" and {len(files)} plots" if files else ""))
     return 0
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    return str(o)
 
 
 def paper_check(osc, pap) -> dict:

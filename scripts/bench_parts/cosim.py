@@ -5,15 +5,10 @@ import mujoco
 
 from mjbench import scenario as S
 from mjbench.backends import multibody, reduced
+from bench_parts import best_time
 
 
-def _best(fn, repeat):
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+_best = best_time
 
 
 def run(args):

@@ -13,17 +13,13 @@ import mujoco
 from controllers.base import Measurement
 from mjbench import scenario as S
 from mjbench.backends import multibody, reduced
+from bench_parts import best_time
 
 H = 1e-4
 
 
 def _best(fn, repeat):
-    best = float("inf")
-    for _ in range(repeat):
-        c0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - c0)
-    return best
+    return best_time(fn, repeat, clock=time.process_time)
 
 
 def run(args):

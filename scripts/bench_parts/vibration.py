@@ -1,15 +1,10 @@
 """Cost of one residual-energy evaluation E(T): closed form vs reduced ODE vs MuJoCo (seeds 001/003)."""
 import math
 import time
+from bench_parts import best_time
 
 
-def _best(fn, repeat):
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
+_best = best_time
 
 
 def run(args):
