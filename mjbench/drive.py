@@ -146,11 +146,7 @@ class DCMotorDrive:
 
     def friction_torque_motor(self, omega_m):
         """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""
-        if isinstance(omega_m, float):
-            sgn = 1.0 if omega_m > 0 else (-1.0 if omega_m < 0 else 0.0)
-        else:
-            sgn = np.sign(omega_m)
-        return self.T_0 * sgn + self.lam * omega_m
+        return self.T_0 * _sign(omega_m) + self.lam * omega_m
 
     def crank_torque(self, I, crank_speed, viscous=True):
         """Drive torque on the crank, z·(k_m·I − T_r(z·α̇)) [N·m] (Eq 9 without the J_eq·α̈ term).
@@ -159,12 +155,7 @@ class DCMotorDrive:
         joint damping (``crank_damping``; MuJoCo then integrates it within every step)."""
         if viscous:
             return self.z * (self.k_m * I - self.friction_torque_motor(self.z * crank_speed))
-        omega_m = self.z * crank_speed
-        if isinstance(omega_m, float):
-            sgn = 1.0 if omega_m > 0 else (-1.0 if omega_m < 0 else 0.0)
-        else:
-            sgn = np.sign(omega_m)
-        return self.z * (self.k_m * I - self.T_0 * sgn)
+        return self.z * (self.k_m * I - self.T_0 * _sign(self.z * crank_speed))
 
     @property
     def crank_damping(self):
@@ -181,3 +172,10 @@ class DCMotorDrive:
 
     def as_dict(self):
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def _sign(x):
+    """sgn x for a float (fast path) or an array."""
+    if isinstance(x, float):
+        return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+    return np.sign(x)

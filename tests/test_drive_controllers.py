@@ -88,3 +88,16 @@ def test_controllers_accept_arrays():
         cs.reset()
         assert V[k] == pytest.approx(cs(0.3, _y(0.3, [5.0, 6.0][k], [20.0, 25.0][k], 0.0)), rel=1e-14)
     assert ConstantVoltage(np.array([1.0, 2.0]))(0.1, y).shape == (2,)
+
+
+def test_zero_inductance_algebraic_current():
+    """L = 0: the multibody co-step uses the algebraic current; the reduced backend, which
+    integrates I as a state, refuses with a message naming drive.L."""
+    from mjbench import scenario as S
+    from mjbench.backends import multibody, reduced
+    scn = S.load("incerti2012", ["drive.L=0"])
+    tr = multibody.simulate(S.make_machine(scn, "open"), 0.05)
+    # I = (V − k_m φ̇)/R at every sample after the first step
+    np.testing.assert_allclose(tr.current[1:], (25.0 - 0.48 * tr.omega[1:]) / 2.0, rtol=0, atol=0.05)
+    with pytest.raises(ParameterError, match="drive.L"):
+        reduced.simulate(S.make_machine(scn, "open"), 0.05)

@@ -54,8 +54,12 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
     if method not in ("rk4", "solve_ivp"):
         raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
     drive, ctrl = machine.drive, machine.controller
+    if np.any(np.asarray(drive.L) <= 0):
+        raise ParameterError(f"drive.L = {drive.L!r}: the reduced backend integrates the current as a state "
+                             f"and needs L > 0 (the multibody backend accepts L = 0, algebraic current)")
     ctrl.reset()
     drive.prepare(h)
+    i_lim = None if drive._no_ilimit else float(drive.i_max)
     rhs = make_rhs(machine)
     z = drive.z
     y = Measurement(z=z)
@@ -95,6 +99,8 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
             q += h6 * (k1q + 2 * k2q + 2 * k3q + k4q)
             qd += h6 * (k1v + 2 * k2v + 2 * k3v + k4v)
             I += h6 * (k1i + 2 * k2i + 2 * k3i + k4i)
+            if i_lim is not None:  # amplifier current limit, as drive.current_step applies it
+                I = -i_lim if I < -i_lim else (i_lim if I > i_lim else I)
         else:
             sol = solve_ivp(lambda tt, u: rhs(tt, u[0], u[1], u[2], V), (t, t + h), (q, qd, I),
                             method="DOP853", rtol=rtol, atol=atol)
