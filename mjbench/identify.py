@@ -81,7 +81,7 @@ def simulate(theta, t, V, omega0, I0, omega_s=OMEGA_S, nsub=None):
     xw = np.full(n, float(omega0))
     xi = np.full(n, float(I0))
     w[:, 0], cur[:, 0] = xw, xi
-    h_cached, mats = None, None
+    h_cached = None
     for k in range(len(dts)):
         h = dts[k] / nsub
         if h_cached is None or abs(h - h_cached) > 1e-12 * h:

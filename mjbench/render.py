@@ -449,6 +449,20 @@ class MechanismView:
 
 
 # ============================================================================ writers
+def _frame_bar(total, out, progress):
+    from tqdm import tqdm
+    return tqdm(total=total, unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
+                disable=not progress, leave=False)
+
+
+def _video_info(nframes, fps, width, height, t0, out, **extra):
+    """Numbers describing a written video (frames, seconds, throughput)."""
+    wall = time.perf_counter() - t0
+    return {"frames": nframes, "width": width, "height": height, "fps": fps, "duration_s": nframes / fps,
+            "wall_s": wall, "frames_per_s": nframes / wall if wall > 0 else float("nan"), "gl": _GL_CHOICE,
+            "path": os.fspath(out), **extra}
+
+
 class VideoWriter:
     """MP4 (H.264 via imageio-ffmpeg's bundled ffmpeg) or GIF (Pillow), written atomically."""
 
@@ -499,6 +513,17 @@ class VideoWriter:
             self.abort()
             raise
 
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        """Complete file on success, nothing on error (the temporary file is removed)."""
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+        return False
+
     def abort(self):
         try:
             if self.ext == ".mp4":
@@ -542,7 +567,6 @@ def frame_indices(t, fps: float, t_end: float | None = None) -> np.ndarray:
 def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title="", progress=True,
                       t_end=None, options=None, crf=23):
     """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps)."""
-    from tqdm import tqdm
 
     mech, drive = machine.mechanism, machine.drive
     idx = frame_indices(traj.t, fps, t_end)
@@ -550,41 +574,31 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     t0 = time.perf_counter()
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
                          overlay_lines=4 if title else 3)
-    writer = VideoWriter(out, width, height, fps, crf=crf)
     # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
-        bar = tqdm(total=len(idx), unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
-                   disable=not progress, leave=False)
-        buf = np.empty((view.height, view.width, 3), np.uint8)
-        for k, i in enumerate(idx):
-            lo = np.searchsorted(q[: i + 1], q[i] - 2 * np.pi * view.trail_turns) if qd[i] >= 0 else 0
-            lo = max(0, min(lo, i))
-            trail = q[lo: i + 1][:: max(1, (i - lo) // 40)] if i > lo else None
-            if trail is not None and trail[-1] != q[i]:
-                trail = np.append(trail, q[i])
-            lines = ([title] if title else []) + [
-                f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
-                f"crank speed {qd[i]:7.2f} rad/s   motor {drive.z * qd[i]:7.2f} rad/s",
-                f"voltage {V[i]:7.2f} V   grid {view.grid_step * 1000:g} mm",
-            ]
-            r0 = time.perf_counter()
-            img = view.frame(q[i], lines, trail_q=trail, out=buf)
-            n_render += time.perf_counter() - r0
-            writer.write(img)
-            bar.update(1)
-        bar.close()
-        writer.close()
-    except BaseException:
-        writer.abort()
-        raise
+        with VideoWriter(out, width, height, fps, crf=crf) as writer, \
+                _frame_bar(len(idx), out, progress) as bar:
+            buf = np.empty((view.height, view.width, 3), np.uint8)
+            for k, i in enumerate(idx):
+                lo = np.searchsorted(q[: i + 1], q[i] - 2 * np.pi * view.trail_turns) if qd[i] >= 0 else 0
+                lo = max(0, min(lo, i))
+                trail = q[lo: i + 1][:: max(1, (i - lo) // 40)] if i > lo else None
+                if trail is not None and trail[-1] != q[i]:
+                    trail = np.append(trail, q[i])
+                lines = ([title] if title else []) + [
+                    f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
+                    f"crank speed {qd[i]:7.2f} rad/s   motor {drive.z * qd[i]:7.2f} rad/s",
+                    f"voltage {V[i]:7.2f} V   grid {view.grid_step * 1000:g} mm",
+                ]
+                r0 = time.perf_counter()
+                img = view.frame(q[i], lines, trail_q=trail, out=buf)
+                n_render += time.perf_counter() - r0
+                writer.write(img)
+                bar.update(1)
     finally:
         view.close()
-    wall = time.perf_counter() - t0
-    return {"frames": len(idx), "width": width, "height": height, "fps": fps,
-            "duration_s": len(idx) / fps, "render_s": n_render, "wall_s": wall,
-            "frames_per_s": len(idx) / wall if wall > 0 else float("nan"), "gl": _GL_CHOICE,
-            "path": os.fspath(out)}
+    return _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
 
 
 def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,
@@ -720,7 +734,6 @@ def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width
     """Video of the platform driven by each law in turn (``laws`` = {name: MotionLaw}), each run
     simulated by ``vibration.simulate_multibody`` (step ``dt``, every step recorded) over
     [0, T + t_after] and played in real time.  Returns an info dict."""
-    from tqdm import tqdm
 
     from .vibration import simulate_multibody
 
@@ -730,31 +743,21 @@ def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width
     gain = math.radians(30.0) / psimax if psimax > 0 else 1.0
     gain = float(f"{gain:.2g}")  # a round number for the overlay
     view = PlatformView(platform, width, height, gain=gain)
-    writer = VideoWriter(out, width, height, fps)
     nfr = 0
+    total = sum(len(frame_indices(r["t"], fps)) for r in runs.values())
     try:
-        total = sum(len(frame_indices(r["t"], fps)) for r in runs.values())
-        bar = tqdm(total=total, unit="frame", desc=f"render {os.path.basename(os.fspath(out))}",
-                   disable=not progress, leave=False)
-        buf = np.empty((view.height, view.width, 3), np.uint8)
-        for name, r in runs.items():
-            idx = frame_indices(r["t"], fps)
-            for i in idx:
-                lines = [f"{platform.variant} platform — {name} law, T = {laws[name].T:g} s",
-                         f"t = {r['t'][i]:6.3f} s   (real time, {fps:g} fps)",
-                         f"motor speed {r['motor_speed'][i]:8.2f} rad/s",
-                         f"deflection ψ {1e3 * r['psi'][i]:+8.3f} mrad   needle ×{gain:g}"]
-                writer.write(view.frame(r["motor_angle"][i], r["platform_angle"][i], r["psi"][i], lines, out=buf))
-                nfr += 1
-                bar.update(1)
-        bar.close()
-        writer.close()
-    except BaseException:
-        writer.abort()
-        raise
+        with VideoWriter(out, width, height, fps) as writer, _frame_bar(total, out, progress) as bar:
+            buf = np.empty((view.height, view.width, 3), np.uint8)
+            for name, r in runs.items():
+                idx = frame_indices(r["t"], fps)
+                for i in idx:
+                    lines = [f"{platform.variant} platform — {name} law, T = {laws[name].T:g} s",
+                             f"t = {r['t'][i]:6.3f} s   (real time, {fps:g} fps)",
+                             f"motor speed {r['motor_speed'][i]:8.2f} rad/s",
+                             f"deflection ψ {1e3 * r['psi'][i]:+8.3f} mrad   needle ×{gain:g}"]
+                    writer.write(view.frame(r["motor_angle"][i], r["platform_angle"][i], r["psi"][i], lines, out=buf))
+                    nfr += 1
+                    bar.update(1)
     finally:
         view.close()
-    wall = time.perf_counter() - t0
-    return {"frames": nfr, "width": width, "height": height, "fps": fps, "duration_s": nfr / fps,
-            "wall_s": wall, "frames_per_s": nfr / wall if wall > 0 else float("nan"), "gl": _GL_CHOICE,
-            "needle_gain": gain, "path": os.fspath(out)}
+    return _video_info(nfr, fps, width, height, t0, out, needle_gain=gain)

@@ -82,11 +82,6 @@ class Problem:
         if objective not in OBJECTIVES:
             raise ParameterError(f"--objective {objective!r}: choose one of {list(OBJECTIVES)}")
         ctype, self.params, fixed = CONTROLLERS[controller]
-        if ctype == "smc":
-            try:
-                import controllers.smc  # noqa: F401
-            except ImportError:
-                raise ParameterError("--controller smc: controllers/smc.py is not available") from None
         self.scn = copy.deepcopy(scn)
         self.scn_orig = copy.deepcopy(scn)  # the scenario's own controller (baseline)
         self.mode = find_mode(self.scn, ctype)

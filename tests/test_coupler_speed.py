@@ -1,19 +1,17 @@
 """Seed 002 (Hülako & Çakar): seed-002 notation, coupler curve, Eq 17 reference, both backends,
 tracking metrics vs the paper, and the "what gain do I need" helper.  See docs/coupler_speed.md."""
-import math
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-import controllers
 from controllers.base import Measurement
 from controllers.references.coupler_speed import CouplerSpeed
 from mjbench import gains, metrics_coupler
 from mjbench import scenario as S
 from mjbench.backends import multibody, reduced
 from mjbench.errors import ParameterError
-from mjbench.mechanisms.fourbar import FourBar, from_params, to_seed002
+from mjbench.mechanisms.fourbar import from_params, to_seed002
 
 M1, M2 = "hulako2025-model1", "hulako2025-model2"
 Q = np.linspace(0.0, 2 * np.pi, 181)

@@ -1,7 +1,6 @@
 """``mjbench run`` and ``mjbench list``."""
 from __future__ import annotations
 
-import json
 import sys
 
 

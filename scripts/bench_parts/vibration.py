@@ -1,6 +1,5 @@
 """Cost of one residual-energy evaluation E(T): closed form vs reduced ODE vs MuJoCo (seeds 001/003)."""
 import math
-import time
 from bench_parts import best_time
 
 
