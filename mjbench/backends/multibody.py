@@ -45,7 +45,8 @@ def build_model(machine, options=None, native_dcmotor=False):
     else:
         spec = mech.build_spec(armature=float(drive.J_eq), options=o)
         j = spec.joint(INPUT_JOINT)
-        j.damping = [float(drive.crank_damping), 0.0, 0.0]
+        # the drive's reflected viscous friction adds to whatever the mechanism put on the joint
+        j.damping = [float(j.damping[0]) + float(drive.crank_damping), 0.0, 0.0]
     return spec, spec.compile()
 
 

@@ -341,26 +341,25 @@ class FourBar(Mechanism):
 
     def external_torque(self, q, qd, t):
         """Viscous friction of the hinges reduced to the crank, −hinge_damping_factor(α)·α̇ [N·m]
-        (the MJCF model has the same: joint damping in B, D; explicit torques in A, C, see
+        (the MJCF model has the same: joint damping in A, B, D; an explicit torque in C, see
         ``multibody_load``)."""
         if self.joint_damping == 0.0 and self.damping_A == 0.0 and self.damping_C == 0.0:
             return 0.0 * qd
         return -self.hinge_damping_factor(q) * qd
 
     def multibody_load(self, model, data, t: float) -> None:
-        """Viscous friction of hinge A (crank/ground) and of the loop-closing hinge C
-        (coupler/rocker, a ``connect`` equality in MJCF, so no joint to carry ``damping``) as
-        generalised forces, from the velocities at the start of the step.  Hinge A's friction
-        cannot be the crank joint's ``damping``: the backend puts the drive's z²λ there.
+        """Viscous friction of the loop-closing hinge C (coupler/rocker: a ``connect`` equality in
+        MJCF, so no joint to carry ``damping``) as generalised forces, from the velocities at the
+        start of the step (hinges A, B, D are joint ``damping``, integrated by MuJoCo).
         ``qfrc_applied[crank]`` already holds the drive torque: it is added to, not replaced."""
-        if self.damping_A == 0.0 and self.damping_C == 0.0:
+        if self.damping_C == 0.0:
             return
         adr = _dof_cache(model)
         va, vb, vr = adr
         qv, qf = data.qvel, data.qfrc_applied
         w_crank = qv[va]
         tau_c = -self.damping_C * (w_crank + qv[vb] - qv[vr])  # on the coupler, from the rocker
-        qf[va] += tau_c - self.damping_A * w_crank
+        qf[va] += tau_c
         qf[vb] = tau_c
         qf[vr] = -tau_c
 
@@ -419,6 +418,7 @@ class FourBar(Mechanism):
         crank = link(world, "crank", [0, 0, 0], self.a, self.m[0], self.f[0], self.theta[0],
                      self.J_G[0], colors["crank"], INPUT_JOINT, ref_mass=jm.get("A", 0.0))
         crank.joints[0].armature = float(armature)
+        crank.joints[0].damping = [float(self.damping_A), 0.0, 0.0]  # bearing A; the drive adds z²λ
         # bearing at B rides on the coupler origin, at C on the rocker tip (added below as a site mass)
         coupler = link(crank, "coupler", [self.a, 0, 0], self.b, self.m[1], self.f[1], self.theta[1],
                        self.J_G[1], colors["coupler"], "coupler_joint", ref_mass=jm.get("B", 0.0))
