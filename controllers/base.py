@@ -1,12 +1,24 @@
-"""What a controller sees and the tiny protocol it follows.
+"""What a controller sees and the small protocol every controller follows.
 
-A controller is an object with ``reset()`` and ``__call__(t, y) -> V`` called once per control
-step by whichever backend runs the machine.  ``y`` is a :class:`Measurement` the backend fills in
-place (no allocation per step); every field is a float or an array of shape (nsim,).
-Controllers never clip to the drive limit themselves unless given ``v_limit`` (then they use it
-for anti-windup); the drive's limiter is applied by the backend anyway.
+A controller is a small system (Drake's vocabulary): an output port (the armature voltage [V]),
+an input port (a :class:`Measurement`), a sample ``period`` [s] and a visible discrete state.
+The co-step kernel (:mod:`mjbench.kernel`) calls it once per control sample — every
+``period`` seconds, or at every co-simulation step when ``period`` is 0 — and holds the output
+in between; ``reset()`` clears the state before a run.  The state is in public attributes listed
+in ``STATE`` (``controller.state()`` returns them), never hidden.
+
+Every controller accepts scalars or NumPy arrays of shape (nsim,) for its gains and signals (a
+batch of N simulations runs one controller object with (nsim,) gains).  Invalid parameters raise
+:class:`mjbench.errors.ParameterError` (the CLI: one message, exit 2).
+
+A new controller = one module with a :class:`Controller` subclass carrying ``type_name`` and a
+pydantic ``Params`` model (``[modes.NAME] type = type_name``), decorated with
+``@controllers.register``; nothing else changes.
 """
 from __future__ import annotations
+
+import abc
+from typing import ClassVar
 
 
 class Measurement:
@@ -14,7 +26,7 @@ class Measurement:
 
     t [s]; q, qd, qdd: input (crank) angle [rad], speed [rad/s], acceleration [rad/s²];
     phi, omega, omega_dot: the same on the motor shaft (× gear ratio z); current [A].
-    ``qdd`` is the backward difference (α̇_n − α̇_{n−1})/h over the last control period, as a
+    ``qdd`` is the backward difference (α̇_n − α̇_{n−1})/h over the last co-simulation step, as a
     digital controller differencing its speed signal sees it; both backends define it the same
     way (0 at the first sample).
     """
@@ -34,18 +46,39 @@ class Measurement:
         return self
 
 
-class Controller:
-    """Base class: override ``__call__``; ``reset`` clears internal state."""
+class Controller(abc.ABC):
+    """Base class of every controller (see the module docstring for the protocol)."""
 
-    def reset(self):  # pragma: no cover - trivial
-        pass
+    #: scenario ``[modes.NAME] type`` of this class
+    type_name: ClassVar[str] = ""
+    #: pydantic model of the ``[modes.NAME]`` table
+    Params: ClassVar[type | None] = None
+    #: names of the attributes that make up the controller's discrete state
+    STATE: ClassVar[tuple[str, ...]] = ()
+    #: sample period [s]; 0 = every co-simulation step
+    period: float = 0.0
 
-    def __call__(self, t, y: Measurement):  # pragma: no cover - abstract
-        raise NotImplementedError
+    @classmethod
+    @abc.abstractmethod
+    def from_params(cls, params, drive=None, mechanism=None, scenario=None) -> "Controller":
+        """Build the controller from its validated Params (and the machine it controls)."""
+
+    @abc.abstractmethod
+    def reset(self) -> None:
+        """Clear the state (called by the kernel before every run)."""
+
+    @abc.abstractmethod
+    def __call__(self, t, y: Measurement):
+        """One control sample: time [s] and measurement → armature voltage [V]."""
+
+    def state(self) -> dict:
+        """The current discrete state {name: value} (copies of the attributes in ``STATE``)."""
+        return {k: getattr(self, k) for k in self.STATE}
 
     def describe(self) -> dict:
-        return {"type": type(self).__name__,
-                **{k: v for k, v in vars(self).items() if not k.startswith("_") and _plain(v)}}
+        return {"type": self.type_name or type(self).__name__, "period_s": self.period,
+                **{k: v for k, v in vars(self).items() if not k.startswith("_") and k not in self.STATE
+                   and _plain(v)}}
 
 
 def _plain(v):

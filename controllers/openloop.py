@@ -1,17 +1,39 @@
-"""Open loop: a constant (or time-profiled) armature voltage (seed 000 Fig. 4, left column)."""
+"""Open loop: a constant (or ramped) armature voltage (seed 000 Fig. 4, left column)."""
 from __future__ import annotations
 
-import numpy as np
+from typing import Literal
 
+import numpy as np
+from pydantic import Field
+
+from mjbench.schema import Q, Strict
+
+from . import register
 from .base import Controller
 
 
+class OpenParams(Strict):
+    """``[modes.NAME] type = "open"``: constant armature voltage, optional linear ramp."""
+
+    type: Literal["open"] = "open"
+    voltage: Q("voltage", finite=True) = Field(description="armature voltage")
+    t_ramp: Q("time", ge=0.0, plausible=False) = Field(0.0, description="linear ramp from 0 over t_ramp (0: step)")
+
+
+@register
 class ConstantVoltage(Controller):
     """V_a = ``voltage`` [V] (scalar or (nsim,) array); optional linear ramp over ``t_ramp`` s."""
+
+    type_name = "open"
+    Params = OpenParams
 
     def __init__(self, voltage, t_ramp=0.0):
         self.voltage = voltage
         self.t_ramp = t_ramp
+
+    @classmethod
+    def from_params(cls, p, drive=None, mechanism=None, scenario=None):
+        return cls(p.voltage, t_ramp=p.t_ramp)
 
     def reset(self):
         pass
@@ -23,7 +45,3 @@ class ConstantVoltage(Controller):
         if tr > 0 and t < tr:
             return self.voltage * (t / tr)
         return self.voltage
-
-
-def from_params(params, drive=None, mechanism=None):
-    return ConstantVoltage(float(params["voltage"]), t_ramp=float(params.get("t_ramp", 0.0)))

@@ -3,7 +3,7 @@
 Sliding surface (Eq 35-36), crank side:  e₁ = ω − ω_d,  e₂ = ω̇ − ω̇_d,  s = λ·e₁ + e₂.
 
 Control law: Eq 37 as printed is dimensionally inconsistent (λ·ė₁ multiplies an inertia) and drops
-the reducer ratio n (SEED-ERRATA 004).  Our reading, with the motor model of Eqs 29-32:
+the reducer ratio n (docs/errata.md, Yiğit & Şen 2023).  Our reading, with the motor model of Eqs 29-32:
 
     i* = [ (ℑ(q) + J_eq)·(ω̇_d − λ·e₁) + n²B_m·ω + n·T_f + C(q)·ω² − Q₀(q, ω, t) ] / (n·K_m)
     u  = R_m·i* + n·K_g·ω + L_m·ż₃ − K·sign(s)                         (``boundary = 0``)
@@ -16,34 +16,64 @@ drops the term, ``"difference"`` uses the backward difference of the sampled cur
 ``model = false`` drops ℑ', C and Q₀ (only the motor terms are used).
 
 With K = 1000 V and a ±48 V limit the switching term dominates: the law is a bang-bang switch,
-whose residual error is set by the control sampling period ``Ts`` (SEED-ERRATA 004), a
-parameter here: the output is computed at t = 0, Ts, 2Ts, ... and held in between.
+whose residual error is set by the control sampling period ``Ts`` (not given in the paper;
+docs/quickreturn.md), a parameter here: it is the controller's ``period``, so the kernel computes
+the output at t = 0, Ts, 2Ts, ... and holds it in between.
 Gains and set-point may be scalars or (nsim,) arrays; the measurement too.
+
+State (``STATE``): ``switches`` (sign changes of s, the chattering count), ``sgn_prev``,
+``s_last``, and for ``didt = "difference"`` the previous current sample ``i_prev`` at ``t_prev``.
 """
 from __future__ import annotations
 
-import math
+from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
+from mjbench.errors import ParameterError
+from mjbench.schema import Bool, OptQ, Q, Strict
+
+from . import register
 from .base import Controller
 
 
+class SMCParams(Strict):
+    """``[modes.NAME] type = "smc"`` (seed 004 Eqs 35-37, corrected reading)."""
+
+    type: Literal["smc"] = "smc"
+    omega_d: Q("angular_velocity") = Field(description="crank-speed set-point")
+    lam: Q("gain_per_s", gt=0.0) = Field(50.0, description="sliding-surface slope λ [1/s]")
+    K: Q("voltage", ge=0.0) = Field(1000.0, description="switching gain [V]")
+    boundary: Q("angular_acceleration", ge=0.0) = Field(0.0, description="boundary-layer width (0: sign)")
+    Ts: Q("time", ge=0.0, plausible=False) = Field(description="control sampling period (0: every co-simulation step)")
+    v_limit: OptQ("voltage", gt=0.0) = Field(48.0, description="output clip (none: no clip)")
+    model: Bool = Field(True, description="equivalent control uses the reduced model (ℑ, C, Q0)")
+    didt: Literal["zero", "difference"] = "zero"
+    T_f: Q("torque", ge=0.0) = Field(0.0, description="motor torque loss of Eq 30")
+
+
+@register
 class SlidingMode(Controller):
     """Crank-speed SMC.  omega_d [rad/s] crank set-point, lam [1/s] surface slope, K [V] switching
     gain, boundary [rad/s²] boundary-layer width (0 = sign), Ts [s] control sampling period
     (0 = every call), v_limit [V] output clip (None = none)."""
 
+    type_name = "smc"
+    Params = SMCParams
+    STATE = ("switches", "sgn_prev", "s_last", "i_prev", "t_prev")
+
     def __init__(self, omega_d, lam=50.0, K=1000.0, boundary=0.0, Ts=1e-3, v_limit=48.0,
                  drive=None, mechanism=None, model=True, didt="zero", T_f=0.0, omega_dot_d=0.0):
         if drive is None:
-            raise ValueError("SlidingMode needs the drive (R, L, K_m, K_g, B_m, J, n) for Eq 37")
+            raise ParameterError("SlidingMode needs the drive (R, L, K_m, K_g, B_m, J, n) for Eq 37")
         if didt not in ("zero", "difference"):
-            raise ValueError(f"smc.didt = {didt!r}: choose 'zero' or 'difference'")
+            raise ParameterError(f"smc.didt = {didt!r}: choose 'zero' or 'difference'")
         if not (np.all(np.asarray(Ts) >= 0) and np.ndim(Ts) == 0):
-            raise ValueError(f"smc.Ts = {Ts!r}: must be a scalar >= 0 [s]")
+            raise ParameterError(f"smc.Ts = {Ts!r}: must be a scalar >= 0 [s]")
         self.omega_d, self.lam, self.K, self.boundary = omega_d, lam, K, boundary
         self.Ts = float(Ts)
+        self.period = self.Ts
         self.v_limit = v_limit
         self.drive, self.mechanism = drive, mechanism
         self.model = bool(model) and mechanism is not None
@@ -52,14 +82,16 @@ class SlidingMode(Controller):
         self.omega_dot_d = omega_dot_d
         self.reset()
 
+    @classmethod
+    def from_params(cls, p, drive=None, mechanism=None, scenario=None):
+        return cls(omega_d=p.omega_d, lam=p.lam, K=p.K, boundary=p.boundary, Ts=p.Ts, v_limit=p.v_limit,
+                   drive=drive, mechanism=mechanism, model=p.model, didt=p.didt, T_f=p.T_f)
+
     def reset(self):
-        self._t0 = None
-        self._k = None
-        self._u = 0.0
-        self._i_prev = None
-        self._t_prev = None
+        self.i_prev = None
+        self.t_prev = None
         self.switches = 0  # sign changes of the switching term (chattering count)
-        self._sgn_prev = None
+        self.sgn_prev = None
         self.s_last = 0.0
 
     def sliding_variable(self, t, y):
@@ -81,18 +113,18 @@ class SlidingMode(Controller):
             torque = torque + J * (self.omega_dot_d - self.lam * e1) + 0.5 * dJ * w * w - Q0
         i_star = torque / (n * dr.k_m)
         u = dr.R * i_star + n * dr.k_m * w  # K_g = K_m in SI (Table II: both 0.678)
-        if self.didt == "difference" and self._i_prev is not None and t > self._t_prev:
-            u = u + dr.L * (y.current - self._i_prev) / (t - self._t_prev)
-        self._i_prev, self._t_prev = y.current, t
+        if self.didt == "difference" and self.i_prev is not None and t > self.t_prev:
+            u = u + dr.L * (y.current - self.i_prev) / (t - self.t_prev)
+        self.i_prev, self.t_prev = y.current, t
         if isinstance(self.boundary, float) and self.boundary == 0.0 or np.all(np.asarray(self.boundary) == 0):
             sw = np.sign(s)
         else:
             sw = np.clip(s / self.boundary, -1.0, 1.0)
         u = u - self.K * sw
         sg = np.sign(s)
-        if self._sgn_prev is not None:
-            self.switches = self.switches + (sg != self._sgn_prev) * (sg != 0)
-        self._sgn_prev = sg
+        if self.sgn_prev is not None:
+            self.switches = self.switches + (sg != self.sgn_prev) * (sg != 0)
+        self.sgn_prev = sg
         self.s_last = s
         if self.v_limit is not None:
             u = np.clip(u, -self.v_limit, self.v_limit)
@@ -101,28 +133,5 @@ class SlidingMode(Controller):
         return u
 
     def __call__(self, t, y):
-        if self.Ts <= 0.0:
-            self._u = self.compute(t, y)
-            return self._u
-        if self._t0 is None:
-            self._t0 = t
-        k = math.floor((t - self._t0) / self.Ts + 1e-6)  # sample index (robust to rounding of t)
-        if k != self._k:
-            self._k = k
-            self._u = self.compute(t, y)
-        return self._u
-
-
-def from_params(params, drive=None, mechanism=None):
-    """Scenario table → SlidingMode.  Keys: omega_d [rad/s] (crank), lam [1/s], K [V],
-    boundary [rad/s²] (0 = sign), Ts [s], v_limit [V] (0/"none" = none), model (bool),
-    didt ("zero"|"difference"), T_f [N·m] (motor torque loss of Eq 30)."""
-    p = dict(params)
-    v_limit = p.pop("v_limit", 48.0)
-    kw = dict(omega_d=float(p.pop("omega_d")), lam=float(p.pop("lam", 50.0)), K=float(p.pop("K", 1000.0)),
-              boundary=float(p.pop("boundary", 0.0)), Ts=float(p.pop("Ts", 1e-3)),
-              v_limit=None if v_limit in (None, 0, "none") else float(v_limit),
-              model=bool(p.pop("model", True)), didt=str(p.pop("didt", "zero")), T_f=float(p.pop("T_f", 0.0)))
-    if p:
-        raise ValueError(f"unknown SMC parameters: {sorted(p)}")
-    return SlidingMode(drive=drive, mechanism=mechanism, **kw)
+        """One sample of the law (the kernel calls it every ``period`` = Ts and holds it)."""
+        return self.compute(t, y)

@@ -24,10 +24,37 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
 from .errors import ParameterError
+from .schema import Q, Strict
+
+
+class DriveParams(Strict):
+    """``[drive]``: permanent-magnet DC motor + gear reducer (seed 000 Eqs 6-9), SI units.
+
+    Required: R, L, k_m, J_m, z, lam (a drive is never silently a default motor).  Defaults:
+    J_a = J_b = 0 (no gear inertias), T_0 = 0 (no Coulomb friction), v_max = i_max = inf (no
+    voltage limiter, no amplifier current limit)."""
+
+    type: Literal["dcmotor"] = "dcmotor"
+    R: Q("resistance", gt=0.0, what="an armature resistance") = Field(description="armature resistance")
+    L: Q("inductance", ge=0.0, what="an armature inductance") = Field(description="armature inductance (0: algebraic current, multibody only)")
+    k_m: Q("motor_constant", gt=0.0, what="a motor constant") = Field(description="torque = back-EMF constant")
+    J_m: Q("inertia", ge=0.0, what="a rotor inertia") = Field(description="rotor inertia")
+    J_a: Q("inertia", ge=0.0) = Field(0.0, description="pinion on the motor shaft")
+    J_b: Q("inertia", ge=0.0) = Field(0.0, description="gear on the input (crank) shaft")
+    z: float = Field(gt=0.0, description="gear ratio φ̇/α̇ (motor turns per input turn)")
+    T_0: Q("torque", ge=0.0) = Field(0.0, description="constant (Coulomb) friction on the motor shaft")
+    lam: Q("rot_damping", ge=0.0) = Field(description="viscous friction λ on the motor shaft")
+    v_max: Q("voltage", gt=0.0, finite=False) = Field(math.inf, description="voltage limiter ±v_max (inf: none)")
+    i_max: Q("current", gt=0.0, finite=False) = Field(math.inf, description="amplifier current limit ±i_max (inf: none)")
+
+    def build(self) -> "DCMotorDrive":
+        return DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive)})
 
 
 @dataclass

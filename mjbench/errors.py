@@ -23,4 +23,9 @@ class SimulationDiverged(MjbenchError, RuntimeError):
 
 
 class ScenarioError(MjbenchError, ValueError):
-    """A scenario file or a --set override is malformed or names an unknown key."""
+    """A scenario file or a --set override is malformed or names an unknown key.  ``problems``:
+    one line per problem (``path: message``) when the scenario failed validation."""
+
+    def __init__(self, message, problems=None):
+        super().__init__(message)
+        self.problems = list(problems or [])

@@ -1,6 +1,6 @@
 """A machine: mechanism + drive + controller, wired as in seed 000 Fig. 3 (the 'diagram').
 
-Both backends take a :class:`Machine` and return a :class:`~mjbench.trajectory.Trajectory`.
+Every backend takes a :class:`Machine` and returns a :class:`~mjbench.trajectory.Trajectory`.
 """
 from __future__ import annotations
 
@@ -12,7 +12,8 @@ from .mechanisms.base import Mechanism
 
 @dataclass
 class Machine:
-    """Plant and controller.  q0 [rad], qd0 [rad/s]: initial crank angle and speed; I0 [A]."""
+    """Plant and controller.  q0 [rad], qd0 [rad/s]: initial input angle and speed; I0 [A];
+    x0, xd0: initial internal (elastic) coordinates and rates (None: at rest, undeflected)."""
 
     mechanism: Mechanism
     drive: DCMotorDrive
@@ -20,6 +21,8 @@ class Machine:
     q0: float = 0.0
     qd0: float = 0.0
     I0: float = 0.0
+    x0: tuple | None = None
+    xd0: tuple | None = None
 
     def reset(self):
         self.controller.reset()

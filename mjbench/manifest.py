@@ -34,10 +34,14 @@ def git_commit() -> str | None:
         return None
 
 
-def manifest(scn: dict, argv=None, extra=None) -> dict:
+def manifest(scn, argv=None, extra=None) -> dict:
+    """Run manifest: the fully resolved scenario (every value, SI, defaults filled in — a run can be
+    repeated from it: ``mjbench run manifest.json``), where it came from, the overrides applied,
+    plausibility warnings, versions, command and git commit."""
     return {"created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "command": list(sys.argv if argv is None else argv), "versions": versions(),
-            "git_commit": git_commit(), "scenario": scn, **(extra or {})}
+            "git_commit": git_commit(), "scenario_source": scn.source, "overrides": list(scn.overrides),
+            "warnings": list(scn.warnings), "scenario": scn.resolved(), **(extra or {})}
 
 
 def json_default(o):

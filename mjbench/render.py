@@ -537,18 +537,16 @@ class VideoWriter:
 
 
 # ============================================================================ scenario → video
-def simulate_for_video(scn: dict, mode: str | None = None, t_end: float | None = None):
+def simulate_for_video(scn, mode: str | None = None, t_end: float | None = None):
     """Multibody run of the scenario with every control step recorded.  Returns (machine, traj)."""
     from . import scenario as scenario_mod
     from .backends import multibody
 
-    mode = mode or scenario_mod.get(scn, "simulation.mode")
+    mode = scn.mode(mode)
     machine = scenario_mod.make_machine(scn, mode)
-    sim = scn.get("simulation", {})
-    t_end = float(t_end if t_end is not None else sim.get("t_end", 2.0))
-    h = float(sim.get("dt", 1e-4))
-    opts = {k: v for k, v in scn.get("multibody", {}).items() if not str(k).startswith("_")}
-    traj = multibody.simulate(machine, t_end, dt=h, record_dt=h, options=opts)
+    t_end = float(t_end if t_end is not None else scn.simulation.t_end)
+    h = scn.simulation.dt
+    traj = multibody.simulate(machine, t_end, record_dt=h, options=scn.multibody_options())
     return machine, traj
 
 
@@ -569,6 +567,8 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps)."""
 
     mech, drive = machine.mechanism, machine.drive
+    if mech.view == "top":
+        return _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf)
     idx = frame_indices(traj.t, fps, t_end)
     t, q, qd, V = traj.t, traj.q, traj.qd, traj.voltage
     t0 = time.perf_counter()
@@ -610,18 +610,15 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
     from . import scenario as scenario_mod
     from .errors import ScenarioError
 
-    if not scn.get("modes"):
-        raise ScenarioError(f"scenario {scn.get('scenario', {}).get('name')!r} defines no [modes.*] machine to "
-                            f"simulate (a motion-law scenario? use `mjbench optimize-law`)")
-    mode = mode or scenario_mod.get(scn, "simulation.mode")
+    if not scn.modes:
+        raise ScenarioError(f"scenario {scn.name!r} defines no [modes.*] controller to simulate")
+    mode = scn.mode(mode)
     t0 = time.perf_counter()
     machine, traj = simulate_for_video(scn, mode, t_end)
     sim_s = time.perf_counter() - t0
-    name = scn.get("scenario", {}).get("name", "scenario")
-    opts = {k: v for k, v in scn.get("multibody", {}).items() if not str(k).startswith("_")}
     info = render_trajectory(machine, traj, out, fps=fps, width=width, height=height,
-                             title=f"{name} — mode {mode} (multibody)", progress=progress, t_end=t_end,
-                             options=opts, crf=crf)
+                             title=f"{scn.name} — mode {mode} (multibody)", progress=progress, t_end=t_end,
+                             options=scn.multibody_options(), crf=crf)
     info["sim_s"] = sim_s
     info["mode"] = mode
     return info
@@ -643,7 +640,7 @@ class PlatformView:
         if width < 16 or height < 16 or width % 2 or height % 2:
             raise ParameterError(f"--width/--height = {width}x{height}: need even sizes >= 16 px (H.264)")
         self.plat, self.width, self.height, self.gain = platform, int(width), int(height), float(gain)
-        spec = platform.build_spec({"timestep": 1e-4})
+        spec = platform.build_spec(options={"timestep": 1e-4})
         g = spec.visual.global_
         g.offwidth, g.offheight = max(int(g.offwidth), self.width), max(int(g.offheight), self.height)
         spec.visual.quality.offsamples = 4
@@ -659,7 +656,7 @@ class PlatformView:
             ys += [p[1] - r, p[1] + r]
         span = max(max(xs) - min(xs), max(ys) - min(ys))
         half = 3 * span
-        spec2 = platform.build_spec({"timestep": 1e-4})
+        spec2 = platform.build_spec(options={"timestep": 1e-4})
         spec2.visual.global_.offwidth, spec2.visual.global_.offheight = g.offwidth, g.offheight
         spec2.visual.quality.offsamples = 4
         cz = min(float(d0.geom_xpos[i][2] - m.geom_size[i][1]) for i in range(m.ngeom)) - 0.05 * span
@@ -680,10 +677,8 @@ class PlatformView:
         self.camera = cam
         self.opt = mujoco.MjvOption()
         self._line = int(mujoco.mjtGeom.mjGEOM_LINE)
-        jn = {m.joint(i).name: i for i in range(m.njnt)}
-        self._qa = int(m.jnt_qposadr[jn[platform.driven_joint]])
-        self._elastic = int(m.jnt_qposadr[jn["elastic_joint"]]) if "elastic_joint" in jn else None
-        self._plat = int(m.jnt_qposadr[jn["platform"]]) if "platform" in jn else None
+        self._qa = int(m.joint(platform.input_joint).qposadr[0])
+        self._plat = int(m.joint("platform").qposadr[0])
         self._pbody = m.body("platform").id
         self._needle = 0.9 * float(max(m.geom_rbound[i] for i in range(m.ngeom) if m.geom_bodyid[i] == self._pbody
                                        and m.geom_type[i] == mujoco.mjtGeom.mjGEOM_CYLINDER))
@@ -699,13 +694,10 @@ class PlatformView:
         import mujoco
 
         m, d = self.model, self.data
-        rho_d, rho = float(self.plat.driven_ratio), float(self.plat.ratio)
+        rho = float(self.plat.ratio)
         d.qpos[:] = m.qpos0
-        d.qpos[self._qa] = rho_d * phi
-        if self._elastic is not None:
-            d.qpos[self._elastic] = psi
-        if self._plat is not None:
-            d.qpos[self._plat] = theta
+        d.qpos[self._qa] = phi
+        d.qpos[self._plat] = theta
         mujoco.mj_kinematics(m, d)
         self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
         MechanismView.set_flags(self.renderer.scene)
@@ -727,6 +719,32 @@ class PlatformView:
 
     def close(self):
         self.renderer.close()
+
+
+def _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf):
+    """Video of a platform machine run (motor + servo): top view with the deflection needle."""
+    plat = machine.mechanism
+    idx = frame_indices(traj.t, fps, t_end)
+    t, q, qd = traj.t, traj.q, traj.qd
+    psi = traj["deflection_rad"]
+    psimax = float(np.max(np.abs(psi[idx]))) if len(idx) else 0.0
+    gain = float(f"{math.radians(30.0) / psimax:.2g}") if psimax > 0 else 1.0
+    t0 = time.perf_counter()
+    view = PlatformView(plat, width, height, gain=gain)
+    rho = float(plat.ratio)
+    try:
+        with VideoWriter(out, width, height, fps, crf=crf) as writer, _frame_bar(len(idx), out, progress) as bar:
+            buf = np.empty((view.height, view.width, 3), np.uint8)
+            for i in idx:
+                lines = [title or f"{plat.variant} platform",
+                         f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
+                         f"motor speed {qd[i]:8.2f} rad/s   voltage {traj.voltage[i]:7.1f} V",
+                         f"deflection ψ {1e3 * psi[i]:+8.3f} mrad   needle ×{gain:g}"]
+                writer.write(view.frame(q[i], rho * q[i] + psi[i], psi[i], lines, out=buf))
+                bar.update(1)
+    finally:
+        view.close()
+    return _video_info(len(idx), fps, width, height, t0, out, needle_gain=gain)
 
 
 def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width=960, height=540,

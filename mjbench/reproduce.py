@@ -1,32 +1,11 @@
 """``mjbench reproduce``: every paper case end to end → figures, metrics.json, video, report.
 
-Case registry
--------------
-Each built-in scenario TOML may list its paper cases::
-
-    [reproduce]                      # optional scenario-wide hooks ("module:function")
-    figures = "mjbench.reproduce:figures_coupler"
-    report_rows = "mjbench.reproduce:rows_coupler"
-
-    [[reproduce.cases]]
-    name = "incerti2012-fig4"        # unique over all scenarios
-    title = "Fig. 4: open loop (left) and PID (right)"
-    kind = "run"                     # "run" (mjbench run: backends, metrics) or "optimize-law"
-    modes = ["open", "pid"]          # or mode = "pid"
-    backend = "both"                 # multibody | reduced | both
-    t_end = 2.0                      # [s] (default: simulation.t_end)
-    overrides = ["drive.R=2.0"]      # --set items applied to this case only
-    video = true                     # render a video of the multibody run
-    video_mode = "pid"               # (default: the last mode)
-    video_t_end = 2.0                # [s] video length (default min(t_end, 4 s); --quick: ≤ 2 s)
-    figures = "..."                  # per-case hook, overrides the scenario-wide one
-    report_rows = "..."
-
-Hooks get a :class:`CaseRun` (scenario, runs {mode: {backend: Trajectory}}, machines, metrics,
-output folder): ``figures(ctx) -> [paths]``, ``report_rows(ctx) -> [row]`` with
-``row = {"name", "unit", "paper" (number, text or None), "ours" {label: number}, "reason"}``.
-For ``kind = "run"`` the rows of the scenario's ``[[paper.figures]]`` (runner.paper_rows) come
-first; the default figure is the seed-000 Fig. 4 layout (plots.fig4) with every backend drawn.
+Cases come from the paper registry (:mod:`mjbench.papers`): each paper module lists its cases
+(:class:`mjbench.papers.Case`), its report rows ``rows(ctx)`` and its figures ``figures(ctx)``,
+where ``ctx`` is a :class:`CaseRun` (scenario, runs {mode: {backend: Trajectory}}, machines,
+metrics, output folder) and a row is ``{"name", "unit", "paper" (number, text or None),
+"ours" {label: number}, "reason"}``.  For ``kind = "run"`` the rows of the scenario's
+``[[paper.figures]]`` (runner.paper_rows) come first.
 
 Outputs per case in ``DIR/<case>/``: PNG figures, ``metrics.json`` (metrics of every mode and
 backend + the comparison rows, exactly the numbers the report tables print), trajectory CSVs,
@@ -36,7 +15,6 @@ relative path, one table per case: paper, ours, difference, stated reason).
 from __future__ import annotations
 
 import html
-import importlib
 import json
 import math
 import os
@@ -55,48 +33,14 @@ AGREE_REL = 0.05  #: |relative difference| up to which a row counts as agreeing 
 
 
 # ============================================================================ registry
-@dataclass
-class Case:
-    name: str
-    scenario: str
-    kind: str = "run"
-    title: str = ""
-    modes: list = field(default_factory=list)
-    backend: str = "both"
-    t_end: float | None = None
-    overrides: list = field(default_factory=list)
-    video: bool = True
-    video_mode: str | None = None
-    video_t_end: float | None = None
-    figures: str | None = None
-    report_rows: str | None = None
-    note: str = ""
-    seed: str = ""
-
-
 def load_cases(scenarios=None) -> list:
-    """All ``[[reproduce.cases]]`` of the built-in scenarios (or of the given names/paths)."""
-    out, seen = [], {}
-    for name in scenarios or S.builtin_names():
-        try:
-            scn = S.load(name)
-        except ScenarioError:
-            continue
-        rep = scn.get("reproduce", {})
-        for c in rep.get("cases", []) or []:
-            c = dict(c)
-            modes = c.pop("modes", None) or ([c.pop("mode")] if "mode" in c else [S.get(scn, "simulation.mode")])
-            c.pop("mode", None)
-            case = Case(name=c.pop("name"), scenario=name, modes=[m for m in modes if m],
-                        seed=str(S.get(scn, "scenario.seed", "")),
-                        figures=c.pop("figures", rep.get("figures")),
-                        report_rows=c.pop("report_rows", rep.get("report_rows")), **c)
-            if case.name in seen:
-                raise ScenarioError(f"reproduce case {case.name!r} is defined twice ({seen[case.name]}, {name})")
-            seen[case.name] = name
-            out.append(case)
-    # by seed; within a seed the paper's own scenario before derived ones (e.g. "-calibrated")
-    return sorted(out, key=lambda c: (c.seed, "calibrated" in c.scenario, c.name))
+    """Every paper case (optionally only those of the given scenario names), by paper then name."""
+    from . import papers
+
+    out = [c for c in papers.cases() if scenarios is None or c.scenario in scenarios]
+    # within a paper: the paper's own scenario before derived ones (e.g. "-calibrated")
+    order = {k: i for i, k in enumerate(papers.MODULES)}
+    return sorted(out, key=lambda c: (order[c.paper], "calibrated" in c.scenario, c.name))
 
 
 def select(cases, which) -> list:
@@ -110,23 +54,13 @@ def select(cases, which) -> list:
     return sel
 
 
-def _hook(spec):
-    if not spec:
-        return None
-    mod, _, fn = spec.partition(":")
-    try:
-        return getattr(importlib.import_module(mod), fn)
-    except (ImportError, AttributeError) as e:
-        raise ScenarioError(f"reproduce hook {spec!r} cannot be loaded: {e}") from None
-
-
 # ============================================================================ one case
 @dataclass
 class CaseRun:
     """Everything a hook may need about a finished case run."""
 
-    case: Case
-    scn: dict
+    case: object
+    scn: object
     out: Path
     runs: dict = field(default_factory=dict)      # {mode: {backend: Trajectory}}
     machines: dict = field(default_factory=dict)  # {mode: Machine} (fresh, for kinematics/references)
@@ -134,7 +68,7 @@ class CaseRun:
     extra: dict = field(default_factory=dict)     # kind-specific results (e.g. optimize-law report)
 
 
-def run_case(case: Case, out_dir, quick=False, video=True, progress=True, width=None, height=None) -> dict:
+def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, height=None) -> dict:
     """Run one case; write its files into ``out_dir/<case>/``; return its metrics dict."""
     from . import plotstyle
 
@@ -143,11 +77,14 @@ def run_case(case: Case, out_dir, quick=False, video=True, progress=True, width=
     out.mkdir(parents=True, exist_ok=True)
     scn = S.load(case.scenario, case.overrides)
     ctx = CaseRun(case, scn, out)
-    res = {"case": case.name, "scenario": case.scenario, "seed": S.get(scn, "scenario.seed"),
-           "title": case.title or S.get(scn, "scenario.title", case.scenario),
-           "scenario_title": S.get(scn, "scenario.title", ""), "kind": case.kind,
+    res = {"case": case.name, "scenario": case.scenario, "seed": scn.scenario.seed, "paper": case.paper,
+           "title": case.title or scn.scenario.title or case.scenario,
+           "scenario_title": scn.scenario.title, "kind": case.kind,
            "overrides": list(case.overrides), "note": case.note, "modes": {}, "rows": [],
            "figures": [], "video": None}
+    from . import papers
+
+    paper = papers.module(case.paper) if case.paper else None
     with plotstyle.context():
         if case.kind == "run":
             _run_kind(ctx, res, progress)
@@ -155,11 +92,9 @@ def run_case(case: Case, out_dir, quick=False, video=True, progress=True, width=
             _optimize_law_kind(ctx, res)
         else:
             raise ScenarioError(f"reproduce case {case.name!r}: kind {case.kind!r} is not 'run' or 'optimize-law'")
-        rows_hook = _hook(case.report_rows)
-        if rows_hook is not None:
-            res["rows"] += [_normalise_row(r) for r in rows_hook(ctx)]
-        fig_hook = _hook(case.figures)
-        figs = fig_hook(ctx) if fig_hook is not None else (_default_figures(ctx) if case.kind == "run" else [])
+        if paper is not None:
+            res["rows"] += [_normalise_row(r) for r in paper.rows(ctx)]
+        figs = paper.figures(ctx) if paper is not None else (default_figures(ctx) if case.kind == "run" else [])
         figs = list(figs or [])
         for mode, trajs in ctx.runs.items():  # every case that ran both backends: their comparison
             if "multibody" in trajs and "reduced" in trajs:
@@ -217,7 +152,7 @@ def _optimize_law_kind(ctx: CaseRun, res: dict):
     res["optimize_law"] = json.loads(json.dumps(st["report"], default=_json_default))
 
 
-def _default_figures(ctx: CaseRun):
+def default_figures(ctx: CaseRun):
     """Seed 000 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
     from .plots import fig4
     from .runner import chi_text, setpoint
@@ -313,173 +248,6 @@ def _normalise_row(r: dict) -> dict:
 
 
 # ---------------------------------------------------------------------------- seed 002 hooks
-def rows_coupler(ctx: CaseRun) -> list:
-    """Seed 002 (Hülako & Çakar): §4 crank error, Table 3 deviation, §5.1 rise/settling times."""
-    from . import metrics_coupler as MC
-
-    mode = ctx.case.modes[-1]
-    pap = ctx.scn.get("paper", {})
-    mach = ctx.machines[mode]
-    per = {b: MC.from_run(ctx.scn, tr, mach) for b, tr in ctx.runs[mode].items()}
-    ctx.metrics[mode]["coupler"] = per
-    vc = S.get(ctx.scn, "modes.pid.reference.vc")
-    defs = "rise/settling times are not defined in the paper: ours = 90 % of V_C / ±10 % band (docs/coupler_speed.md)"
-    rows = [
-        {"name": "max |crank-speed error| after 1.5 s (§4: 'under 0.1')", "unit": "rad/s",
-         "paper": pap.get("crank_error_after_1_5s"),
-         "ours": {b: m.get("crank_error_max_after_rad_s") for b, m in per.items()}, "reason": ""},
-        {"name": f"max coupler-speed deviation after 1.5 s, V_C = {vc} m/s (Table 3, simulation)", "unit": "m/s",
-         "paper": pap.get("max_deviation_sim"),
-         "ours": {b: m.get("coupler_dev_max_after_m_s") for b, m in per.items()}, "reason": ""},
-        {"name": "rise time (§5.1)", "unit": "s", "paper": pap.get("rise_time"),
-         "ours": {b: m.get("rise_time_s") for b, m in per.items()}, "reason": defs},
-        {"name": "settling time (§5.1)", "unit": "s", "paper": pap.get("settling_time"),
-         "ours": {b: m.get("settling_time_s") for b, m in per.items()}, "reason": defs},
-    ]
-    for r in rows[:2]:
-        bound = r["paper"]
-        vals = [v for v in r["ours"].values() if _num(v)]
-        if bound is not None and vals:
-            ok = max(vals) <= bound
-            r["reason"] = ("the paper gives an upper bound; ours is below it" if ok else
-                           "the paper gives an upper bound; ours exceeds it: see docs/coupler_speed.md for the "
-                           "interpretations (motor constant, gravity plane, bearings) behind our model")
-    notes = ctx.scn.get("paper", {}).get("notes", {})
-    for r, key in zip(rows, ("crank_error_after_1_5s", "max_deviation_sim", "rise_time", "settling_time")):
-        if isinstance(notes, dict) and notes.get(key):
-            r["reason"] = notes[key]
-    return rows
-
-
-def figures_coupler(ctx: CaseRun) -> list:
-    """Seed 002 Figs 9-12 (crank speed and error) and 18-21 (coupler-point speed)."""
-    from . import plots_coupler as PC
-
-    mode = ctx.case.modes[-1]
-    mach = ctx.machines[mode]
-    ref = mach.controller.reference
-    p1 = ctx.out / "crank_speed.png"
-    p2 = ctx.out / "coupler_speed.png"
-    PC.crank_speed(ctx.runs[mode], mach.mechanism, ref, p1, title=f"{ctx.case.name}: crank speed (cf. Figs 9-12)")
-    PC.coupler_speed(ctx.runs[mode], mach.mechanism, ref, p2, title=f"{ctx.case.name}: coupler-point speed (cf. Figs 18-21)",
-                     paper_dev=ctx.scn.get("paper", {}).get("max_deviation_sim"))
-    return [p1, p2]
-
-
-# ---------------------------------------------------------------------------- seed 004 hooks
-def figures_quickreturn(ctx: CaseRun) -> list:
-    """Seed 004 Figs 6 (crank speed, all modes) and 7 (voltage of the closed loop)."""
-    from . import plots_quickreturn as PQ
-
-    pap = ctx.scn.get("paper", {})
-    runs = {f"{mode} ({b})": tr for mode, trs in ctx.runs.items() for b, tr in trs.items()}
-    band = (pap["open_speed_min"], pap["open_speed_max"]) if "open_speed_min" in pap else None
-    t_end = min(float(tr.t[-1]) for tr in runs.values())
-    zoom = (max(0.0, t_end - 2.0), max(0.5, t_end - 1.0))
-    window = (zoom[0], zoom[0] + 0.05)
-    return PQ.figures(runs, ctx.out, omega_d=float(S.get(ctx.scn, "metrics.omega_d", pap.get("omega_d", 5.0))),
-                      zoom=zoom, window=window, band=band,
-                      v_limit=float(S.get(ctx.scn, "drive.v_max", 48.0)))
-
-
-def rows_quickreturn(ctx: CaseRun) -> list:
-    """Seed 004: steady crank-speed error of the SMC (§4: 0.2 %) and the open-loop speed band."""
-    from . import metrics_quickreturn as MQ
-
-    pap = ctx.scn.get("paper", {})
-    rows = []
-    t_start = float(S.get(ctx.scn, "metrics.steady_start", 2.0))
-    if "smc" in ctx.runs and "smc_steady_error" in pap:
-        wd = float(S.get(ctx.scn, "metrics.omega_d", 5.0))
-        errs = {b: MQ.steady_error(tr, wd, t_start)["error_abs_mean"] for b, tr in ctx.runs["smc"].items()}
-        rows.append({"name": "SMC steady-state crank-speed error |mean e| (§4)", "unit": "1",
-                     "paper": pap["smc_steady_error"], "ours": errs,
-                     "reason": "bang-bang switching: the residual error depends on the control sampling period "
-                               "Ts, not given in the paper (docs/quickreturn.md)"})
-    if "open" in ctx.runs and "open_speed_min" in pap:
-        for key, lab in (("min", "open_speed_min"), ("max", "open_speed_max")):
-            vals = {b: MQ.speed_stats(tr, t_start)[f"speed_{key}"] for b, tr in ctx.runs["open"].items()}
-            rows.append({"name": f"open loop 48 V: crank speed {key} in steady state (Fig. 6)", "unit": "rad/s",
-                         "paper": pap[lab], "ours": vals,
-                         "reason": "the stated motor constants cap the unloaded speed at 5.916 rad/s at 48 V "
-                                   "(docs/quickreturn.md)"})
-    return rows
-
-
-# ---------------------------------------------------------------------------- seeds 001/003 hooks
-def rows_vibration(ctx: CaseRun) -> list:
-    """Seeds 001/003: natural frequency, damping, optimum exponents, residual energy E(T)."""
-    rep = ctx.extra["study"]["report"]
-    pap = rep.get("paper", {})
-    laws = rep["laws"]
-    rows = []
-    if "omega_n" in pap:
-        d = abs(rep["omega_n_rad_s"] - pap["omega_n"])
-        rows.append({"name": "natural frequency ω_n", "unit": "rad/s", "paper": pap["omega_n"],
-                     "ours": {"ours": rep["omega_n_rad_s"]},
-                     "reason": "agrees; the paper prints ω_n truncated" if 0.01 <= d < 0.1 else ""})
-    if "xi" in pap:
-        rows.append({"name": "damping ratio ξ", "unit": "1", "paper": pap["xi"], "ours": {"ours": rep["xi"]},
-                     "reason": ""})
-    g_opt = laws["optimised"]["law"].get("gammas")
-    if "gammas_optimum" in pap and g_opt is not None:
-        for i, (gp, go) in enumerate(zip(pap["gammas_optimum"], g_opt)):
-            rows.append({"name": f"optimum exponent γ{i + 1} (§V)", "unit": "1", "paper": gp, "ours": {"ours": go},
-                         "reason": "the optimum is not unique: zero-residual-energy solutions form a curve; the "
-                                   "quasi-Newton search lands on another point of it (SEED-ERRATA 001)"})
-    if "table_II_polynomial" in pap:
-        c0 = laws["initial"]["law"].get("C")
-        if c0 is not None:
-            for i, (cp, co) in enumerate(zip(pap["table_II_polynomial"], c0)):
-                rows.append({"name": f"3-4-5 polynomial coefficient C{i + 1} (Table II)", "unit": "1", "paper": cp,
-                             "ours": {"ours": co}, "reason": ""})
-    if "table_II_pseudo_gammas" in pap and "table_II_pseudo_C" in pap:
-        from .motionlaws import PseudoPolynomialLaw
-        law0 = ctx.extra["study"]["objects"]["laws"]["initial"]
-        try:
-            cs = PseudoPolynomialLaw(law0.Phi, law0.T, pap["table_II_pseudo_gammas"]).C
-        except Exception:  # noqa: BLE001 - a law the module rejects: no row
-            cs = []
-        g_txt = ", ".join(f"{g:g}" for g in pap["table_II_pseudo_gammas"])
-        for i, (cp, co) in enumerate(zip(pap["table_II_pseudo_C"], cs)):
-            rows.append({"name": f"pseudo-polynomial coefficient C{i + 1} for γ = {g_txt} (Table II)", "unit": "1",
-                         "paper": cp, "ours": {"ours": float(co)}, "reason": ""})
-    for name in ("initial", "optimised", "paper_optimum"):
-        if name in laws:
-            lw = laws[name]
-            ours = {"ours": lw.get("E_T_J")}  # closed form (vibration.residual_energy)
-            if lw.get("E_T_multibody_J") is not None:
-                ours["MuJoCo"] = lw["E_T_multibody_J"]
-            rows.append({"name": f"residual energy E(T), {name.replace('_', ' ')} law (ours: closed form)", "unit": "J",
-                         "paper": None,
-                         "ours": ours, "reason": "the paper plots the response, it prints no E(T) value"})
-    rows.append({"name": "E(T) reduction initial → optimised", "unit": "orders of magnitude", "paper": None,
-                 "ours": {"ours": rep["reduction_orders"]},
-                 "reason": "the paper shows the residual vibration vanishing (Fig. 3 / Figs 5f-6f), no number"})
-    return rows
-
-
-def figures_vibration(ctx: CaseRun) -> list:
-    """Seed 001 Fig. 3 / seed 003 Figs 5-6 (before/after), motor laws, ω_n sensitivity."""
-    from . import plots_vibration as PV
-
-    st = ctx.extra["study"]["objects"]
-    laws, osc, ta = st["laws"], st["osc"], st["t_after"]
-    name = ctx.case.name
-    out = ctx.out
-    fine, table = st["sens_fine"]
-    return [
-        PV.fig_energy_response(laws["initial"], laws["optimised"], osc, os.fspath(out / "response_before_after.png"), ta,
-                               suptitle=f"{name}: platform response (cf. seed 001 Fig. 3)"),
-        PV.fig_commands_platform(laws["initial"], osc, os.fspath(out / "commands_initial.png"), ta,
-                                 title=f"{name}: non-optimised (cf. seed 003 Fig. 5)"),
-        PV.fig_commands_platform(laws["optimised"], osc, os.fspath(out / "commands_optimised.png"), ta,
-                                 title=f"{name}: optimised (cf. seed 003 Fig. 6)"),
-        PV.fig_sensitivity(fine, table, os.fspath(out / "sensitivity_omega_n.png"),
-                           title=f"{name}: E(T_end) vs ω_n error"),
-    ]
-
-
 # ============================================================================ report
 def fmt(v) -> str:
     """How every number appears in the report tables (4 significant digits)."""

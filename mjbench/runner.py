@@ -14,18 +14,18 @@ from .manifest import manifest, write_json
 BACKENDS = ("multibody", "reduced")
 
 
-def backend_options(scn: dict, backend: str) -> dict:
-    o = dict(S._strip(scn.get(backend, {})))
-    dt = S.get(scn, "simulation.dt")
-    if dt is not None:
-        o.setdefault("timestep", float(dt))
-    return o
+def backend_options(scn, backend: str) -> dict:
+    """Options of a backend from the scenario's [multibody] / [reduced] tables and simulation.dt."""
+    if backend == "multibody":
+        return scn.multibody_options()
+    r = scn.reduced
+    return {"timestep": scn.simulation.dt, "method": r.method, "rtol": r.rtol, "atol": r.atol}
 
 
-def run_mode(scn: dict, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:
+def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:
     """Simulate one mode on the given backends: {backend: Trajectory}."""
-    t_end = float(t_end if t_end is not None else S.get(scn, "simulation.t_end", 2.0))
-    record_dt = float(S.get(scn, "simulation.record_dt", 1e-3))
+    t_end = float(t_end if t_end is not None else scn.simulation.t_end)
+    record_dt = scn.simulation.record_dt
     out = {}
     for b in backends:
         machine = S.make_machine(scn, mode)
@@ -44,11 +44,12 @@ def run_mode(scn: dict, mode: str, backends=BACKENDS, t_end=None, progress=False
     return out
 
 
-def mode_metrics(scn: dict, mode: str, trajs: dict) -> dict:
+def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     """Metrics of every backend, their cross-comparison and the paper comparison rows."""
-    win = S.get(scn, "metrics.chi_window")
-    avg = S.get(scn, "metrics.chi_average", "mean")
-    res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=win, average=avg) for b, tr in trajs.items()}}
+    mt = scn.metrics
+    res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
+                                                   steady_from=mt.steady_start)
+                                      for b, tr in trajs.items()}}
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
     res["paper"] = paper_rows(scn, mode, res["backends"])
@@ -59,7 +60,7 @@ def paper_rows(scn: dict, mode: str, backend_metrics: dict) -> list:
     """Rows {name, paper, ours (per backend), difference, note} for the scenario's
     ``[[paper.figures]]`` entries of this mode (each: name, mode, metric, value, note)."""
     rows = []
-    for fig in S.get(scn, "paper.figures", []) or []:
+    for fig in scn.paper.get("figures", []) or []:
         if fig.get("mode") not in (None, mode):
             continue
         row = {"name": fig["name"], "metric": fig["metric"], "paper": fig["value"], "note": fig.get("note", "")}
@@ -72,13 +73,13 @@ def paper_rows(scn: dict, mode: str, backend_metrics: dict) -> list:
     return rows
 
 
-def run(scn: dict, out_dir, mode=None, backend="both", t_end=None, progress=True, argv=None,
+def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv=None,
         figure=True) -> dict:
     """``mjbench run``: simulate, then write trajectory CSV(s), metrics.json, manifest.json and the
     Fig.-4-style PNG into ``out_dir``.  Returns the metrics dict."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    mode = mode or S.get(scn, "simulation.mode")
+    mode = scn.mode(mode)
     backends = BACKENDS if backend == "both" else (backend,)
     for b in backends:
         if b not in BACKENDS:
@@ -86,28 +87,29 @@ def run(scn: dict, out_dir, mode=None, backend="both", t_end=None, progress=True
             raise ParameterError(f"--backend {b!r}: choose multibody, reduced or both")
     trajs = run_mode(scn, mode, backends, t_end, progress)
     res = mode_metrics(scn, mode, trajs)
-    res["scenario"] = S.get(scn, "scenario.name")
+    res["scenario"] = scn.name
     for b, tr in trajs.items():
         name = "trajectory.csv" if len(trajs) == 1 else f"trajectory_{b}.csv"
         tr.write_csv(out / name)
     write_json(out / "metrics.json", res)
-    write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backends": list(backends),
+    write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(backends),
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
     if figure:
         from .plots import fig4
         chi_txt = chi_text(res)
         fig4({mode: trajs}, out / "fig4.png", setpoint=setpoint(scn, mode),
-             title=f"{S.get(scn, 'scenario.title', S.get(scn, 'scenario.name'))} — {mode}",
+             title=f"{scn.scenario.title or scn.name} — {mode}",
              chi={mode: chi_txt} if chi_txt else None)
     return res
 
 
 def setpoint(scn, mode):
     """Motor-speed set-point drawn on the speed plot (PID ``omega0``, SMC ``omega_d`` × z)."""
-    v = S.get(scn, f"modes.{mode}.omega0")
-    if v is None and S.get(scn, f"modes.{mode}.omega_d") is not None:
-        v = float(S.get(scn, f"modes.{mode}.omega_d")) * float(S.get(scn, "drive.z", 1.0))
+    p = scn.modes.get(mode)
+    v = getattr(p, "omega0", None)
+    if v is None and getattr(p, "omega_d", None) is not None:
+        v = float(p.omega_d) * float(scn.drive.z)
     return float(v) if v is not None else None
 
 

@@ -1,31 +1,25 @@
-"""Scenarios: TOML files holding every parameter of a run, with documented assumptions.
+"""Scenarios: TOML files holding every parameter of a machine, parsed once into typed objects.
 
-Layout (see ``mjbench/scenarios/incerti2012.toml``)::
+``load(name_or_path, overrides)`` reads a built-in scenario (``mjbench/scenarios/NAME.toml``), a
+TOML file, or a run's ``manifest.json`` (its fully resolved scenario), applies ``--set key=value``
+overrides to the raw tables and validates the whole through the schema
+(:mod:`mjbench.schema`): the result is a :class:`~mjbench.schema.Scenario`, or ONE
+:class:`~mjbench.errors.ScenarioError` listing every problem with its TOML path.
 
-    [scenario]   name, title, seed, description
-    [mechanism]  type = "<module in mjbench.mechanisms>" + its parameters (from_params)
-    [drive]      type = "dcmotor" (default) + DCMotorDrive fields
-    [initial]    q0 [rad], qd0 [rad/s], I0 [A]
-    [simulation] t_end, dt, record_dt, mode, backend
-    [multibody]  MuJoCo options (integrator, timestep, solref, solimp)
-    [reduced]    method = "rk4" | "solve_ivp"
-    [modes.<name>] type = "<controller type>" + its parameters (controllers.make)
-    [metrics]    windows and settings of the metrics
-    [paper]      figures the paper reports, for comparison
-    [aliases]    short --set names, e.g. vc = "modes.pid.reference.vc"
-
-``--set key=value`` overrides any dotted key (``drive.R=2.5``, ``modes.pid.kp=100``) or alias;
-the value is parsed as TOML (numbers, booleans, arrays, strings) and falls back to a string.
+``--set key=value`` overrides any dotted key (``drive.R=2.5``, ``modes.pid.kp=100``,
+``drive.L="9 mH"``) or an alias of ``[aliases]``; the value is parsed as TOML (numbers, booleans,
+arrays, strings) and falls back to a string, then validated like the file.
 """
 from __future__ import annotations
 
 import copy
-import importlib
 import importlib.resources
+import json
 import os
 import tomllib
 
 from .errors import ScenarioError
+from .schema import Scenario, validate
 
 SCENARIO_DIR = "scenarios"
 
@@ -36,12 +30,23 @@ def builtin_names():
     return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".toml"))
 
 
-def load(name_or_path: str, overrides=()) -> dict:
-    """Load a built-in scenario by name, or a TOML file by path, and apply ``key=value`` overrides."""
+def read_raw(name_or_path: str) -> tuple[dict, str]:
+    """The raw tables of a scenario (TOML file, built-in name or manifest.json) and its source."""
     if os.path.exists(name_or_path):
+        if os.path.isdir(name_or_path):
+            raise ScenarioError(f"scenario {name_or_path!r} is a directory; give a TOML file, a manifest.json "
+                                f"or a built-in name ({', '.join(builtin_names())})")
         with open(name_or_path, "rb") as f:
             text = f.read()
         source = os.path.abspath(name_or_path)
+        if name_or_path.endswith(".json"):
+            try:
+                man = json.loads(text.decode("utf-8"))
+            except (ValueError, UnicodeDecodeError) as e:
+                raise ScenarioError(f"{name_or_path}: not valid JSON ({e})") from None
+            if not isinstance(man, dict) or not isinstance(man.get("scenario"), dict):
+                raise ScenarioError(f"{name_or_path}: not an mjbench manifest (no 'scenario' table)")
+            return copy.deepcopy(man["scenario"]), source
     else:
         res = importlib.resources.files("mjbench").joinpath(SCENARIO_DIR, f"{name_or_path}.toml")
         if not res.is_file():
@@ -50,13 +55,44 @@ def load(name_or_path: str, overrides=()) -> dict:
         text = res.read_bytes()
         source = f"builtin:{name_or_path}"
     try:
-        scn = tomllib.loads(text.decode("utf-8"))
-    except tomllib.TOMLDecodeError as e:
+        raw = tomllib.loads(text.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ScenarioError(f"scenario {name_or_path!r} is not valid TOML: {e}") from None
-    scn.setdefault("scenario", {}).setdefault("name", os.path.splitext(os.path.basename(name_or_path))[0])
-    scn["scenario"]["source"] = source
-    apply_overrides(scn, overrides)
-    return scn
+    if isinstance(raw.get("scenario"), dict):
+        raw["scenario"].setdefault("name", os.path.splitext(os.path.basename(name_or_path))[0])
+    return raw, source
+
+
+def load(name_or_path: str, overrides=()) -> Scenario:
+    """Load and validate a scenario (built-in name, TOML path or manifest.json) with overrides."""
+    raw, source = read_raw(name_or_path)
+    return from_raw(raw, source, overrides)
+
+
+def from_raw(raw: dict, source: str = "", overrides=()) -> Scenario:
+    """Validate raw tables (a dict as parsed from TOML) with ``key=value`` overrides applied."""
+    raw = copy.deepcopy(raw)
+    applied = apply_overrides(raw, overrides)
+    return validate(raw, source, applied)
+
+
+def with_overrides(scn: Scenario, overrides) -> Scenario:
+    """A new validated scenario: ``scn``'s raw tables with more overrides."""
+    raw = copy.deepcopy(scn.raw)
+    applied = list(scn.overrides) + apply_overrides(raw, overrides)
+    return validate(raw, scn.source, applied)
+
+
+def with_values(scn: Scenario, values: dict) -> Scenario:
+    """A new validated scenario with dotted keys set to Python values ({"drive.R": 2.1, ...})."""
+    raw = copy.deepcopy(scn.raw)
+    aliases = raw.get("aliases", {}) if isinstance(raw.get("aliases"), dict) else {}
+    applied = list(scn.overrides)
+    for key, value in values.items():
+        k = aliases.get(key, key)
+        set_key(raw, k, value)
+        applied.append(f"{k}={value!r}")
+    return validate(raw, scn.source, applied)
 
 
 def parse_value(text: str):
@@ -67,94 +103,66 @@ def parse_value(text: str):
         return text
 
 
-def apply_overrides(scn: dict, overrides) -> dict:
-    aliases = scn.get("aliases", {})
-    applied = scn.setdefault("scenario", {}).setdefault("overrides", [])
+def apply_overrides(raw: dict, overrides) -> list[str]:
+    """Apply ``key=value`` items to the raw tables (aliases resolved); returns them as applied.
+    Whether the key exists and the value is valid is checked by the schema afterwards."""
+    aliases = raw.get("aliases", {}) if isinstance(raw.get("aliases"), dict) else {}
+    applied = []
     for item in overrides or ():
         if "=" not in item:
             raise ScenarioError(f"--set {item!r}: expected key=value, e.g. drive.R=2.5")
         key, text = item.split("=", 1)
         key = aliases.get(key.strip(), key.strip())
-        set_key(scn, key, parse_value(text.strip()))
+        if not key or any(not p for p in key.split(".")):
+            raise ScenarioError(f"--set {item!r}: {key!r} is not a dotted key such as drive.R")
+        set_key(raw, key, parse_value(text.strip()))
         applied.append(f"{key}={text.strip()}")
-    return scn
+    return applied
 
 
-def set_key(scn: dict, key: str, value):
-    """Set a dotted key; the parent tables must exist and the key must already be defined
-    (so a typo is an error, not a silently ignored parameter) unless its table allows extras."""
+def set_key(raw: dict, key: str, value):
+    """Set a dotted key in the raw tables, creating tables on the way (the schema then rejects a
+    key it does not know, naming it and the allowed ones)."""
     parts = key.split(".")
-    node = scn
+    node = raw
     for i, p in enumerate(parts[:-1]):
-        if not isinstance(node, dict) or p not in node:
-            raise ScenarioError(f"--set {key}: no table {'.'.join(parts[: i + 1])!r} in the scenario "
-                                f"(tables: {sorted(k for k, v in node.items() if isinstance(v, dict))})")
-        node = node[p]
-    leaf = parts[-1]
-    if not isinstance(node, dict):
-        raise ScenarioError(f"--set {key}: {'.'.join(parts[:-1])!r} is not a table")
-    if leaf not in node and not node.get("_open", False):
-        raise ScenarioError(f"--set {key}: unknown key {leaf!r}; known keys here: {sorted(node)}")
-    node[leaf] = value
+        nxt = node.get(p)
+        if nxt is None:
+            nxt = node[p] = {}
+        elif not isinstance(nxt, dict):
+            raise ScenarioError(f"--set {key}: {'.'.join(parts[: i + 1])!r} is a value, not a table")
+        node = nxt
+    node[parts[-1]] = value
 
 
-def get(scn: dict, key: str, default=None):
-    node = scn
-    for p in key.split("."):
-        if not isinstance(node, dict) or p not in node:
-            return default
-        node = node[p]
-    return node
+def make_mechanism(scn: Scenario):
+    from . import mechanisms
+
+    return mechanisms.build(scn.mechanism)
 
 
-def _strip(d: dict) -> dict:
-    """Drop documentation-only keys (leading underscore) from a parameter table."""
-    return {k: v for k, v in d.items() if not k.startswith("_")}
+def make_drive(scn: Scenario):
+    return scn.drive.build()
 
 
-def make_mechanism(scn: dict):
-    params = _strip(copy.deepcopy(scn.get("mechanism", {})))
-    typ = params.pop("type", None)
-    if not typ:
-        raise ScenarioError("scenario has no [mechanism] type")
-    try:
-        mod = importlib.import_module(f"mjbench.mechanisms.{typ}")
-    except ModuleNotFoundError:
-        raise ScenarioError(f"mechanism.type = {typ!r}: no module mjbench.mechanisms.{typ}") from None
-    return mod.from_params(params)
+def modes(scn: Scenario):
+    return sorted(scn.modes)
 
 
-def make_drive(scn: dict):
-    from .drive import DCMotorDrive
-
-    params = _strip(copy.deepcopy(scn.get("drive", {})))
-    typ = params.pop("type", "dcmotor")
-    if typ != "dcmotor":
-        mod = importlib.import_module(f"mjbench.drives.{typ}")
-        return mod.from_params(params)
-    try:
-        return DCMotorDrive(**params)
-    except TypeError as e:
-        raise ScenarioError(f"[drive]: {e}") from None
-
-
-def modes(scn: dict):
-    return sorted(scn.get("modes", {}))
-
-
-def make_machine(scn: dict, mode: str | None = None):
+def make_machine(scn: Scenario, mode: str | None = None):
     """Scenario → Machine (mechanism + drive + controller of the chosen mode)."""
     import controllers
 
     from .machine import Machine
 
-    mode = mode or get(scn, "simulation.mode")
-    if mode not in scn.get("modes", {}):
-        raise ScenarioError(f"mode {mode!r} is not defined in scenario {scn['scenario']['name']!r}; "
-                            f"modes: {modes(scn)}")
+    mode = scn.mode(mode)
     mech = make_mechanism(scn)
     drive = make_drive(scn)
-    ctrl = controllers.make(_strip(copy.deepcopy(scn["modes"][mode])), drive=drive, mechanism=mech)
-    init = scn.get("initial", {})
-    return Machine(mech, drive, ctrl, q0=float(init.get("q0", 0.0)), qd0=float(init.get("qd0", 0.0)),
-                   I0=float(init.get("I0", 0.0)))
+    ctrl = controllers.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
+    init = scn.initial
+    return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
+
+
+def get(scn: Scenario, key: str, default=None):
+    """Value at a dotted key of the validated scenario (aliases resolved), or ``default``."""
+    return scn.get(key, default)

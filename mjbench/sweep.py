@@ -104,13 +104,15 @@ def parse_perturb(items) -> dict:
 
 # ======================================================================== rows
 def _resolve(scn, key):
-    return scn.get("aliases", {}).get(key, key)
+    return scn.aliases.get(key, key)
 
 
-def make_rows(spec: SweepSpec, scn: dict) -> list[dict]:
+def make_rows(spec: SweepSpec, scn) -> list[dict]:
     """All rows of the sweep: [{"row": i, key: value, ...}] (deterministic)."""
-    for key in spec.keys():  # fail early on a typo, naming the key
-        S.set_key(copy.deepcopy(scn), _resolve(scn, key), 0.0)
+    for key in spec.keys():  # fail early on a typo or an invalid value, naming the key
+        vals = spec.grid.get(key) or [S.get(scn, _resolve(scn, key))]
+        for v in vals:
+            S.with_values(scn, {_resolve(scn, key): v})
     grid_keys = list(spec.grid)
     points = list(itertools.product(*[spec.grid[k] for k in grid_keys])) if grid_keys else [()]
     nsamp = max(int(spec.samples), 0)
@@ -138,18 +140,14 @@ def make_rows(spec: SweepSpec, scn: dict) -> list[dict]:
     return rows
 
 
-def row_scenario(scn: dict, row: dict, keys) -> dict:
-    s = copy.deepcopy(scn)
-    for k in keys:
-        S.set_key(s, _resolve(s, k), row[k])
-    return s
+def row_scenario(scn, row: dict, keys):
+    """The validated scenario of one row (its keys set, through the schema)."""
+    return S.with_values(scn, {_resolve(scn, k): row[k] for k in keys})
 
 
 # ======================================================================== simulation of a chunk
-def settings(spec: SweepSpec, scn: dict) -> dict:
-    mode = spec.mode or S.get(scn, "simulation.mode")
-    if mode not in scn.get("modes", {}):
-        raise ScenarioError(f"mode {mode!r} is not defined in the scenario; modes: {S.modes(scn)}")
+def settings(spec: SweepSpec, scn) -> dict:
+    mode = scn.mode(spec.mode)
     return {"mode": mode, "t_end_fixed": spec.t_end, **_run_settings(scn, spec.t_end)}
 
 
@@ -157,11 +155,11 @@ def _run_settings(scn, t_end_fixed):
     """Per-row run settings (a sweep may vary simulation.dt, the integrator, the χ window ...)."""
     from .runner import backend_options
 
-    return {"t_end": float(t_end_fixed if t_end_fixed is not None else S.get(scn, "simulation.t_end", 2.0)),
-            "record_dt": float(S.get(scn, "simulation.record_dt", 1e-3)),
+    return {"t_end": float(t_end_fixed if t_end_fixed is not None else scn.simulation.t_end),
+            "record_dt": scn.simulation.record_dt,
             "options": backend_options(scn, "multibody"),
-            "chi_window": S.get(scn, "metrics.chi_window"),
-            "chi_average": S.get(scn, "metrics.chi_average", "mean")}
+            "chi_window": scn.metrics.chi_window,
+            "chi_average": scn.metrics.chi_average}
 
 
 def row_metrics(traj, st) -> dict:
@@ -170,7 +168,7 @@ def row_metrics(traj, st) -> dict:
     return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
 
-def run_chunk(scn: dict, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
+def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
     """Simulate ``rows`` of the sweep in one batch (per model structure) → result rows.
     Pure: the same input gives the same output locally and on a Dask worker."""
     from .backends import batch

@@ -25,13 +25,34 @@ INDEX = {n: i for i, n in enumerate(NAMES)}
 
 
 class Trajectory:
-    """Decimated samples of one simulation: ``data`` is (n, ncol); columns by name or attribute."""
+    """Decimated samples of one simulation: ``data`` is (n, ncol) in ``columns`` order (the core
+    :data:`NAMES`, then any plant-specific columns such as a platform's deflection); columns by
+    name (``traj["current_A"]``) or attribute (``traj.current``)."""
 
-    def __init__(self, n: int, backend: str, meta: dict | None = None):
-        self.data = np.full((n, len(NAMES)), np.nan)
+    def __init__(self, n: int, backend: str, meta: dict | None = None, columns=NAMES):
+        self.columns = tuple(columns)
+        self.index = {c: i for i, c in enumerate(self.columns)}
+        self.data = np.full((n, len(self.columns)), np.nan)
         self.n = 0
         self.backend = backend
         self.meta = dict(meta or {})
+
+    @classmethod
+    def from_record(cls, rec, backend: str, i: int | None = None) -> "Trajectory":
+        """Run ``i`` of a :class:`mjbench.kernel.Record` (a view, no copy); ``i=None`` for a single run."""
+        tr = cls.__new__(cls)
+        tr.columns = tuple(rec.columns)
+        tr.index = {c: j for j, c in enumerate(tr.columns)}
+        n = int(rec.nrows[0 if i is None else i])
+        tr.data = (rec.data if i is None else rec.data[i])[:n]
+        tr.n = n
+        tr.backend = backend
+        tr.meta = dict(rec.meta)
+        if i is not None:
+            tr.meta["sim"] = int(i)
+            if rec.diverged[i]:
+                tr.meta["diverged"] = rec.messages[i]
+        return tr
 
     # buffer access used by the backends' loops
     def row(self):
@@ -44,7 +65,13 @@ class Trajectory:
         return self
 
     def __getitem__(self, name):
-        return self.data[: self.n, INDEX[name]]
+        try:
+            return self.data[: self.n, self.index[name]]
+        except KeyError:
+            raise KeyError(f"trajectory has no column {name!r}; columns: {', '.join(self.columns)}") from None
+
+    def has(self, name) -> bool:
+        return name in self.index
 
     t = property(lambda s: s["t_s"])
     q = property(lambda s: s["crank_angle_rad"])
@@ -59,14 +86,16 @@ class Trajectory:
 
     def write_csv(self, path):
         """Write the CSV completely or not at all (temp file + atomic rename)."""
-        header = ",".join(NAMES)
+        header = ",".join(self.columns)
         atomic_write(path, lambda f: np.savetxt(f, self.data[: self.n], delimiter=",", header=header,
                                                 comments="", fmt="%.10g"))
 
     @classmethod
     def read_csv(cls, path, backend="csv"):
+        with open(path) as f:
+            cols = f.readline().strip().split(",")
         arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-        tr = cls(len(arr), backend)
+        tr = cls(len(arr), backend, columns=cols)
         tr.data[:] = arr
         tr.n = len(arr)
         return tr

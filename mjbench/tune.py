@@ -24,7 +24,6 @@ else the scenario's ``simulation.t_end``.
 """
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -66,9 +65,9 @@ class TuneResult:
 
 
 def find_mode(scn, ctype):
-    modes = {k: v for k, v in scn.get("modes", {}).items() if isinstance(v, dict) and v.get("type") == ctype}
+    modes = {k: v for k, v in scn.modes.items() if v.type == ctype}
     if not modes:
-        raise ScenarioError(f"scenario {S.get(scn, 'scenario.name')!r} has no mode of controller type "
+        raise ScenarioError(f"scenario {scn.name!r} has no mode of controller type "
                             f"{ctype!r}; modes: {S.modes(scn)}")
     return ctype if ctype in modes else sorted(modes)[0]
 
@@ -82,42 +81,50 @@ class Problem:
         if objective not in OBJECTIVES:
             raise ParameterError(f"--objective {objective!r}: choose one of {list(OBJECTIVES)}")
         ctype, self.params, fixed = CONTROLLERS[controller]
-        self.scn = copy.deepcopy(scn)
-        self.scn_orig = copy.deepcopy(scn)  # the scenario's own controller (baseline)
-        self.mode = find_mode(self.scn, ctype)
-        table = self.scn["modes"][self.mode]
-        for k, v in fixed.items():
-            table[k] = v
+        self.scn = scn
+        self.mode = find_mode(scn, ctype)
+        self.base_params = scn.modes[self.mode]  # the scenario's own controller (baseline)
+        self.tuned_params = self.base_params.model_copy(update=fixed)
         self.controller, self.objective = controller, objective
-        self.x0 = np.array([float(table[p]) for p in self.params])
-        self.window = S.get(self.scn, "metrics.chi_window")
-        self.average = S.get(self.scn, "metrics.chi_average", "mean")
+        self.x0 = np.array([float(getattr(self.tuned_params, p)) for p in self.params])
+        self.window = scn.metrics.chi_window
+        self.average = scn.metrics.chi_average
         if objective == "chi" and not self.window:
             raise ParameterError("--objective chi needs metrics.chi_window in the scenario (or use chi_cycle)")
         if t_end is None:
-            t_end = float(self.window[1]) if (self.window and objective == "chi") else \
-                float(S.get(self.scn, "simulation.t_end", 2.0))
+            t_end = float(self.window[1]) if (self.window and objective == "chi") else scn.simulation.t_end
         self.t_end = float(t_end)
-        self.record_dt = min(float(S.get(self.scn, "simulation.record_dt", 1e-3)), 5e-4)
+        self.record_dt = min(scn.simulation.record_dt, 5e-4)
         from .runner import backend_options
         self.options = backend_options(self.scn, "multibody")
         self.nthread, self.batch_size = nthread, batch_size
-        drive = S.make_drive(self.scn)
-        if "omega0" in table:
-            self.setpoint = float(table["omega0"]) / float(drive.z)  # crank side [rad/s]
-        elif "omega_d" in table:
-            self.setpoint = float(table["omega_d"])
+        drive = S.make_drive(scn)
+        table = self.base_params
+        if getattr(table, "omega0", None) is not None:
+            self.setpoint = float(table.omega0) / float(drive.z)  # crank side [rad/s]
+        elif getattr(table, "omega_d", None) is not None:
+            self.setpoint = float(table.omega_d)
         else:
             self.setpoint = None
         self.limits = dict(limits or {})
         self.nfev = 0
 
     # ------------------------------------------------------------------ evaluation
-    def machine(self, x):
-        scn = copy.deepcopy(self.scn)
-        for p, v in zip(self.params, x):
-            scn["modes"][self.mode][p] = float(v)
-        return S.make_machine(scn, self.mode)
+    def machine(self, x, params=None):
+        """The scenario's machine with the controller gains x (or the controller ``params``)."""
+        import controllers
+
+        from .machine import Machine
+
+        if params is None:
+            params = self.tuned_params.model_copy(update={p: float(v) for p, v in zip(self.params, x)})
+            for p, v in zip(self.params, x):
+                if not (math.isfinite(float(v)) and float(v) >= 0):
+                    raise ParameterError(f"tune: {p} = {v!r} is not a valid gain")
+        scn = self.scn
+        mech, drive = S.make_mechanism(scn), S.make_drive(scn)
+        ctrl = controllers.build(params, drive=drive, mechanism=mech, scenario=scn)
+        return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
     def metrics(self, tr):
         t, om = tr.t, tr.omega
@@ -188,7 +195,7 @@ class Problem:
         written, e.g. K_p·t when tuning a constant-K_p PID) → metrics + objective."""
         from .backends import multibody
 
-        machine = S.make_machine(copy.deepcopy(self.scn_orig), self.mode) if baseline else self.machine(x)
+        machine = self.machine(None, self.base_params) if baseline else self.machine(x)
         tr = multibody.simulate(machine, self.t_end, record_dt=self.record_dt, options=self.options)
         m = self.metrics(tr)
         m["objective"] = m.get(self.objective, float("nan"))

@@ -245,61 +245,73 @@ def residual_energy_ode(law, osc, **kw) -> float:
 
 
 # ====================================================================== multibody
-def simulate_multibody(platform, law, t_end=None, dt=1e-4, integrator="RK4", record_dt=None):
-    """Run the platform's MuJoCo model with the driven joint following ``law`` exactly.
+def simulate_multibody(platform, law, t_end=None, dt=1e-4, record_dt=None):
+    """Run the platform's MuJoCo model with the motor joint following ``law`` exactly (the
+    papers' ideal servo).
 
-    At every integrator stage a control callback sets the driven joint's generalised force u so
-    that its acceleration equals the law's: with f = qfrc_passive − qfrc_bias, u =
-    (ρ_d·φ̈(t) − (M⁻¹f)_d)/(M⁻¹)_dd (inverse dynamics of the driven joint; RK4 then integrates
-    the motor's position and speed to O(h⁴)).  Returns a dict of arrays: t, motor angle φ,
-    motor speed φ̇, platform angle / speed / acceleration, deflection ψ, ψ̇ [rad, rad/s, rad/s²]."""
+    Classical RK4 over MuJoCo's dynamics, written out here because the motor's generalised force
+    must be recomputed at every stage: at each stage (t, q, v) one ``mj_forward`` gives
+    f = qfrc_passive − qfrc_bias (tendon springs and dampers included) and the mass matrix, and
+    the motor force u that makes its acceleration equal the law's is
+    u = (φ̈(t) − (M⁻¹f)_m)/(M⁻¹)_mm (inverse dynamics of the driven joint); the stage
+    acceleration is then M⁻¹(f + u·e_m).  (No global ``mjcb_control`` callback: the model has
+    no constraints, so this is exactly MuJoCo's RK4 with a stage-wise control.)  Returns a dict
+    of arrays: t, motor angle φ, motor speed φ̇, platform angle / speed / acceleration,
+    deflection ψ, ψ̇ [rad, rad/s, rad/s²]."""
     import mujoco
 
     t_end = law.T if t_end is None else float(t_end)
-    spec = platform.build_spec({"timestep": dt, "integrator": integrator})
+    spec = platform.build_spec(options={"timestep": dt})
     m = spec.compile()
+    if m.neq:
+        raise ParameterError("simulate_multibody: the prescribed-motion RK4 needs a model without constraints")
     d = mujoco.MjData(m)
-    dj = m.joint(platform.driven_joint)
-    qa, va = int(dj.qposadr[0]), int(dj.dofadr[0])
-    rho_d = float(platform.driven_ratio)
+    va = int(m.joint(platform.input_joint).dofadr[0])
+    pa, pv = int(m.joint("platform").qposadr[0]), int(m.joint("platform").dofadr[0])
     rho = float(platform.ratio)
     nv = m.nv
     e = np.zeros((1, nv))
     e[0, va] = 1.0
-    x = np.zeros((1, nv))
     y = np.zeros((1, nv))
+    x = np.zeros((1, nv))
     f = np.zeros((1, nv))
+
+    def qacc(t, q, v):
+        d.qpos[:] = q
+        d.qvel[:] = v
+        d.time = t
+        d.qfrc_applied[:] = 0.0
+        mujoco.mj_forward(m, d)
+        np.subtract(d.qfrc_passive, d.qfrc_bias, out=f[0])
+        mujoco.mj_solveM(m, d, x, f)
+        mujoco.mj_solveM(m, d, y, e)
+        u = (float(law.acceleration(t)) - x[0, va]) / y[0, va]
+        return x[0] + u * y[0]
+
     nsteps = int(round(t_end / dt))
-    # the law's acceleration at every RK4 stage time (multiples of dt/2), precomputed: the
-    # callback only looks it up (no evaluation or allocation per stage)
-    acc_grid = rho_d * law.acceleration(0.5 * dt * np.arange(2 * nsteps + 3))
-    acc_grid = acc_grid.tolist()
-    two_over_dt = 2.0 / dt
-
-    def control(mm, dd):
-        dd.qfrc_applied[va] = 0.0
-        np.subtract(dd.qfrc_passive, dd.qfrc_bias, out=f[0])
-        mujoco.mj_solveM(mm, dd, x, f)
-        mujoco.mj_solveM(mm, dd, y, e)
-        dd.qfrc_applied[va] = (acc_grid[int(round(dd.time * two_over_dt))] - x[0, va]) / y[0, va]
-
     decim = 1 if record_dt is None else max(1, int(round(record_dt / dt)))
     nrec = nsteps // decim + 1
     rec = np.empty((nrec, 6))
-    old = mujoco.get_mjcb_control()
-    mujoco.set_mjcb_control(control)
-    try:
-        k = 0
-        for n in range(nsteps + 1):
-            if n % decim == 0:
-                mujoco.mj_forward(m, d)
-                th, thd, thdd = platform.platform_state(m, d.qpos, d.qvel, d.qacc)
-                rec[k] = (n * dt, d.qpos[qa] / rho_d, d.qvel[va] / rho_d, th, thd, thdd)
-                k += 1
-            if n < nsteps:
-                mujoco.mj_step(m, d)
-    finally:
-        mujoco.set_mjcb_control(old)
+    q = np.array(platform.initial_qpos(m, 0.0))
+    v = np.zeros(nv)
+    h2, h6 = 0.5 * dt, dt / 6.0
+    k = 0
+    for n in range(nsteps + 1):
+        t = n * dt
+        a1 = qacc(t, q, v)
+        if n % decim == 0:
+            rec[k] = (t, q[va], v[va], q[pa], v[pv], a1[pv])
+            k += 1
+        if n == nsteps:
+            break
+        v2 = v + h2 * a1
+        a2 = qacc(t + h2, q + h2 * v, v2)
+        v3 = v + h2 * a2
+        a3 = qacc(t + h2, q + h2 * v2, v3)
+        v4 = v + dt * a3
+        a4 = qacc(t + dt, q + dt * v3, v4)
+        q = q + h6 * (v + 2 * v2 + 2 * v3 + v4)
+        v = v + h6 * (a1 + 2 * a2 + 2 * a3 + a4)
     rec = rec[:k]
     out = {"t": rec[:, 0], "motor_angle": rec[:, 1], "motor_speed": rec[:, 2], "platform_angle": rec[:, 3],
            "platform_speed": rec[:, 4], "platform_accel": rec[:, 5]}
@@ -308,8 +320,8 @@ def simulate_multibody(platform, law, t_end=None, dt=1e-4, integrator="RK4", rec
     return out
 
 
-def residual_energy_multibody(platform, law, dt=1e-4, integrator="RK4") -> float:
-    r = simulate_multibody(platform, law, t_end=law.T, dt=dt, integrator=integrator, record_dt=law.T)
+def residual_energy_multibody(platform, law, dt=1e-4) -> float:
+    r = simulate_multibody(platform, law, t_end=law.T, dt=dt, record_dt=law.T)
     osc = platform.oscillator()
     return float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
 
@@ -466,44 +478,42 @@ def peak_torque_ode(law, osc, J_motor=0.0, n=4001):
 
 # ====================================================================== scenario study
 def _limit(v):
-    return None if v in (None, 0, 0.0, "none") else float(v)
+    return None if v in (None, 0, 0.0) else float(v)
 
 
-def study(scn: dict, progress=None, multibody=None) -> dict:
-    """Everything ``mjbench optimize-law`` reports for a scenario (tables ``[mechanism]`` with
-    type = "platform", ``[law]``, ``[optimize]``, ``[check]``, ``[paper]``).
+def study(scn, progress=None, multibody=None) -> dict:
+    """Everything ``mjbench optimize-law`` reports for a scenario (a platform ``[mechanism]``,
+    ``[law]``, ``[optimize]``, ``[check]``, ``[paper]``; with a ``servo`` mode also the laws run by
+    the real motor and servo through the co-step kernel).
 
     Returns a dict with plain numbers under "report" (JSON-ready) and the objects (platform,
     oscillator, laws) under "objects" for the plots."""
-    from .motionlaws import make_law
+    from .schema import CheckParams, OptimizeParams
     from .scenario import make_mechanism
 
     plat = make_mechanism(scn)
     if not hasattr(plat, "oscillator"):
-        raise ParameterError("optimize-law needs [mechanism] type = \"platform\"")
+        raise ParameterError("optimize-law needs a platform mechanism ([mechanism] type = \"platform\")")
+    if scn.law is None:
+        raise ParameterError(f"optimize-law: scenario {scn.name!r} has no [law] table")
     osc = plat.oscillator()
-    law0 = make_law(scn.get("law", {}))
-    opt = {k: v for k, v in scn.get("optimize", {}).items() if not k.startswith("_")}
-    chk = scn.get("check", {})
-    paper = scn.get("paper", {})
+    law0 = scn.law.build()
+    opt = scn.optimize or OptimizeParams()
+    chk = scn.check or CheckParams()
+    paper = dict(scn.paper)
     J_motor = float(getattr(plat, "J_motor", 0.0))
-    cons = Constraints(_limit(opt.get("max_speed")), _limit(opt.get("max_accel")),
-                       _limit(opt.get("max_torque")), J_motor=J_motor)
-    steps = ["optimise", "ODE", "shapers", "sensitivity"]
-    do_mb = bool(chk.get("multibody", True)) if multibody is None else bool(multibody)
-    if do_mb:
-        steps.append("multibody")
+    cons = Constraints(_limit(opt.max_speed), _limit(opt.max_accel), _limit(opt.max_torque), J_motor=J_motor)
+    do_mb = chk.multibody if multibody is None else bool(multibody)
     tick = (lambda: progress.update(1)) if progress is not None else (lambda: None)
 
     res = optimize(law0, osc, cons if cons.active() else None,
-                   method=None if cons.active() else opt.get("method", "BFGS"),
-                   gtol=float(opt.get("gtol", 1e-13)), maxiter=int(opt.get("maxiter", 500)))
+                   method=None if cons.active() else opt.method, gtol=opt.gtol, maxiter=opt.maxiter)
     tick()
     law1 = res.law
     laws = {"initial": law0, "optimised": law1}
     if "gammas_optimum" in paper and isinstance(law0, PseudoPolynomialLaw):
         laws["paper_optimum"] = PseudoPolynomialLaw(law0.Phi, law0.T, paper["gammas_optimum"])
-    rep = {"scenario": scn["scenario"].get("name"), "seed": scn["scenario"].get("seed"),
+    rep = {"scenario": scn.name, "seed": scn.scenario.seed,
            "platform": plat.describe(), "oscillator": osc.describe(),
            "omega_n_rad_s": osc.omega_n, "xi": osc.xi,
            "optimiser": {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
@@ -518,7 +528,7 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
         rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
     tick()
     shaped = {}
-    for kind in chk.get("shapers", ["ZV", "ZVD"]):
+    for kind in chk.shapers:
         for same in (False, True):
             try:
                 sl = shape(law0, osc, kind, same_total_time=same)
@@ -527,7 +537,7 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
             shaped[sl.name] = sl
             rep["laws"][sl.name] = {"law": sl.describe(), **summary(sl, osc, J_motor)}
     tick()
-    errs = chk.get("sensitivity", [-0.05, -0.025, 0.0, 0.025, 0.05])
+    errs = chk.sensitivity
     sens_laws = {**laws, **shaped}
     rep["sensitivity"] = {"omega_n_errors": list(errs), "keep": "xi",
                           "table": {k: [{"err": e, "E_J": E, "amplitude_rad": a} for e, E, a in rows]
@@ -536,128 +546,77 @@ def study(scn: dict, progress=None, multibody=None) -> dict:
     sens_fine = sensitivity(sens_laws, osc, fine)
     tick()
     if do_mb:
-        dt = float(chk.get("multibody_dt", 1e-3))
+        dt = chk.multibody_dt
         for name in ("initial", "optimised", "paper_optimum"):
             if name in laws:
                 rep["laws"][name]["E_T_multibody_J"] = residual_energy_multibody(plat, laws[name], dt=dt)
         rep["multibody"] = {"integrator": "RK4", "dt_s": dt, "drive": "kinematic (inverse dynamics per stage)"}
         tick()
     servo_runs = {}
-    srv = {k: v for k, v in scn.get("servo", {}).items() if not k.startswith("_")}
-    if srv.pop("enabled", False):
-        rep["servo"] = servo_study(plat, laws, srv, t_after=float(chk.get("t_after", 0.5)), runs=servo_runs)
+    servo_mode = next((k for k, v in scn.modes.items() if v.type == "servo"), None)
+    if servo_mode is not None:
+        rep["servo"] = servo_study(scn, servo_mode, {k: laws[k] for k in ("initial", "optimised")},
+                                   t_after=chk.t_after, runs=servo_runs)
         tick()
     E0, E1 = rep["laws"]["initial"]["E_T_J"], rep["laws"]["optimised"]["E_T_J"]
     rep["reduction_orders"] = float(np.log10(E0 / max(E1, 1e-300)))
     return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,
-                                       "sens_fine": (fine, sens_fine), "servo_runs": servo_runs, "t_after": float(chk.get("t_after", 0.5))}}
+                                       "sens_fine": (fine, sens_fine), "servo_runs": servo_runs,
+                                       "t_after": chk.t_after}}
 
 
-# ====================================================================== real servo (option)
-def simulate_servo(platform, law, drive, controller, t_end=None, dt=1e-4):
-    """The platform driven by a DC motor (``mjbench.drive.DCMotorDrive`` with z = 1: its shaft
-    is the motor shaft φ of the law) under a sampled controller (voltage held over each control
-    period dt), instead of the ideal servo.  Reduced model, classical RK4 at step dt:
+# ====================================================================== real motor and servo
+def servo_machine(scn, mode, law):
+    """The scenario's machine in ``mode`` (a servo) tracking ``law`` instead of the [law] table."""
+    import controllers
 
-        J_s·φ̈ = k_m·I − T_0·sgn φ̇ − λ_f·φ̇ + ρ·(k·ψ + c·ψ̇)      (motor shaft, J_s = J_eq + J_motor)
-        J·ϑ̈  = −(k·ψ + c·ψ̇),  ψ = ϑ − ρ·φ                       (platform, seed 001 Eq 3)
-        L·İ  = V − R·I − k_m·φ̇                                     (seed 000 Eq 7)
+    from .machine import Machine
+    from .scenario import make_drive, make_mechanism
 
-    Returns a dict of arrays (t, motor angle/speed, ψ, ψ̇, current, voltage) sampled every dt."""
-    from controllers.base import Measurement
-
-    if float(np.max(drive.z)) != 1.0:
-        raise ParameterError("simulate_servo: drive.z must be 1 (the platform model holds the reducer)")
-    osc = platform.oscillator()
-    t_end = law.T + 0.5 if t_end is None else float(t_end)
-    J_s = float(drive.J_eq) + float(getattr(platform, "J_motor", 0.0))
-    rho, k, c, J = osc.ratio, osc.k, osc.c, osc.J
-    km, lam, T0 = float(drive.k_m), float(drive.lam), float(drive.T_0)
-    R, L = float(drive.R), float(drive.L)
-    if L <= 0:
-        raise ParameterError("simulate_servo needs drive.L > 0")
-
-    def acc(om, psi, psid, I):  # (φ̈, ψ̈), scalar floats
-        tr = k * psi + c * psid
-        sg = (om > 0.0) - (om < 0.0)
-        phidd = (km * I - T0 * sg - lam * om + rho * tr) / J_s
-        return phidd, -tr / J - rho * phidd
-
-    n = int(round(t_end / dt))
-    rec = np.empty((n + 1, 7))
-    phi = om = psi = psid = I = 0.0
-    y = Measurement(z=1.0)
-    controller.reset()
-    h2, h6 = 0.5 * dt, dt / 6.0
-    for i in range(n + 1):
-        t = i * dt
-        a0, _ = acc(om, psi, psid, I)
-        V = drive.limit(controller(t, y.set(t, phi, om, a0, I)))
-        r = rec[i]
-        r[0] = t; r[1] = phi; r[2] = om; r[3] = psi; r[4] = psid; r[5] = I; r[6] = V  # noqa: E702
-        if i == n:
-            break
-        # classical RK4 on (φ, φ̇, ψ, ψ̇, I) with V held
-        a1, b1 = acc(om, psi, psid, I); d1 = (V - R * I - km * om) / L
-        o2, p2, I2 = om + h2 * a1, psid + h2 * b1, I + h2 * d1
-        a2, b2 = acc(o2, psi + h2 * psid, p2, I2); d2 = (V - R * I2 - km * o2) / L
-        o3, p3, I3 = om + h2 * a2, psid + h2 * b2, I + h2 * d2
-        a3, b3 = acc(o3, psi + h2 * p2, p3, I3); d3 = (V - R * I3 - km * o3) / L
-        o4, p4, I4 = om + dt * a3, psid + dt * b3, I + dt * d3
-        a4, b4 = acc(o4, psi + dt * p3, p4, I4); d4 = (V - R * I4 - km * o4) / L
-        phi += h6 * (om + 2 * o2 + 2 * o3 + o4)
-        psi += h6 * (psid + 2 * p2 + 2 * p3 + p4)
-        om += h6 * (a1 + 2 * a2 + 2 * a3 + a4)
-        psid += h6 * (b1 + 2 * b2 + 2 * b3 + b4)
-        I += h6 * (d1 + 2 * d2 + 2 * d3 + d4)
-        if not (abs(om) < 1e6 and math.isfinite(psi) and abs(I) < 1e6):
-            from .errors import SimulationDiverged
-            raise SimulationDiverged(f"servo simulation diverged at t = {t:.6g} s: motor speed {om:.6g} rad/s, "
-                                     f"deflection {psi:.6g} rad, current {I:.6g} A", t=t)
-    names = ("t", "motor_angle", "motor_speed", "psi", "psid", "current", "voltage")
-    return {nm: rec[:, j] for j, nm in enumerate(names)}
+    mech, drive = make_mechanism(scn), make_drive(scn)
+    p = scn.modes[mode]
+    ctrl = controllers.get(p.type).from_params(p, drive=drive, mechanism=mech, scenario=scn,
+                                               reference=law.as_reference(t0=p.reference.t0))
+    return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
 
-def servo_summary(platform, law, drive, controller, t_after=0.5, dt=1e-4, runs=None):
-    """E(T) (Eq 25 with the actual motor speed), the platform's vibration amplitude after T
-    (max |ψ| on [T, T + t_after]), the final energy at T + t_after, and the motor's peak tracking error."""
-    osc = platform.oscillator()
-    r = simulate_servo(platform, law, drive, controller, t_end=law.T + t_after, dt=dt)
-    iT = int(round(law.T / dt))
-    E_T = float(energy_from_state(r["psi"][iT], r["psid"][iT], osc, r["motor_speed"][iT]))
-    E_end = float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
-    err = law.position(r["t"]) - r["motor_angle"]
-    if runs is not None:
-        runs.append(r)
-    return {"E_T_J": E_T, "E_end_J": E_end, "residual_amplitude_rad": float(np.max(np.abs(r["psi"][iT:]))),
-            "max_tracking_error_rad": float(np.max(np.abs(err))),
-            "peak_current_A": float(np.max(np.abs(r["current"]))),
-            "peak_voltage_V": float(np.max(np.abs(r["voltage"])))}
+def residual_from_trajectory(tr, osc, T, t_after):
+    """Residual-vibration figures of a machine run (columns deflection_rad, deflection_rate_rad_s):
+    E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (seed 001 Eq 25, with the actual motor
+    speed), the free-vibration envelope at T (``residual_amplitude``), the actual peak |ψ| over
+    [T, T + t_after], the energy at T + t_after and the motor's peak tracking error."""
+    t = tr.t
+    iT = int(np.argmin(np.abs(t - T)))
+    psi, psid, om = tr["deflection_rad"], tr["deflection_rate_rad_s"], tr.qd
+    E_T = float(energy_from_state(psi[iT], psid[iT], osc, om[iT]))
+    E_end = float(energy_from_state(psi[-1], psid[-1], osc, om[-1]))
+    after = (t >= T - 1e-12) & (t <= T + t_after + 1e-12)
+    return {"E_T_J": E_T, "E_end_J": E_end,
+            "residual_envelope_at_T_rad": residual_amplitude(float(psi[iT]), float(psid[iT]), osc),
+            "residual_peak_after_T_rad": float(np.max(np.abs(psi[after]))),
+            "peak_current_A": float(np.max(np.abs(tr.current))),
+            "peak_voltage_V": float(np.max(np.abs(tr.voltage)))}
 
 
-def servo_study(platform, laws: dict, params: dict, t_after=0.5, runs=None) -> dict:
-    """Scenario ``[servo]`` table → the laws run by a DC motor + cascade servo (controllers.servo).
-    Keys: dt [s]; drive = {DCMotorDrive fields, z = 1}; controller = {kpp, kvp, kvi, kffv, kffa, v_limit}."""
-    import controllers.servo as servo_mod
+def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced") -> dict:
+    """Each law run by the real motor + servo of ``mode`` (the co-step kernel, ``backend``) next to
+    its ideal-servo figures: {"laws": {name: {...}}, "drive": ..., "controller": ...}."""
+    from .backends import simulate
 
-    from .drive import DCMotorDrive
-
-    p = dict(params)
-    dt = float(p.pop("dt", 1e-4))
-    dparams = {k: v for k, v in dict(p.pop("drive", {})).items() if not k.startswith("_")}
-    cparams = {k: v for k, v in dict(p.pop("controller", {})).items() if not k.startswith("_")}
-    if p:
-        raise ParameterError(f"unknown [servo] parameters: {sorted(p)}")
-    try:
-        drive = DCMotorDrive(**dparams)
-    except TypeError as e:
-        raise ParameterError(f"[servo.drive]: {e}") from None
-    out = {"drive": drive.as_dict(), "controller": dict(cparams), "dt_s": dt, "laws": {}}
-    for name in ("initial", "optimised"):
-        law = laws[name]
-        ctrl = servo_mod.from_params(cparams, drive=drive, mechanism=platform, reference=law.as_reference())
-        rr = []
-        out["laws"][name] = servo_summary(platform, law, drive, ctrl, t_after=t_after, dt=dt, runs=rr)
+    out = {"mode": mode, "backend": backend, "drive": scn.drive.to_dict(),
+           "controller": scn.modes[mode].to_dict(), "dt_s": scn.simulation.dt, "laws": {}}
+    for name, law in laws.items():
+        mc = servo_machine(scn, mode, law)
+        osc = mc.mechanism.oscillator()
+        opts = {"timestep": scn.simulation.dt} if backend == "reduced" else scn.multibody_options()
+        tr = simulate(mc, backend, law.T + t_after, record_dt=scn.simulation.dt, options=opts)
+        r = residual_from_trajectory(tr, osc, law.T, t_after)
+        err = law.position(tr.t) - tr.q
+        r["max_tracking_error_rad"] = float(np.max(np.abs(err)))
+        psi, psid = residual_state(law, osc)
+        r["ideal_E_T_J"] = residual_energy(law, osc)
+        r["ideal_residual_envelope_rad"] = residual_amplitude(psi, psid, osc)
+        out["laws"][name] = r
         if runs is not None:
-            runs[name] = rr[0]
+            runs[name] = tr
     return out

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from mjbench import calibrate as C
+from mjbench.papers import incerti2012_calibration as C
 from mjbench import scenario as S
 from mjbench.cli import main
 from mjbench.errors import ParameterError, ScenarioError
@@ -46,12 +46,13 @@ def test_calibrated_multibody_pid_window(cal):
 
 def test_calibrated_scenario_changes_only_missing_values(cal):
     base = S.load("incerti2012")
-    assert base["mechanism"]["a"] == 0.10 and base["drive"]["R"] == 2.0  # default stays uncalibrated
+    assert base.mechanism.a == 0.10 and base.drive.R == 2.0  # default stays uncalibrated
+    rb, rc = base.resolved(), cal.resolved()
     for table in ("mechanism", "drive", "modes", "initial", "simulation", "metrics"):
-        for key in set(base[table]) | set(cal[table]):
+        for key in set(rb[table]) | set(rc[table]):
             if f"{table}.{key}" in C.MISSING.values():
                 continue
-            assert base[table].get(key) == cal[table].get(key), f"{table}.{key} differs"
+            assert rb[table].get(key) == rc[table].get(key), f"{table}.{key} differs"
     # every legible Table I value is the seed's
     for name, key in C.LEGIBLE.items():
         assert S.get(cal, key) == S.get(base, key), name
@@ -65,7 +66,7 @@ def test_calibration_refuses_legible_parameters():
         C.check_params(["k_m"], scn)
     with pytest.raises(ParameterError, match="unknown"):
         C.check_params(["bogus"], scn)
-    with pytest.raises(ScenarioError, match="seed-000"):
+    with pytest.raises(ScenarioError, match="Incerti 2012 scenarios only"):
         C.check_params(["a"], S.load("yigit2023"))
     assert main(["calibrate", "incerti2012", "--params", "L", "--no-progress"]) == 2
 
@@ -84,6 +85,6 @@ def test_tiny_calibration_end_to_end(tmp_path):
     assert 0.3 <= r["values"]["R"] <= 5.0
     assert len(r["residuals"]) == 3 and np.all(np.isfinite(r["residuals"]))
     scn = S.load(str(out / "calibrated.toml"))
-    assert scn["scenario"]["name"] == "incerti2012-calibrated"
-    assert scn["drive"]["R"] == pytest.approx(r["values"]["R"], rel=1e-5)
-    assert scn["mechanism"]["a"] == S.load("incerti2012")["mechanism"]["a"]
+    assert scn.name == "incerti2012-calibrated"
+    assert scn.drive.R == pytest.approx(r["values"]["R"], rel=1e-5)
+    assert scn.mechanism.a == S.load("incerti2012").mechanism.a

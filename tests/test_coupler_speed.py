@@ -7,11 +7,18 @@ from scipy.integrate import solve_ivp
 
 from controllers.base import Measurement
 from controllers.references.coupler_speed import CouplerSpeed
-from mjbench import gains, metrics_coupler
+from mjbench.papers import hulako2025_demand as gains
+from mjbench.papers import hulako2025_metrics as metrics_coupler
 from mjbench import scenario as S
 from mjbench.backends import multibody, reduced
 from mjbench.errors import ParameterError
-from mjbench.mechanisms.fourbar import from_params, to_seed002
+from mjbench import mechanisms
+from mjbench.errors import ScenarioError
+from mjbench.mechanisms.fourbar import to_seed002
+
+
+def from_params(d):
+    return mechanisms.from_dict({"type": "fourbar", **d})
 
 M1, M2 = "hulako2025-model1", "hulako2025-model2"
 Q = np.linspace(0.0, 2 * np.pi, 181)
@@ -70,15 +77,16 @@ def test_seed002_and_seed000_notations_give_the_same_mechanism(fb1):
     np.testing.assert_allclose(rot.coupler_speed_ratio(Q + 0.3), fb1.coupler_speed_ratio(Q), rtol=1e-12)
 
 
-def test_seed002_bad_input_is_named():
-    with pytest.raises(ParameterError, match="r3"):
+def test_seed002_bad_input_is_named(fb1):
+    with pytest.raises(ScenarioError, match="mechanism.r3: required value is missing"):
         from_params({"notation": "seed002", "r1": 0.1, "r2": 0.04, "r4": 0.05})
-    with pytest.raises(ParameterError, match="branch"):
-        from_params({"r1": 0.10891, "r2": 0.04226, "r3": 0.09644, "r4": 0.05878, "branch": "up"})
+    base = to_seed002(fb1)
+    with pytest.raises(ScenarioError, match="mechanism.branch"):
+        from_params({**base, "branch": "up"})
     with pytest.raises(ParameterError, match="damping_joints"):
-        from_params({"r1": 0.10891, "r2": 0.04226, "r3": 0.09644, "r4": 0.05878, "damping_joints": ["A"]})
-    with pytest.raises(ParameterError, match="unknown"):
-        from_params({"r1": 0.10891, "r2": 0.04226, "r3": 0.09644, "r4": 0.05878, "c5": 1.0})
+        from_params({**base, "damping_joints": ["A"]})
+    with pytest.raises(ScenarioError, match="mechanism.c5: unknown key"):
+        from_params({**base, "c5": 1.0})
 
 
 # ----------------------------------------------------------------------------- Eq 17

@@ -129,7 +129,7 @@ def test_diverging_simulation_raises_with_time_and_state(scn):
     drv.v_max = float("inf")
     bad = PID(kp=5e4, ki=0.0, kd=0.0, omega0=30.0)  # far beyond the sampled loop's stability limit
     for sim in (multibody.simulate, reduced.simulate):
-        with pytest.raises(SimulationDiverged, match=r"diverged at t = [0-9.e-]+ s: crank angle = .* current = "):
+        with pytest.raises(SimulationDiverged, match=r"diverged at t = [0-9.e-]+ s: input angle = .* current = "):
             sim(Machine(mech, drv, bad), 1.0)
 
 
@@ -147,11 +147,11 @@ def test_committed_mjcf_loads_and_matches_the_builder(scn):
 def test_unbounded_kp_ramp_divergence_is_detected_and_explained():
     """Seed-000 errata: with K_p·t unbounded and no limiter, RK4 at the paper's 1 ms step
     goes unstable (measured: t ≈ 3.9 s); the error says so and suggests the remedies."""
-    scn = S.load("incerti2012", ["drive.v_max=inf", "modes.pid.v_limit=0"])
+    scn = S.load("incerti2012", ["drive.v_max=inf", "modes.pid.v_limit=none"])
     with pytest.raises(SimulationDiverged, match=r"K_p·t = .*t_ramp_max"):
         reduced.simulate(S.make_machine(scn, "pid"), 6.0, dt=1e-3)
     # bounding the ramp keeps the same run stable
-    scn = S.load("incerti2012", ["drive.v_max=inf", "modes.pid.v_limit=0", "modes.pid.t_ramp_max=1.0"])
+    scn = S.load("incerti2012", ["drive.v_max=inf", "modes.pid.v_limit=none", "modes.pid.t_ramp_max=1.0"])
     tr = reduced.simulate(S.make_machine(scn, "pid"), 6.0, dt=1e-3)
     assert np.all(np.isfinite(tr.qd))
 

@@ -33,9 +33,9 @@ def test_relative_difference_is_peak_normalised():
 
 def test_overrides_aliases_and_errors():
     scn = S.load("incerti2012", ["drive.R=2.5", "modes.pid.kp_ramp=false", "mechanism.a=0.09"])
-    assert scn["drive"]["R"] == 2.5 and scn["modes"]["pid"]["kp_ramp"] is False
+    assert scn.drive.R == 2.5 and scn.modes["pid"].kp_ramp is False
     assert S.make_mechanism(scn).a == 0.09
-    with pytest.raises(ScenarioError, match="unknown key 'Rr'"):
+    with pytest.raises(ScenarioError, match="drive.Rr: unknown key"):
         S.load("incerti2012", ["drive.Rr=2"])
     with pytest.raises(ScenarioError, match="expected key=value"):
         S.load("incerti2012", ["drive.R"])
@@ -48,4 +48,4 @@ def test_overrides_aliases_and_errors():
 def test_every_builtin_scenario_loads():
     for name in S.builtin_names():
         scn = S.load(name)
-        assert scn["scenario"]["name"]
+        assert scn.name == name

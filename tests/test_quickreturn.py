@@ -6,11 +6,17 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjbench import design, scenario
-from mjbench import metrics_quickreturn as mq
+from mjbench import scenario
+from mjbench.papers import yigit2023_design as design
+from mjbench.papers import yigit2023_metrics as mq
 from mjbench.backends import simulate
-from mjbench.errors import GeometryError, ParameterError
-from mjbench.mechanisms.quickreturn import QuickReturn, from_params
+from mjbench.errors import GeometryError, ParameterError, ScenarioError
+from mjbench import mechanisms
+from mjbench.mechanisms.quickreturn import QuickReturn
+
+
+def from_params(d):
+    return mechanisms.from_dict({"type": "quickreturn", **d})
 
 Q = np.linspace(0.0, 2 * np.pi, 181)
 
@@ -150,10 +156,12 @@ def test_bad_geometry_raises_with_parameter_names():
         QuickReturn(b=0.5)
     with pytest.raises(ParameterError, match=r"quickreturn\.r3"):
         QuickReturn(r3=-1.0)
-    with pytest.raises(ParameterError, match=r"unknown quick-return parameters"):
+    with pytest.raises(ScenarioError, match=r"mechanism\.rr: unknown key"):
         from_params({"r2": 0.05, "rr": 1})
     with pytest.raises(ParameterError, match=r"cut_profile"):
         QuickReturn(cut_profile="ramp")
+    with pytest.raises(ScenarioError, match=r"mechanism\.cut_profile"):
+        from_params({"r2": 0.05, "cut_profile": "ramp"})
 
 
 # ------------------------------------------------------------------ multibody
@@ -237,7 +245,7 @@ def test_open_loop_48V_vs_paper(open_runs):
     dr = scenario.make_drive(scn)
     w_noload = 48.0 / (dr.z * dr.k_m + dr.R * dr.z * dr.lam / dr.k_m)
     assert w_noload == pytest.approx(5.916, abs=1e-3)
-    assert w_noload < scn["paper"]["open_speed_min"]
+    assert w_noload < scn.paper["open_speed_min"]
     m = QuickReturn()
     T_cut = 50.0 * m.stroke / (2 * math.pi)  # mean cutting torque [N·m]
     w_cut = (48.0 - dr.R * T_cut / (dr.z * dr.k_m)) / (dr.z * dr.k_m + dr.R * dr.z * dr.lam / dr.k_m)
@@ -285,27 +293,28 @@ def test_smc_multibody_agrees_and_arrays():
     assert mq.compare(*trs)["max_dqd"] < 1e-4
     # (nsim,) arrays: the controller evaluates element-wise
     mech, drive = scenario.make_mechanism(scn), scenario.make_drive(scn)
-    ctrl = controllers.make({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)
+    ctrl = controllers.from_dict({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)
     y = Measurement(z=drive.z).set(0.0, np.array([0.1, 2.0]), np.array([4.9, 5.1]), np.array([0.0, 0.0]),
                                    np.array([1.0, 1.0]))
     u = ctrl(0.0, y)
-    u0 = [controllers.make({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)(
+    u0 = [controllers.from_dict({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)(
         0.0, Measurement(z=drive.z).set(0.0, q, w, 0.0, 1.0)) for q, w in ((0.1, 4.9), (2.0, 5.1))]
     assert np.allclose(u, u0)
 
 
 def test_smc_holds_output_between_samples():
-    import controllers
-    from controllers.base import Measurement
-
+    """Ts = 1 ms is the controller's period: the kernel calls it every 10 co-simulation steps of
+    0.1 ms and holds the voltage in between (every backend)."""
     scn = scenario.load("yigit2023")
-    ctrl = controllers.make({"type": "smc", "omega_d": 5.0, "Ts": 1e-3}, scenario.make_drive(scn),
-                            scenario.make_mechanism(scn))
-    y = Measurement(z=10.0)
-    u1 = ctrl(0.0, y.set(0.0, 0.0, 4.0, 0.0, 0.0))      # below set-point → +48 V
-    u2 = ctrl(5e-4, y.set(5e-4, 0.0, 6.0, 0.0, 0.0))    # held
-    u3 = ctrl(1e-3, y.set(1e-3, 0.0, 6.0, 0.0, 0.0))    # new sample → −48 V
-    assert u1 == 48.0 and u2 == 48.0 and u3 == -48.0
+    mc = scenario.make_machine(scn, "smc")
+    assert mc.controller.period == pytest.approx(1e-3)
+    tr = simulate(mc, "reduced", 1.0, dt=1e-4, record_dt=1e-4)
+    V = tr.voltage
+    changes = np.flatnonzero(np.diff(V) != 0) + 1
+    assert len(changes) > 20 and np.all(changes % 10 == 0)
+    with pytest.raises(ParameterError, match="whole multiple"):
+        simulate(scenario.make_machine(scenario.load("yigit2023", ["Ts=1.5e-4"]), "smc"), "reduced", 0.01,
+                 dt=1e-4)
 
 
 # ------------------------------------------------------------------ design, scenario, plots
@@ -330,7 +339,7 @@ def test_design_cli(tmp_path, capsys):
 
 
 def test_metrics_and_plots(open_runs, tmp_path):
-    from mjbench import plots_quickreturn as pq
+    from mjbench.papers import yigit2023_plots as pq
 
     s = mq.summary(open_runs["multibody"], omega_d=5.0, t_start=2.0)
     for k in ("speed_min", "speed_max", "speed_mean", "fluctuation", "error_mean", "switches", "current_peak"):

@@ -84,11 +84,9 @@ def test_platform_video(tmp_path):
     """Seeds 001/003 motion-law cases: the platform under a law, frames change (needle, disc)."""
     import imageio_ffmpeg  # noqa: F401
 
-    from mjbench.motionlaws import make_law
-
     scn = scenario.load("incerti-bezier")
     plat = scenario.make_mechanism(scn)
-    law = make_law(scn["law"])
+    law = scn.law.build()
     out = tmp_path / "plat.mp4"
     info = render.render_platform_laws(plat, {"initial": law}, out, t_after=0.2, fps=10, width=160, height=90,
                                        progress=False)

@@ -12,6 +12,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import numpy as np
 import pytest
 
+from mjbench import papers
 from mjbench import reproduce as R
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
@@ -22,17 +23,18 @@ FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    case = R.Case(name="incerti2012-short", scenario="incerti2012", title="short Fig. 4 run",
-                  modes=["open", "pid"], t_end=0.6, video=True, video_mode="pid", video_t_end=0.5, seed="000")
+    case = papers.Case(name="incerti2012-short", scenario="incerti2012", title="short Fig. 4 run",
+                       modes=["open", "pid"], t_end=0.6, video=True, video_mode="pid", video_t_end=0.5,
+                       paper="incerti2012")
     res = R._clean(R.run_case(case, out, quick=True, progress=False, width=320, height=180))
     md, htm = R.write_report([res], out, total_s=res["runtime_s"])
     return out, res, md, htm
 
 
-def test_registry_covers_every_seed():
+def test_registry_covers_every_paper():
     cases = R.load_cases()
-    seeds = {c.seed for c in cases}
-    assert {"000", "001", "002", "003", "004"} <= seeds
+    assert {c.paper for c in cases} == set(papers.MODULES)
+    assert {c.scenario for c in cases} == set(__import__("mjbench.scenario").scenario.builtin_names())
     assert len({c.name for c in cases}) == len(cases)
     assert [c.name for c in R.select(cases, "incerti2012")] == ["incerti2012-fig4"]
 

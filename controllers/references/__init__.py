@@ -1,10 +1,22 @@
-"""Measurement-dependent references for speed controllers (``[modes.X.reference] type = ...``).
+"""References for speed/position controllers (``[modes.NAME.reference] type = ...``).
 
-Each module here provides ``from_params(params, drive=None, mechanism=None)`` returning an object
-with ``reset()`` and ``__call__(t, y) -> (phi_ref, omega_ref, omega_dot_ref)`` on the MOTOR shaft
-[rad, rad/s, rad/s²] (see :mod:`controllers.reference`).  ``controllers.pid.from_params`` imports
-``controllers.references.<type>`` for a ``reference`` sub-table.
+Each reference object has ``reset()`` and ``__call__(t, y) -> (phi_ref, omega_ref,
+omega_dot_ref)`` on the MOTOR shaft [rad, rad/s, rad/s²] (see :mod:`controllers.reference`).
 
-* :mod:`controllers.references.coupler_speed` — seed 002 Eq 17: crank-speed reference for a
-  prescribed coupler-point speed V_C (constant, piecewise-constant or tabulated V_C(s)).
+* ``coupler_speed`` — :mod:`controllers.references.coupler_speed`, seed 002 Eq 17: crank-speed
+  reference for a prescribed coupler-point speed V_C (constant, piecewise-constant or tabulated).
+* ``law`` — :mod:`controllers.references.law`: the scenario's ``[law]`` motion law (seeds 001/003).
 """
+from __future__ import annotations
+
+
+def build(params, drive=None, mechanism=None, scenario=None):
+    """Reference object from its validated Params (``params.type`` selects the module)."""
+    if params.type == "coupler_speed":
+        from .coupler_speed import CouplerSpeed
+        return CouplerSpeed.from_params(params, drive=drive, mechanism=mechanism)
+    if params.type == "law":
+        from .law import from_params
+        return from_params(params, drive=drive, mechanism=mechanism, scenario=scenario)
+    from mjbench.errors import ParameterError
+    raise ParameterError(f"reference.type = {params.type!r}: choose 'coupler_speed' or 'law'")

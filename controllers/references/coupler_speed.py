@@ -41,7 +41,12 @@ import math
 
 import numpy as np
 
+from typing import Literal
+
+from pydantic import Field
+
 from mjbench.errors import ParameterError
+from mjbench.schema import Bool, Q, Strict
 
 PROFILES = ("constant", "piecewise", "table")
 DERIVATIVES = ("difference", "analytic", "zero")
@@ -165,12 +170,24 @@ class CouplerSpeed:
         qd = self.vc_at(q, t) / S
         return np.minimum(qd, self.qd_max) if not isinstance(qd, float) else min(qd, self.qd_max)
 
+    @classmethod
+    def from_params(cls, p, drive=None, mechanism=None):
+        if mechanism is None or not hasattr(mechanism, "coupler_speed_ratio_derivative"):
+            raise ParameterError("reference type 'coupler_speed' needs a four-bar mechanism with a coupler point")
+        z = float(drive.z) if drive is not None else 1.0
+        return cls(mechanism, z=z, vc=p.vc, profile=p.profile, s=p.s or None, v=p.v or None,
+                   v_rel=p.v_rel or None, s_unit=p.s_unit, blend=p.blend, derivative=p.derivative,
+                   qd_max=p.qd_max, t_ramp=p.t_ramp, kick=p.kick)
+
     # ------------------------------------------------------------------ controller protocol
+    STATE = ("t_last", "phi", "qd_last", "qd_diff", "acc_last")
+
     def reset(self):
-        self._t = None
-        self._phi = None
-        self._qd = None
-        self._qd_d = None
+        self.t_last = None
+        self.phi = None
+        self.qd_last = None
+        self.qd_diff = None
+        self.acc_last = None
 
     def __call__(self, t, y):
         q = y.q
@@ -188,42 +205,39 @@ class CouplerSpeed:
         if self.qd_max != math.inf:
             qd = min(qd, self.qd_max) if isinstance(qd, float) else np.minimum(qd, self.qd_max)
         z = self.z
-        if self._t is None or t < self._t:  # first call of a run
-            self._t, self._phi, self._qd = t, z * q, qd
-            self._qd_d = 0.0 * qd if self.kick else qd
+        if self.t_last is None or t < self.t_last:  # first call of a run
+            self.t_last, self.phi, self.qd_last = t, z * q, qd
+            self.qd_diff = 0.0 * qd if self.kick else qd
             acc = 0.0 * qd
-        elif t == self._t:  # repeated call at the same instant: do not advance
-            acc = self._acc
+        elif t == self.t_last:  # repeated call at the same instant: do not advance
+            acc = self.acc_last
         else:
-            h = t - self._t
-            self._phi = self._phi + 0.5 * h * z * (qd + self._qd)
+            h = t - self.t_last
+            self.phi = self.phi + 0.5 * h * z * (qd + self.qd_last)
             if self.derivative == "difference":
-                acc = (qd - self._qd_d) / h
+                acc = (qd - self.qd_diff) / h
             elif self.derivative == "analytic":
                 # d/dt (V/S) along the measured motion: (dV/ds·S − V·dS/dq/S)·q̇/S
                 acc = (dV * ramp - V * dS / (S * S)) * y.qd
             else:
                 acc = 0.0 * qd
-            self._t, self._qd, self._qd_d = t, qd, qd
-        self._acc = acc
-        return self._phi, z * qd, z * acc
+            self.t_last, self.qd_last, self.qd_diff = t, qd, qd
+        self.acc_last = acc
+        return self.phi, z * qd, z * acc
 
 
-def from_params(params, drive=None, mechanism=None):
-    """Scenario ``[modes.X.reference]`` table (type = "coupler_speed") → CouplerSpeed.
-    Keys: vc [m/s], profile, s, v | v_rel, s_unit, blend [m], derivative, qd_max [rad/s], t_ramp [s]."""
-    if mechanism is None or not hasattr(mechanism, "coupler_speed_ratio_derivative"):
-        raise ParameterError("reference type 'coupler_speed' needs a four-bar mechanism with a coupler point")
-    p = dict(params)
-    z = float(drive.z) if drive is not None else float(p.pop("z", 1.0))
-    p.pop("z", None)
-    allowed = {"vc", "profile", "s", "v", "v_rel", "s_unit", "blend", "derivative", "qd_max", "t_ramp", "kick"}
-    extra = set(p) - allowed
-    if extra:
-        raise ParameterError(f"unknown coupler_speed reference parameters: {sorted(extra)}; known: {sorted(allowed)}")
-    for k in ("s", "v", "v_rel"):
-        if k in p and (p[k] is None or (isinstance(p[k], list) and len(p[k]) == 0)):
-            p.pop(k)
-    if "vc" in p:
-        p["vc"] = float(p["vc"])
-    return CouplerSpeed(mechanism, z=z, **p)
+class CouplerSpeedParams(Strict):
+    """``[modes.NAME.reference] type = "coupler_speed"`` (seed 002 Eq 17)."""
+
+    type: Literal["coupler_speed"] = "coupler_speed"
+    vc: Q("speed", ge=0.0) = Field(description="desired coupler-point speed V_C")
+    profile: Literal["constant", "piecewise", "table"] = "constant"
+    s: list[float] = Field(default_factory=list, description="profile breaks (s_unit)")
+    v: list[float] = Field(default_factory=list, description="profile speeds [m/s]")
+    v_rel: list[float] = Field(default_factory=list, description="profile speeds × vc")
+    s_unit: Literal["m", "fraction"] = "m"
+    blend: Q("length", ge=0.0, plausible=False) = Field(0.0, description="piecewise: cosine blend length")
+    derivative: Literal["difference", "analytic", "zero"] = "difference"
+    qd_max: Q("angular_velocity", gt=0.0, finite=False, plausible=False) = math.inf
+    t_ramp: Q("time", ge=0.0, plausible=False) = 0.0
+    kick: Bool = False

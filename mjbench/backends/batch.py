@@ -1,16 +1,10 @@
-"""Batched multibody backend: N simulations of one machine stepped together by ``mujoco.batch``.
+"""Batched multibody plant: N simulations of a machine stepped together by ``mujoco.batch``.
 
-The co-step is the one of :mod:`mjbench.backends.multibody`, vectorised over the N simulations
-(arrays of shape (nsim,) for every signal and every per-simulation parameter):
-
-1. measurement (t_n, α_n, α̇_n, α̈_n = (α̇_n − α̇_{n−1})/h, I_n);
-2. controller → V_n, drive limiter;
-3. ``qfrc_applied[:, crank] = z·(k_m·Ī − T_0·sgn φ̇)``, Ī the exact mean current over the step;
-4. one ``Batch.step()`` — one plain ``mj_step`` per simulation on MuJoCo's thread pool;
-5. I_{n+1} by the exact exponential update with the mean of φ̇_n and φ̇_{n+1}.
-
-Same operations in the same order on the same numbers as the single run, so the results equal N
-``multibody.simulate`` runs to round-off (bit-identical in practice; tests/test_batch.py).
+The co-step is the kernel's (:mod:`mjbench.kernel`), on arrays of shape (nsim,) for every signal
+and every per-simulation parameter; the plant's step is one ``Batch.step()`` — one plain
+``mj_step`` per simulation on MuJoCo's thread pool.  Same operations in the same order on the same
+numbers as the single run, so the results equal N ``multibody.simulate`` runs to round-off
+(bit-identical in practice; tests/test_batch.py).
 
 Per-simulation parameters: each simulation is a :class:`~mjbench.machine.Machine` (built from
 its own scenario).  The drives are stacked into one :class:`DCMotorDrive` with (nsim,) arrays
@@ -40,15 +34,11 @@ import mujoco
 import numpy as np
 from mujoco import batch as mjbatch
 
-from controllers.base import Measurement
-
+from .. import kernel
 from ..errors import ParameterError
-from ..mechanisms.base import INPUT_JOINT, Mechanism
-from ..trajectory import NAMES, Trajectory
-from .multibody import (DEFAULT_OPTIONS, MAX_CURRENT, MAX_SPEED, _check_times, _integ_name,
-                        build_model)
-
-NCOL = len(NAMES)
+from ..mechanisms.base import Mechanism
+from ..trajectory import Trajectory
+from .multibody import DEFAULT_OPTIONS, _extra_names, build_model, integrator_name
 
 
 # ================================================================= stacking per-simulation objects
@@ -74,9 +64,10 @@ def stack_objects(objs, path="controller"):
             kw[f.name] = _stack_value([getattr(o, f.name) for o in objs], f"{path}.{f.name}")
         return cls(**kw)
     new = copy.copy(first)
+    state = set(getattr(first, "STATE", ()))
     for k in vars(first):
         vals = [vars(o).get(k) for o in objs]
-        if k.startswith("_"):
+        if k.startswith("_") or k in state:
             continue  # internal state: reset() recreates it
         setattr(new, k, _stack_value(vals, f"{path}.{k}"))
     return new
@@ -144,12 +135,14 @@ def stack_drives(drives):
 
 # ================================================================= result
 class BatchResult:
-    """Samples of N simulations: ``data`` (nsim, nrec, ncol) in :data:`trajectory.NAMES` order,
-    ``nrows`` valid rows per simulation, ``diverged`` flags with ``t_diverged`` and ``messages``."""
+    """Samples of N simulations: ``data`` (nsim, nrec, ncol) in ``columns`` order, ``nrows``
+    valid rows per simulation, ``diverged`` flags with ``t_diverged`` and ``messages``."""
 
-    def __init__(self, data, nrows, diverged, t_diverged, messages, meta):
-        self.data, self.nrows, self.diverged = data, nrows, diverged
-        self.t_diverged, self.messages, self.meta = t_diverged, messages, meta
+    def __init__(self, record):
+        self.record = record
+        self.data, self.columns, self.nrows = record.data, record.columns, record.nrows
+        self.diverged, self.t_diverged, self.messages = record.diverged, record.t_diverged, record.messages
+        self.meta = record.meta
 
     @property
     def nsim(self):
@@ -157,21 +150,14 @@ class BatchResult:
 
     def trajectory(self, i) -> Trajectory:
         """Simulation i as a :class:`Trajectory` (a view, no copy)."""
-        tr = Trajectory.__new__(Trajectory)
-        tr.data = self.data[i, : self.nrows[i]]
-        tr.n = int(self.nrows[i])
-        tr.backend = "batch"
-        tr.meta = dict(self.meta, sim=int(i))
-        if self.diverged[i]:
-            tr.meta["diverged"] = self.messages[i]
-        return tr
+        return Trajectory.from_record(self.record, "batch", i)
 
     def trajectories(self):
         return [self.trajectory(i) for i in range(self.nsim)]
 
     def column(self, name):
         """(nsim, nrec) array of one column (NaN after a divergence)."""
-        return self.data[:, :, NAMES.index(name)]
+        return self.data[:, :, list(self.columns).index(name)]
 
 
 # ================================================================= models
@@ -201,6 +187,80 @@ def _connect_sites(m):
     return pairs
 
 
+# ================================================================= the plant
+class BatchMultibodyPlant:
+    """N machines on ``mujoco.batch``; see the kernel's plant protocol (arrays of shape (nsim,))."""
+
+    def __init__(self, machines, models, nthread=0, closure=True):
+        self.machines = list(machines)
+        self.nsim = n = len(self.machines)
+        distinct = list({id(m): m for m in models}.values())
+        m0 = self.model = distinct[0]
+        self.models = models
+        self.h = float(m0.opt.timestep)
+        self.b = b = mjbatch.Batch(m0, n, nthread)
+        if len(distinct) > 1:
+            b.set_models(models)
+        mech = self.machines[0].mechanism
+        self.mechs = [mc.mechanism for mc in self.machines]
+        jnt = m0.joint(mech.input_joint)
+        self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
+        self._load = _load_function(self.mechs, models)
+        self._pairs = _connect_sites(m0) if closure else []
+        self._internal = mech.internal_state if mech.internal else None
+        self.extra_columns = _extra_names(mech)
+        self._bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
+        self._ids = None
+        self._alive = np.ones(n, dtype=bool)
+        self._nan = np.full(n, np.nan)
+        self.meta = {"integrator": integrator_name(m0.opt.integrator), "nthread": b.nthread}
+
+    def start(self):
+        b = self.b
+        b.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
+        self._qpos, self._qvel, self._qfrc = b.bind("qpos"), b.bind("qvel"), b.bind("qfrc_applied")
+        self._site_xpos = b.bind("site_xpos") if self._pairs else None
+        self._warn = b.warning
+        for i, (mc, m) in enumerate(zip(self.machines, self.models)):
+            self._qpos[i] = mc.mechanism.initial_qpos(m, mc.q0, mc.x0)
+            self._qvel[i] = mc.mechanism.initial_qvel(m, mc.q0, mc.qd0, mc.x0, mc.xd0)
+        b.forward()
+        self._ids = None
+        self._alive[:] = True
+
+    def read(self):
+        return self._qpos[:, self._qa].copy(), self._qvel[:, self._va].copy()
+
+    def speed(self):
+        return self._qvel[:, self._va]
+
+    def advance(self, tau, t):
+        self._qfrc[:, self._va] = tau
+        if self._load is not None:
+            self._load(self._qpos, self._qvel, self._qfrc, t, self._alive)
+        self.b.step(self._ids)
+
+    def closure(self):
+        if not self._pairs:
+            return self._nan
+        sx = self._site_xpos
+        return np.max([np.max(np.abs(sx[:, a] - sx[:, c]), axis=1) for a, c in self._pairs], axis=0)
+
+    def unstable(self):
+        return self._warn[:, self._bad, 1] > 0
+
+    def extra(self, out):
+        x, xd = self._internal(self.model, self._qpos, self._qvel)
+        k = len(x)
+        for j in range(k):
+            out[j] = x[j]
+            out[k + j] = xd[j]
+
+    def retire(self, dead):
+        self._alive[:] = ~dead
+        self._ids = np.flatnonzero(self._alive).astype(np.int32)
+
+
 # ================================================================= simulation
 def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3,
              options: dict | None = None, nthread: int = 0, models=None, progress=None,
@@ -210,8 +270,8 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
     ``nthread``: MuJoCo batch threads (0: all CPUs).  ``models``: compiled models per simulation
     (default: :func:`build_models`).  Returns a :class:`BatchResult`; use ``.trajectory(i)``.
 
-    One simulation (``nsim == 1``) goes through the single-run loop of ``multibody.simulate``
-    (same numbers; scalar floats cost a fifth of 1-element arrays) unless ``single_fast_path`` is
+    One simulation (``nsim == 1``) goes through the single-run plant of ``multibody`` (same
+    numbers; scalar floats cost a fifth of 1-element arrays) unless ``single_fast_path`` is
     False; a divergence there leaves no rows (the single run raises before returning them)."""
     machines = list(machines)
     nsim = len(machines)
@@ -221,7 +281,7 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
     if dt is not None:
         o["timestep"] = dt
     h = float(o["timestep"])
-    _check_times(t_end, h, record_dt)
+    kernel.check_times(t_end, h, record_dt)
     if models is None:
         models = build_models(machines, o)
     distinct = list({id(m): m for m in models}.values())
@@ -233,121 +293,35 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
         if m.opt.timestep != m0.opt.timestep:
             raise ParameterError("batch: every simulation needs the same time step")
     if nsim == 1 and single_fast_path:
-        return _single(machines[0], t_end, h, record_dt, o, models[0], progress)
-    b = mjbatch.Batch(m0, nsim, nthread)
-    if len(distinct) > 1:
-        b.set_models(models)
-
-    mechs = [mc.mechanism for mc in machines]
+        return _single(machines[0], t_end, record_dt, o, models[0], progress)
     drive = stack_drives([mc.drive for mc in machines])
     ctrl = stack_objects([mc.controller for mc in machines])
     if ctrl is machines[0].controller and nsim > 1:
         ctrl = copy.copy(ctrl)  # same object in every machine: one vectorised copy
-    ctrl.reset()
-    drive.prepare(h)
-
-    # initial state: exactly as multibody.simulate (qpos, qvel, mj_forward)
-    b.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)
-    qpos_b, qvel_b, qfrc_b = b.bind("qpos"), b.bind("qvel"), b.bind("qfrc_applied")
-    for i, (mech, mc, m) in enumerate(zip(mechs, machines, models)):
-        qpos_b[i] = mech.initial_qpos(m, mc.q0)
-        if hasattr(mech, "initial_qvel"):
-            qvel_b[i] = mech.initial_qvel(m, mc.q0, mc.qd0)
-    b.forward()
-
-    jnt = m0.joint(INPUT_JOINT)
-    qa, va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
-    z = drive.z
-    y = Measurement(z=z)
-    nsteps = int(round(t_end / h))
-    decim = max(1, int(round(record_dt / h)))
-    nrec = nsteps // decim + 1
-    data = np.full((nsim, nrec, NCOL), np.nan)
-    nrows = np.zeros(nsim, dtype=int)
-    diverged = np.zeros(nsim, dtype=bool)
-    t_div = np.full(nsim, np.nan)
-    messages = [""] * nsim
-    torque = drive.crank_torque
-    cur_mean, cur_step, limit = drive.current_mean, drive.current_step, drive.limit
-    k_m = drive.k_m
-    I = np.array([float(mc.I0) for mc in machines])
-    load_fn = _load_function(mechs, models)
-    pairs = _connect_sites(m0) if closure else []
-    site_xpos = b.bind("site_xpos") if pairs else None
-    warn = b.warning
-    bad_qacc = int(mujoco.mjtWarning.mjWARN_BADQACC)
-    tick = progress.update if progress is not None else None
-    inv_h = 1.0 / h
-    ids = None  # all alive
-    alive = np.ones(nsim, dtype=bool)
-    qd_prev = qvel_b[:, va].copy()
-    zeros = np.zeros(nsim)
-    step = b.step
-    k = 0
-
-    with np.errstate(all="ignore"):
-        for n in range(nsteps + 1):
-            t = n * h
-            q = qpos_b[:, qa].copy()
-            qd = qvel_b[:, va].copy()
-            qdd = (qd - qd_prev) * inv_h
-            V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
-            if np.ndim(V) == 0:
-                V = zeros + V
-            if n % decim == 0:
-                bad = ~((np.abs(qd) < MAX_SPEED) & (np.abs(I) < MAX_CURRENT) & np.isfinite(V)) \
-                    | (warn[:, bad_qacc, 1] > 0)
-                new = bad & alive
-                if new.any():
-                    for i in np.flatnonzero(new):
-                        diverged[i], t_div[i] = True, t
-                        messages[i] = (f"diverged at t = {t:.6g} s: crank angle = {q[i]:.6g} rad, crank speed = "
-                                       f"{qd[i]:.6g} rad/s, current = {I[i]:.6g} A, voltage = {V[i]:.6g} V")
-                    alive &= ~new
-                    if not alive.any():
-                        break
-                    ids = np.flatnonzero(alive).astype(np.int32)
-                r = data[:, k]
-                om = z * qd
-                r[:, 0] = t; r[:, 1] = q; r[:, 2] = qd; r[:, 3] = qdd; r[:, 4] = om; r[:, 5] = I
-                r[:, 6] = V; r[:, 7] = torque(I, qd); r[:, 8] = k_m * I * om; r[:, 9] = V * I
-                if pairs:
-                    sx = site_xpos
-                    r[:, 10] = np.max([np.max(np.abs(sx[:, a] - sx[:, c]), axis=1) for a, c in pairs], axis=0)
-                if ids is not None:
-                    r[~alive] = np.nan
-                nrows[alive] = k + 1
-                k += 1
-                if tick is not None:
-                    tick(decim)
-            if n == nsteps:
-                break
-            qfrc_b[:, va] = torque(cur_mean(I, V, z * qd, h), qd, False)
-            if load_fn is not None:
-                load_fn(qpos_b, qvel_b, qfrc_b, t, alive)
-            step(ids)
-            qd_prev = qd
-            I = cur_step(I, V, 0.5 * z * (qd + qvel_b[:, va]), h)
-    meta = {"dt": h, "record_dt": decim * h, "integrator": _integ_name(m0.opt.integrator),
-            "nsim": nsim, "nthread": b.nthread}
-    return BatchResult(data, nrows, diverged, t_div, messages, meta)
+    plant = BatchMultibodyPlant(machines, models, nthread, closure)
+    I0 = np.array([float(mc.I0) for mc in machines])
+    rec = kernel.run(plant, drive, ctrl, t_end, record_dt, I0, progress, backend="")
+    return BatchResult(rec)
 
 
-def _single(machine, t_end, h, record_dt, o, model, progress):
-    from ..errors import SimulationDiverged
-    from .multibody import simulate as simulate_single
+def _single(machine, t_end, record_dt, o, model, progress):
+    from .multibody import MultibodyPlant
 
-    nrec = int(round(t_end / h)) // max(1, int(round(record_dt / h))) + 1
-    data = np.full((1, nrec, NCOL), np.nan)
-    meta = {"dt": h, "record_dt": max(1, int(round(record_dt / h))) * h,
-            "integrator": _integ_name(model.opt.integrator), "nsim": 1, "nthread": 1}
+    plant = MultibodyPlant(machine, o, model)
     try:
-        tr = simulate_single(machine, t_end, record_dt=record_dt, options=o, model=model, progress=progress)
-    except SimulationDiverged as e:
-        return BatchResult(data, np.zeros(1, dtype=int), np.array([True]), np.array([e.t if e.t is not None else np.nan]),
-                           [str(e).replace("multibody simulation ", "")], meta)
-    data[0, : tr.n] = tr.data[: tr.n]
-    return BatchResult(data, np.array([tr.n]), np.array([False]), np.array([np.nan]), [""], meta)
+        rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
+                         backend="")
+    except kernel.SimulationDiverged as e:
+        nrec = int(round(t_end / plant.h)) // max(1, int(round(record_dt / plant.h))) + 1
+        cols = kernel.NAMES + plant.extra_columns
+        rec = kernel.Record(np.full((nrec, len(cols)), np.nan), cols, np.zeros(1, dtype=int), None, None, None,
+                            {"dt": plant.h, **plant.meta})
+        rec.diverged, rec.t_diverged, rec.messages = np.array([True]), np.array([e.t if e.t is not None else np.nan]), [str(e)]
+    else:
+        rec.diverged, rec.t_diverged, rec.messages = np.array([False]), np.array([np.nan]), [""]
+    rec.data = rec.data[None]
+    rec.meta = {**rec.meta, "nsim": 1, "nthread": 1}
+    return BatchResult(rec)
 
 
 class _RowsView:
@@ -413,7 +387,7 @@ def simulate_one(machine, t_end, **kw) -> Trajectory:
     res = simulate([machine], t_end, **kw)
     if res.diverged[0]:
         from ..errors import SimulationDiverged
-        raise SimulationDiverged("batch simulation " + res.messages[0], t=float(res.t_diverged[0]))
+        raise SimulationDiverged("batch " + res.messages[0], t=float(res.t_diverged[0]))
     return res.trajectory(0)
 
 

@@ -1,118 +1,154 @@
-"""Reduced backend: the 3-state Eksergian model of seed 000 Eq 21, u = (α, α̇, I).
+"""Reduced plant: the mechanism's Eksergian model (seed 000 Eqs 10-13), advanced one co-step.
 
-    α̈ = F(α, α̇, I) = [A(α̇, I) + Q_ext − B(α, α̇)] / (J_eq + J(α))              (Eqs 10-13)
-    A = drive.crank_torque(I, α̇) = z·(k_m·I − T_0 − z·λ·α̇),  B = dE_p/dα + ½·dJ/dα·α̇²
-    L·dI/dt = V_a − R·I − k_m·z·α̇                                                 (Eq 7)
+Rigid mechanisms, state (α, α̇):
 
-The controller is the same object the multibody backend runs, called once per control step
-(sampled, voltage held): the paper's Eq 21 puts V_a inside the ODE instead; at 0.1 ms the two
-readings differ by < 1e-5 in crank speed (tests/test_reduced.py).
+    α̈ = [τ − c·α̇ + Q_ext(α, α̇, t) − E_p'(α) − ½·J'(α)·α̇²] / (J_eq + J(α))
 
-Methods:
-* ``rk4`` (default): classical fixed-step RK4 with step = control period h (default 0.1 ms;
-  the paper uses 1 ms).  Local error O(h⁵): with τ_e = L/R ≈ 4.5 ms, ≈1e-9 per 0.1 ms step.
+with τ the drive torque the kernel holds over the step (:mod:`mjbench.kernel`), J_eq the drive's
+reflected inertia and c = z²λ its viscous friction — the same split as the multibody plant
+(armature and joint damping), so both backends run the *same* drive, controller and current
+update and differ by the mechanics alone.  Mechanisms with internal (elastic) coordinates x
+(the platforms) supply their accelerations through ``Mechanism.reduced_accel``.
+
+Methods (``[reduced] method``):
+* ``rk4`` (default): classical RK4 with step = the co-simulation step h (0.1 ms by default).
+  Local error O(h⁵).
 * ``solve_ivp``: adaptive ``scipy.integrate.solve_ivp`` (DOP853, rtol/atol settable) over every
-  control period with the voltage held — a reference to check the fixed-step run against.
+  step with τ held — a reference to check the fixed-step run against.
+The drive's current update and limits are the kernel's, so every method applies the same limits.
 """
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from controllers.base import Measurement
-
+from .. import kernel
 from ..errors import ParameterError, SimulationDiverged
 from ..trajectory import Trajectory
-from .multibody import MAX_CURRENT, MAX_SPEED, _check_times, _hint
+from .multibody import _extra_names
 
 
-def make_rhs(machine):
-    """f(t, α, α̇, I, V) → (α̇, α̈, dI/dt) for the machine (scalars or arrays)."""
-    mech, drive = machine.mechanism, machine.drive
-    J_eq, z = drive.J_eq, drive.z
-    reduced, ext, torque, di_dt = mech.reduced, mech.external_torque, drive.crank_torque, drive.di_dt
+class ReducedPlant:
+    """The reduced model of one machine; see the kernel's plant protocol."""
 
-    def rhs(t, q, qd, I, V):
-        J, dJ, dEp = reduced(q)
-        qdd = (torque(I, qd) + ext(q, qd, t) - dEp - 0.5 * dJ * qd * qd) / (J_eq + J)
-        return qd, qdd, di_dt(I, V, z * qd)
+    nsim = None
 
-    return rhs
+    def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12):
+        if method not in ("rk4", "solve_ivp"):
+            raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
+        self.machine = machine
+        self.h = float(dt)
+        self.method, self.rtol, self.atol = method, rtol, atol
+        mech, drive = machine.mechanism, machine.drive
+        self._mech = mech
+        self._Ja = float(drive.J_eq) if np.ndim(drive.J_eq) == 0 else drive.J_eq
+        self._c = float(drive.crank_damping) if np.ndim(drive.crank_damping) == 0 else drive.crank_damping
+        self._nx = len(mech.internal)
+        self.extra_columns = _extra_names(mech)
+        self.meta = {"method": method}
+        self._accel = self._rigid_accel() if self._nx == 0 else None
+
+    def _rigid_accel(self):
+        reduced, ext = self._mech.reduced, self._mech.external_torque
+        Ja, c = self._Ja, self._c
+
+        def accel(t, q, qd, tau):
+            J, dJ, dEp = reduced(q)
+            return (tau - c * qd + ext(q, qd, t) - dEp - 0.5 * dJ * qd * qd) / (Ja + J)
+
+        return accel
+
+    # ------------------------------------------------------------------ protocol
+    def start(self):
+        mc = self.machine
+        self.q, self.qd = float(mc.q0), float(mc.qd0)
+        nx = self._nx
+        self.x = tuple(float(v) for v in (mc.x0 or (0.0,) * nx))
+        self.xd = tuple(float(v) for v in (mc.xd0 or (0.0,) * nx))
+
+    def read(self):
+        return self.q, self.qd
+
+    def speed(self):
+        return self.qd
+
+    def closure(self):
+        return 0.0
+
+    def unstable(self):
+        return False
+
+    def extra(self, out):
+        k = self._nx
+        out[:k] = self.x
+        out[k:] = self.xd
+
+    def retire(self, mask):  # pragma: no cover - single run: never called
+        pass
+
+    def advance(self, tau, t):
+        if self.method == "solve_ivp":
+            return self._advance_ivp(tau, t)
+        h = self.h
+        h2, h6 = 0.5 * h, h / 6.0
+        q, qd = self.q, self.qd
+        if self._nx == 0:
+            f = self._accel
+            a1 = f(t, q, qd, tau)
+            v2 = qd + h2 * a1
+            a2 = f(t + h2, q + h2 * qd, v2, tau)
+            v3 = qd + h2 * a2
+            a3 = f(t + h2, q + h2 * v2, v3, tau)
+            v4 = qd + h * a3
+            a4 = f(t + h, q + h * v3, v4, tau)
+            self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
+            self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+            return
+        acc = self._mech.reduced_accel
+        Ja, c = self._Ja, self._c
+        x, xd = self.x, self.xd
+        a1, b1 = acc(t, q, qd, x, xd, tau, Ja, c)
+        v2, w2 = qd + h2 * a1, tuple(u + h2 * b for u, b in zip(xd, b1))
+        a2, b2 = acc(t + h2, q + h2 * qd, v2, tuple(p + h2 * u for p, u in zip(x, xd)), w2, tau, Ja, c)
+        v3, w3 = qd + h2 * a2, tuple(u + h2 * b for u, b in zip(xd, b2))
+        a3, b3 = acc(t + h2, q + h2 * v2, v3, tuple(p + h2 * u for p, u in zip(x, w2)), w3, tau, Ja, c)
+        v4, w4 = qd + h * a3, tuple(u + h * b for u, b in zip(xd, b3))
+        a4, b4 = acc(t + h, q + h * v3, v4, tuple(p + h * u for p, u in zip(x, w3)), w4, tau, Ja, c)
+        self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
+        self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        self.x = tuple(p + h6 * (u + 2.0 * s2 + 2.0 * s3 + s4) for p, u, s2, s3, s4 in zip(x, xd, w2, w3, w4))
+        self.xd = tuple(u + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4) for u, c1, c2, c3, c4 in zip(xd, b1, b2, b3, b4))
+
+    def _advance_ivp(self, tau, t):
+        nx = self._nx
+        mech, Ja, c = self._mech, self._Ja, self._c
+
+        def rhs(tt, u):
+            q, qd = u[0], u[1]
+            x, xd = tuple(u[2:2 + nx]), tuple(u[2 + nx:])
+            qdd, xdd = mech.reduced_accel(tt, q, qd, x, xd, tau, Ja, c)
+            return (qd, qdd, *xd, *xdd)
+
+        y0 = (self.q, self.qd, *self.x, *self.xd)
+        sol = solve_ivp(rhs, (t, t + self.h), y0, method="DOP853", rtol=self.rtol, atol=self.atol)
+        if not sol.success:
+            raise SimulationDiverged(f"reduced simulation (solve_ivp) failed at t = {t:.6g} s: {sol.message}", t=t)
+        u = sol.y[:, -1]
+        self.q, self.qd = float(u[0]), float(u[1])
+        self.x = tuple(float(v) for v in u[2:2 + nx])
+        self.xd = tuple(float(v) for v in u[2 + nx:])
 
 
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
              method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12, progress=None,
-             options=None):
-    """Integrate the reduced model for ``t_end`` s with control period ``dt``; Trajectory out."""
+             options=None) -> Trajectory:
+    """Run the reduced model of ``machine`` for ``t_end`` s (co-simulation step ``dt``)."""
     if options:
         dt = float(options.get("timestep", dt))
         method = options.get("method", method)
-    h = float(dt)
-    _check_times(t_end, h, record_dt)
-    if method not in ("rk4", "solve_ivp"):
-        raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
-    drive, ctrl = machine.drive, machine.controller
-    if np.any(np.asarray(drive.L) <= 0):
-        raise ParameterError(f"drive.L = {drive.L!r}: the reduced backend integrates the current as a state "
-                             f"and needs L > 0 (the multibody backend accepts L = 0, algebraic current)")
-    ctrl.reset()
-    drive.prepare(h)
-    i_lim = None if drive._no_ilimit else float(drive.i_max)
-    rhs = make_rhs(machine)
-    z = drive.z
-    y = Measurement(z=z)
-    limit = drive.limit
-    torque = drive.crank_torque
-    k_m = drive.k_m
-    nsteps = int(round(t_end / h))
-    decim = max(1, int(round(record_dt / h)))
-    traj = Trajectory(nsteps // decim + 1, "reduced", meta={"dt": h, "record_dt": decim * h, "method": method})
-    q, qd, I = float(machine.q0), float(machine.qd0), float(machine.I0)
-    tick = progress.update if progress is not None else None
-    h2, h6 = 0.5 * h, h / 6.0
-    inv_h = 1.0 / h
-    qd_prev = qd
-
-    for n in range(nsteps + 1):
-        t = n * h
-        qdd = (qd - qd_prev) * inv_h  # backward difference, as in the multibody backend
-        V = limit(ctrl(t, y.set(t, q, qd, qdd, I)))
-        if n % decim == 0:
-            if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V) and math.isfinite(q)):
-                _diverged(t, q, qd, I, V, _hint(ctrl, t, h))
-            r = traj.row()
-            om = z * qd
-            r[0] = t; r[1] = q; r[2] = qd; r[3] = qdd; r[4] = om; r[5] = I; r[6] = V
-            r[7] = torque(I, qd); r[8] = k_m * I * om; r[9] = V * I; r[10] = 0.0
-            if tick is not None:
-                tick(decim)
-        if n == nsteps:
-            break
-        qd_prev = qd
-        if method == "rk4":
-            k1q, k1v, k1i = rhs(t, q, qd, I, V)
-            k2q, k2v, k2i = rhs(t + h2, q + h2 * k1q, qd + h2 * k1v, I + h2 * k1i, V)
-            k3q, k3v, k3i = rhs(t + h2, q + h2 * k2q, qd + h2 * k2v, I + h2 * k2i, V)
-            k4q, k4v, k4i = rhs(t + h, q + h * k3q, qd + h * k3v, I + h * k3i, V)
-            q += h6 * (k1q + 2 * k2q + 2 * k3q + k4q)
-            qd += h6 * (k1v + 2 * k2v + 2 * k3v + k4v)
-            I += h6 * (k1i + 2 * k2i + 2 * k3i + k4i)
-            if i_lim is not None:  # amplifier current limit, as drive.current_step applies it
-                I = -i_lim if I < -i_lim else (i_lim if I > i_lim else I)
-        else:
-            sol = solve_ivp(lambda tt, u: rhs(tt, u[0], u[1], u[2], V), (t, t + h), (q, qd, I),
-                            method="DOP853", rtol=rtol, atol=atol)
-            if not sol.success:
-                _diverged(t, q, qd, I, V, _hint(ctrl, t, h))
-            q, qd, I = (float(v) for v in sol.y[:, -1])
-    return traj.trim()
-
-
-def _diverged(t, q, qd, I, V, hint=""):
-    raise SimulationDiverged(
-        f"reduced simulation diverged at t = {t:.6g} s: crank angle = {q:.6g} rad, crank speed = "
-        f"{qd:.6g} rad/s, current = {I:.6g} A, voltage = {V:.6g} V (limits |α̇| < {MAX_SPEED:g} rad/s, "
-        f"|I| < {MAX_CURRENT:g} A, finite values). Reduce the time step (RK4 is only conditionally "
-        f"stable) or check gains/parameters." + hint, t=t, state={"q": q, "qd": qd, "I": I, "V": V})
+        rtol = float(options.get("rtol", rtol))
+        atol = float(options.get("atol", atol))
+    plant = ReducedPlant(machine, dt, method, rtol, atol)
+    rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
+                     backend="reduced")
+    return Trajectory.from_record(rec, "reduced")

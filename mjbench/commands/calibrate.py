@@ -41,7 +41,7 @@ def register(sub):
 
 
 def cmd_calibrate(args):
-    from .. import calibrate as C
+    from ..papers import incerti2012_calibration as C
     from .. import scenario as S
     from ..manifest import write_json
     from ..trajectory import atomic_write
@@ -57,7 +57,7 @@ def cmd_calibrate(args):
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         write_json(os.path.join(args.out, "calibrate.json"), res)
-        src = S.get(scn, "scenario.source", "")
+        src = scn.source
         if src.startswith("builtin:"):
             import importlib.resources
             text = importlib.resources.files("mjbench").joinpath("scenarios", src[8:] + ".toml").read_text("utf-8")
@@ -73,7 +73,7 @@ def cmd_calibrate(args):
 def calibrated_toml(text: str, res: dict) -> str:
     """The source scenario text with the fitted values substituted (marked FITTED) and a header
     stating that they were fitted to the paper's figures."""
-    from .. import calibrate as C
+    from ..papers import incerti2012_calibration as C
 
     r = res["result"]
     vals = r["values"]

@@ -20,7 +20,7 @@ def register(sub):
 
 
 def run(args):
-    from .. import gains
+    from ..papers import hulako2025_demand as gains
     from .. import scenario as S
 
     vcs = args.vc if args.vc else [None]
@@ -32,7 +32,7 @@ def run(args):
         results.append(r)
         if not args.json:
             vcv = S.get(scn, "modes.pid.reference.vc")
-            print(f"{scn['scenario']['name']}: desired coupler speed V_C = {vcv} m/s")
+            print(f"{scn.name}: desired coupler speed V_C = {vcv} m/s")
             print(gains.format_report(r))
     if args.json:
         print(json.dumps(results if len(results) > 1 else results[0], indent=1))

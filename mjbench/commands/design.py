@@ -23,7 +23,7 @@ def register(sub):
 
 
 def run(args) -> int:
-    from .. import design
+    from ..papers import yigit2023_design as design
 
     if args.starts < 1:
         raise ParameterError(f"--starts = {args.starts}: need at least 1")

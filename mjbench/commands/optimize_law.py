@@ -34,14 +34,14 @@ def main(args) -> int:
     from .. import scenario, vibration
 
     scn = scenario.load(args.scenario, args.overrides)
-    name = scn["scenario"]["name"]
+    name = scn.name
     out = args.out or os.path.join("results", f"{name}-optimize-law")
     mb = False if args.no_multibody else None
     with tqdm(total=6, desc="optimize-law", leave=False) as bar:
         res = vibration.study(scn, progress=bar, multibody=mb)
     rep, obj = res["report"], res["objects"]
     osc = obj["osc"]
-    print(f"{name}: {scn['scenario'].get('title', '')}")
+    print(f"{name}: {scn.scenario.title}")
     pap = rep["paper"]
     line = f"  ω_n = {osc.omega_n:.4f} rad/s ({osc.omega_n / (2 * np.pi):.3f} Hz), ξ = {100 * osc.xi:.3f} %"
     checks = paper_check(osc, pap)
@@ -79,15 +79,17 @@ def main(args) -> int:
     for k, rows in rep["sensitivity"]["table"].items():
         print("  " + f"{k:<16s}" + "".join(f"{r['E_J']:12.3e}" for r in rows))
     if "servo" in rep:
-        print("  real servo (DC motor + cascade P/PI + feed-forward, [servo] table; not in the papers):")
+        print(f"  real motor + servo (mode {rep['servo']['mode']!r}, co-step kernel, {rep['servo']['backend']} model; "
+              f"not in the papers):")
         for k, v in rep["servo"]["laws"].items():
-            print(f"  {k:<16s} E(T) = {v['E_T_J']:.3e} J, vibration amplitude after T = {v['residual_amplitude_rad']:.3e} rad, "
+            print(f"  {k:<16s} E(T) = {v['E_T_J']:.3e} J (ideal {v['ideal_E_T_J']:.3e}), peak |ψ| after T = "
+                  f"{v['residual_peak_after_T_rad']:.3e} rad, "
                   f"max tracking error = {v['max_tracking_error_rad']:.2e} rad, peak current = {v['peak_current_A']:.1f} A, "
                   f"peak voltage = {v['peak_voltage_V']:.0f} V")
     os.makedirs(out, exist_ok=True)
     files = {}
     if not args.no_plots:
-        from .. import plots_vibration as pv
+        from ..papers import incerti_platforms_plots as pv
 
         laws, ta = obj["laws"], obj["t_after"]
         files["response"] = pv.fig_energy_response(laws["initial"], laws["optimised"], osc,
@@ -110,8 +112,8 @@ def main(args) -> int:
                                           title=f"{name}: ideal vs real servo (transmission deflection)")
         files["laws"] = pv.fig_laws({**laws, **obj["shaped"]}, os.path.join(out, "laws.png"), title=f"{name}: motor laws")
     rep["files"] = {k: os.path.abspath(v) for k, v in files.items()}
-    rep["scenario_source"] = scn["scenario"].get("source")
-    rep["overrides"] = scn["scenario"].get("overrides", [])
+    rep["scenario_source"] = scn.source
+    rep["overrides"] = list(scn.overrides)
     path = os.path.join(out, "optimize_law.json")
     atomic_write(path, lambda f: json.dump(rep, f, indent=2, default=_json_default))
     print(f"  wrote {path}" + (f" and {len(files)} plots" if files else ""))

@@ -8,7 +8,8 @@ def register(sub):
     p = sub.add_parser("run", help="simulate a scenario on one or both backends and write results",
                        description="Simulate SCENARIO (built-in name or TOML path). Writes trajectory CSV(s), "
                                    "metrics.json, manifest.json and a Fig.-4-style PNG into --out.")
-    p.add_argument("scenario", help="built-in scenario name (see `mjbench list`) or path to a TOML file")
+    p.add_argument("scenario", help="built-in scenario name (see `mjbench list`), a TOML file, or a run's "
+                                    "manifest.json (repeats that run)")
     p.add_argument("--mode", help="control mode defined in the scenario, e.g. open, pid (default: the scenario's)")
     p.add_argument("--backend", default=None, choices=["multibody", "reduced", "both"],
                    help="simulator backend (default: the scenario's, else both)")
@@ -29,13 +30,28 @@ def cmd_run(args):
     from ..runner import run
 
     scn = S.load(args.scenario, args.overrides)
-    backend = args.backend or S.get(scn, "simulation.backend", "both")
-    res = run(scn, args.out, mode=args.mode, backend=backend, t_end=args.t_end,
+    for w in scn.warnings:
+        print(f"mjbench: warning: {w}", file=sys.stderr)
+    mode, backend, t_end = args.mode, args.backend, args.t_end
+    if args.scenario.endswith(".json"):  # a run's manifest: repeat that run unless told otherwise
+        man = _read_manifest(args.scenario)
+        mode = mode or man.get("mode")
+        backend = backend or man.get("backend")
+        t_end = t_end if t_end is not None else man.get("t_end_s")
+    backend = backend or scn.simulation.backend
+    res = run(scn, args.out, mode=mode, backend=backend, t_end=t_end,
               progress=not args.quiet and sys.stderr.isatty(), argv=sys.argv, figure=not args.no_figure)
     if not args.quiet:
         print(_summary_text(res))
         print(f"results written to {args.out}")
     return 0
+
+
+def _read_manifest(path):
+    import json
+
+    with open(path) as f:
+        return json.load(f)
 
 
 def _summary_text(res):
@@ -72,7 +88,6 @@ def cmd_list(args):
         except Exception as e:  # noqa: BLE001 - listing must not die on one bad file
             print(f"{name:<22s} (cannot load: {e})")
             continue
-        modes = ", ".join(S.modes(scn)) or ("(optimize-law)" if "law" in scn else "-")
-        print(f"{name:<22s} seed {S.get(scn, 'scenario.seed', '?'):<4s} modes: {modes:<18s} "
-              f"{S.get(scn, 'scenario.title', '')}")
+        modes = ", ".join(S.modes(scn)) + (" + optimize-law" if scn.law is not None else "")
+        print(f"{name:<22s} modes: {modes:<18s} {scn.scenario.title}")
     return 0

@@ -83,7 +83,7 @@ def cmd_tune(args):
     if args.out:
         from ..trajectory import atomic_write
         os.makedirs(args.out, exist_ok=True)
-        doc = {"scenario": S.get(scn, "scenario.name"), "controller": res.controller, "mode": res.mode,
+        doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
                "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
                "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
                "history": res.history}

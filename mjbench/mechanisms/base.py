@@ -1,26 +1,40 @@
-"""The small interface every mechanism offers (seed 000 notation generalised).
+"""The one interface every mechanism offers (seed 000 notation generalised).
 
-A mechanism has one degree of freedom, the *input coordinate* ``q`` (the crank angle α of
-seed 000, the motor-side platform angle of seeds 001/003 ...), driven through the gearbox by the
-drive.  Everything a backend needs is here:
+A mechanism has one driven degree of freedom, the *input coordinate* ``q`` (the crank angle α of
+seed 000, the motor angle of the platforms of seeds 001/003 ...), driven through the gearbox by
+the drive.  Rigid linkages have no other state; elastic machines also have *internal*
+coordinates (the platforms' transmission deflection ψ), listed in :attr:`Mechanism.internal`.
 
-* reduced (Eksergian) dynamics, seed 000 Eq 5:
+What a subclass implements (abstract, checked when the class is instantiated):
+
+* reduced (Eksergian) dynamics, seed 000 Eq 5, rigid part:
       ½ J'(q) q̇² + J(q) q̈ + E_p'(q) = T_c + Q_ext(q, q̇, t)
-  ``reduced(q)`` returns (J, dJ/dq, dE_p/dq) and ``external_torque`` the extra generalised force;
-* kinematics for plots / video (``points``) and the constraint residual (``closure_error``);
-* an MJCF builder (``build_spec``) whose input joint is named ``INPUT_JOINT`` and carries the
-  reflected drive inertia as ``armature``; ``initial_qpos`` assembles the model at q0;
-* ``multibody_load(model, data, t)`` writes any external load into ``data.qfrc_applied``.
+  :meth:`reduced` → (J, dJ/dq, dE_p/dq), :meth:`potential_energy`;
+* the MJCF model (:meth:`build_spec`, an ``MjSpec`` whose driven joint is :attr:`input_joint`
+  and carries the reflected drive inertia as ``armature``), the assembled configuration and
+  velocity at an input angle/speed (:meth:`initial_qpos`, :meth:`initial_qvel`);
+* drawing: named points in the mechanism's plane (:meth:`points`);
+* :meth:`from_params`, building the mechanism from its validated ``Params`` (pydantic model of the
+  scenario's ``[mechanism]`` table, class attribute :attr:`Params`, ``type = type_name``).
 
-Subclasses implement the abstract methods.  All kinematic functions accept scalars or NumPy arrays.
+Optional, with defaults: external generalised force (:meth:`external_torque`, e.g. a process
+load), the matching multibody load (:meth:`multibody_load`), loop-closure residual
+(:meth:`closure_error`), traced point (:meth:`trace_point`), internal dynamics
+(:meth:`reduced_accel` for mechanisms with internal coordinates).
+
+A new mechanism = one module defining the subclass and decorating it with
+``@mjbench.mechanisms.register``; ``[mechanism] type = "<type_name>"`` then runs on every backend
+with every controller, metric, plot, video and sweep.  All kinematic functions accept scalars or
+NumPy arrays.
 """
 from __future__ import annotations
 
 import abc
+from typing import ClassVar
 
 import numpy as np
 
-INPUT_JOINT = "crank"  #: name of the driven joint in every generated MJCF model
+INPUT_JOINT = "crank"  #: default name of the driven joint in the generated MJCF models
 
 INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
 
@@ -69,19 +83,40 @@ def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 108
 
 
 class Mechanism(abc.ABC):
-    """Abstract single-DOF mechanism driven at its input coordinate q (rad)."""
+    """Abstract single-input mechanism driven at its input coordinate q [rad]."""
 
-    name: str = "mechanism"
+    #: scenario ``[mechanism] type`` of this class (set by subclasses)
+    type_name: ClassVar[str] = ""
+    #: pydantic model of the ``[mechanism]`` table (a :class:`mjbench.schema.Strict` subclass)
+    Params: ClassVar[type | None] = None
+    #: name of the driven joint in the MJCF model
+    input_joint: ClassVar[str] = INPUT_JOINT
+    #: internal (elastic) coordinates of the reduced model besides q, e.g. ("deflection",)
+    internal: ClassVar[tuple[str, ...]] = ()
+    #: how a video shows it: "side" (linkage in its plane x-y) or "top" (rotary table from above)
+    view: ClassVar[str] = "side"
+
+    # --- construction ------------------------------------------------------------------------
+    @classmethod
+    @abc.abstractmethod
+    def from_params(cls, params) -> "Mechanism":
+        """Build the mechanism from its validated ``Params`` object."""
+
+    @classmethod
+    def params_for(cls, raw: dict):
+        """The Params model that validates the raw ``[mechanism]`` table (a class with variants,
+        e.g. a notation or a platform variant, picks one from ``raw``)."""
+        return cls.Params
 
     # --- reduced dynamics --------------------------------------------------------------------
     @abc.abstractmethod
     def reduced(self, q):
-        """Return ``(J, dJ_dq, dEp_dq)``: equivalent inertia about q [kg·m²], its derivative
-        [kg·m²/rad] and the derivative of the potential energy [N·m] (seed 000 Eqs 2-5)."""
+        """Return ``(J, dJ_dq, dEp_dq)``: equivalent inertia about q [kg·m²] (rigid transmission),
+        its derivative [kg·m²/rad] and the derivative of the potential energy [N·m] (seed 000 Eqs 2-5)."""
 
     @abc.abstractmethod
     def potential_energy(self, q):
-        """Gravitational (and elastic) potential energy E_p(q) [J]."""
+        """Gravitational (and elastic, rigid part) potential energy E_p(q) [J]."""
 
     def kinetic_energy(self, q, qd):
         """E_k = ½ J(q) q̇² [J] (seed 000 Eq 2), mechanism only (no drive inertia)."""
@@ -92,19 +127,33 @@ class Mechanism(abc.ABC):
         """Generalised external force on q [N·m] besides gravity and the drive (default 0)."""
         return 0.0 * q
 
+    def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
+        """Accelerations (q̈, ẍ) of the reduced model under the input torque ``tau`` [N·m] (drive
+        torque without its viscous part), with the drive inertia ``J_add`` [kg·m²] and viscous
+        coefficient ``c_add`` [N·m·s/rad] on q.  ``x``, ``xd``: internal coordinates (tuples, empty
+        for rigid mechanisms).  Default: the rigid Eksergian model (seed 000 Eqs 10-13)."""
+        J, dJ, dEp = self.reduced(q)
+        qdd = (tau - c_add * qd + self.external_torque(q, qd, t) - dEp - 0.5 * dJ * qd * qd) / (J_add + J)
+        return qdd, ()
+
     # --- multibody ---------------------------------------------------------------------------
     @abc.abstractmethod
     def build_spec(self, armature: float = 0.0, options=None):
         """Return a ``mujoco.MjSpec`` of the mechanism.  The driven joint is named
-        ``INPUT_JOINT``; ``armature`` [kg·m²] is added to it (reflected drive inertia J_eq)."""
+        :attr:`input_joint`; ``armature`` [kg·m²] is added to it (reflected drive inertia J_eq)."""
 
     @abc.abstractmethod
-    def initial_qpos(self, model, q0: float) -> np.ndarray:
-        """Full ``qpos`` vector of ``model`` with the loop assembled at input angle q0."""
+    def initial_qpos(self, model, q0: float, x0=None) -> np.ndarray:
+        """Full ``qpos`` of ``model`` with the loop assembled at input angle q0 (internal
+        coordinates ``x0``, default at rest/undeflected)."""
 
-    def input_from_qpos(self, model, qpos) -> float:
-        """Input coordinate q from a multibody configuration (default: the input joint)."""
-        return float(qpos[model.joint(INPUT_JOINT).qposadr[0]])
+    @abc.abstractmethod
+    def initial_qvel(self, model, q0: float, qd0: float, x0=None, xd0=None) -> np.ndarray:
+        """Full ``qvel`` of ``model`` consistent with the constraints at (q0, q̇0)."""
+
+    def internal_state(self, model, qpos, qvel):
+        """Internal coordinates and their rates ``(x, xd)`` (tuples) from a multibody state."""
+        return (), ()
 
     def closure_error(self, model, data) -> float:
         """Largest loop-closure violation [m] in the multibody state: the equality-constraint
@@ -115,9 +164,14 @@ class Mechanism(abc.ABC):
         return float(np.abs(data.efc_pos[:ne]).max())
 
     def multibody_load(self, model, data, t: float) -> None:
-        """Write external loads of the mechanism into ``data.qfrc_applied`` (default none)."""
+        """Write external loads of the mechanism into ``data.qfrc_applied`` (default none).
+        ``qfrc_applied[input]`` already holds the drive torque: add to it, do not replace it."""
 
-    # --- kinematics for plots / video ----------------------------------------------------------
+    def has_multibody_load(self) -> bool:
+        """Whether :meth:`multibody_load` does anything (the backends skip the call if not)."""
+        return type(self).multibody_load is not Mechanism.multibody_load
+
+    # --- kinematics for plots / video --------------------------------------------------------
     @abc.abstractmethod
     def points(self, q) -> dict:
         """Named points of the mechanism in its plane, ``{name: (x, y)}`` [m], for drawings."""
@@ -127,5 +181,6 @@ class Mechanism(abc.ABC):
         return None
 
     def describe(self) -> dict:
-        """Parameters as a plain dict (for manifests)."""
-        return {k: v for k, v in vars(self).items() if not k.startswith("_")}
+        """Parameters as a plain dict (manifests, model cache keys)."""
+        return {"type": self.type_name,
+                **{k: v for k, v in vars(self).items() if not k.startswith("_")}}

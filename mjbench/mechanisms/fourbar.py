@@ -16,7 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from typing import Literal
+
+from pydantic import Field, field_validator
+
 from ..errors import GeometryError, ParameterError
+from ..schema import Q, Strict
+from . import register
 from .base import INPUT_JOINT, Mechanism, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
@@ -68,6 +74,17 @@ class FourBar(Mechanism):
     #: viscous friction in the loop-closing hinge C (coupler vs rocker) [N·m·s/rad]
     damping_C: float = 0.0
     name: str = "fourbar"
+    type_name = "fourbar"
+
+    @classmethod
+    def params_for(cls, raw):
+        """Params model of a raw ``[mechanism]`` table: the seed-002 notation if it says so."""
+        seed002 = isinstance(raw, dict) and (raw.get("notation") == "seed002" or ("r1" in raw and "a" not in raw))
+        return FourBarSeed002Params if seed002 else FourBarParams
+
+    @classmethod
+    def from_params(cls, p):
+        return seed002_to_fourbar(p) if isinstance(p, FourBarSeed002Params) else _fourbar_from_seed000(p)
 
     def __post_init__(self):
         self.f = tuple(float(v) for v in self.f)
@@ -447,7 +464,7 @@ class FourBar(Mechanism):
                           solref=solref, solimp=solimp)
         return spec
 
-    def initial_qpos(self, model, q0: float) -> np.ndarray:
+    def initial_qpos(self, model, q0: float, x0=None) -> np.ndarray:
         beta, gamma = self.angles(float(q0))
         qpos = np.array(model.qpos0, dtype=float)
         qpos[model.joint(INPUT_JOINT).qposadr[0]] = q0
@@ -455,7 +472,7 @@ class FourBar(Mechanism):
         qpos[model.joint("rocker_joint").qposadr[0]] = gamma
         return qpos
 
-    def initial_qvel(self, model, q0: float, qd0: float) -> np.ndarray:
+    def initial_qvel(self, model, q0: float, qd0: float, x0=None, xd0=None) -> np.ndarray:
         _, _, Q, R = self.ratios(float(q0))
         qvel = np.zeros(model.nv)
         qvel[model.joint(INPUT_JOINT).dofadr[0]] = qd0
@@ -529,35 +546,88 @@ def _angle_ranges(alpha, mask):
     return [(alpha[s % n], alpha[s % n] + (e - s) * step) for s, e in ranges]
 
 
-def from_params(p: dict) -> FourBar:
-    """Scenario ``[mechanism]`` table (seed-000 notation, flat keys) → FourBar.
+class FourBarParams(Strict):
+    """``[mechanism] type = "fourbar"`` in the seed-000 notation (Incerti 2012, Fig. 1, Table I).
+    Lengths [m], angles [rad], masses [kg], inertias about the mass centres [kg·m²]."""
 
-    Keys: a, b, c, h_x, h_y [m]; f1..f3 [m]; theta1..theta3 [rad]; m1..m3 [kg];
-    J_G1..J_G3 [kg·m²]; k (±1); g [m/s²]; coupler_f [m], coupler_theta [rad];
-    joint_mass_A..D [kg]; joint_damping (hinges B, D), damping_A, damping_C [N·m·s/rad].
-    """
-    p = dict(p)
-    if "r1" in p or "notation" in p:  # seed-002 notation, see from_seed002
-        return from_seed002(p)
-    try:
-        fb = FourBar(
-            a=float(p.pop("a")), b=float(p.pop("b")), c=float(p.pop("c")),
-            h_x=float(p.pop("h_x")), h_y=float(p.pop("h_y", 0.0)),
-            f=tuple(float(p.pop(f"f{i}", 0.0)) for i in (1, 2, 3)),
-            theta=tuple(float(p.pop(f"theta{i}", 0.0)) for i in (1, 2, 3)),
-            m=tuple(float(p.pop(f"m{i}", 0.0)) for i in (1, 2, 3)),
-            J_G=tuple(float(p.pop(f"J_G{i}", 0.0)) for i in (1, 2, 3)),
-            k=int(p.pop("k", 1)), g=float(p.pop("g", G)),
-            coupler_point=CouplerPoint(float(p.pop("coupler_f", 0.0)), float(p.pop("coupler_theta", 0.0))),
-            joint_masses={j: float(p.pop(f"joint_mass_{j}")) for j in "ABCD" if f"joint_mass_{j}" in p},
-            joint_damping=float(p.pop("joint_damping", 0.0)),
-            damping_A=float(p.pop("damping_A", 0.0)), damping_C=float(p.pop("damping_C", 0.0)),
-        )
-    except KeyError as e:
-        raise ParameterError(f"mechanism.{e.args[0]} is required for a four-bar") from None
-    if p:
-        raise ParameterError(f"unknown four-bar parameters: {sorted(p)}")
-    return fb
+    type: Literal["fourbar"] = "fourbar"
+    notation: Literal["seed000"] = "seed000"
+    a: Q("length", gt=0.0, what="a link length") = Field(description="crank length AB")
+    b: Q("length", gt=0.0, what="a link length") = Field(description="coupler length BC")
+    c: Q("length", gt=0.0, what="a link length") = Field(description="rocker length DC")
+    h_x: Q("length", what="a pivot coordinate") = Field(description="rocker pivot D, x")
+    h_y: Q("length", what="a pivot coordinate") = Field(description="rocker pivot D, y")
+    f1: Q("length", ge=0.0, what="a mass-centre distance") = Field(description="crank mass centre from A")
+    f2: Q("length", ge=0.0, what="a mass-centre distance") = Field(description="coupler mass centre from B")
+    f3: Q("length", ge=0.0, what="a mass-centre distance") = Field(description="rocker mass centre from D")
+    theta1: Q("angle") = Field(0.0, description="mass-centre angle from the link line (default: on the line)")
+    theta2: Q("angle") = 0.0
+    theta3: Q("angle") = 0.0
+    m1: Q("mass", ge=0.0, what="a link mass") = Field(description="crank mass")
+    m2: Q("mass", ge=0.0, what="a link mass") = Field(description="coupler mass")
+    m3: Q("mass", ge=0.0, what="a link mass") = Field(description="rocker mass")
+    J_G1: Q("inertia", ge=0.0, what="a link inertia") = Field(description="crank inertia about its mass centre")
+    J_G2: Q("inertia", ge=0.0, what="a link inertia") = Field(description="coupler inertia about its mass centre")
+    J_G3: Q("inertia", ge=0.0, what="a link inertia") = Field(description="rocker inertia about its mass centre")
+    k: Literal[1, -1] = Field(1, description="assembly mode (Appendix A)")
+    g: Q("acceleration", what="gravity") = Field(G, description="gravity, −y in the mechanism plane (0: plane horizontal)")
+    coupler_f: Q("length", ge=0.0) = Field(0.0, description="traced coupler point: distance from B (display, seed-002 reference)")
+    coupler_theta: Q("angle") = Field(0.0, description="traced coupler point: angle from BC")
+    joint_mass_A: Q("mass", ge=0.0) = Field(0.0, description="point mass in joint A (bearing; default none)")
+    joint_mass_B: Q("mass", ge=0.0) = 0.0
+    joint_mass_C: Q("mass", ge=0.0) = 0.0
+    joint_mass_D: Q("mass", ge=0.0) = 0.0
+    joint_damping: Q("rot_damping", ge=0.0) = Field(0.0, description="viscous friction in hinges B and D (default none)")
+    damping_A: Q("rot_damping", ge=0.0) = Field(0.0, description="viscous friction in the crank pivot A, besides the drive's")
+    damping_C: Q("rot_damping", ge=0.0) = Field(0.0, description="viscous friction in the loop-closing hinge C")
+
+
+class FourBarSeed002Params(Strict):
+    """``[mechanism] type = "fourbar"``, ``notation = "seed002"`` (Hülako & Çakar 2025, Eqs 2-17,
+    Table 1): r1 ground A₀B₀, r2 crank A₀A, r3 coupler AB, r4 rocker B₀B; link i of seed 002 is
+    link i−1 of seed 000 (see :func:`seed002_to_fourbar`)."""
+
+    type: Literal["fourbar"] = "fourbar"
+    notation: Literal["seed002"] = "seed002"
+    r1: Q("length", gt=0.0, what="a link length") = Field(description="ground link A0B0")
+    r2: Q("length", gt=0.0, what="a link length") = Field(description="crank A0A")
+    r3: Q("length", gt=0.0, what="a link length") = Field(description="coupler AB")
+    r4: Q("length", gt=0.0, what="a link length") = Field(description="rocker B0B")
+    beta1: Q("angle") = Field(0.0, description="angle of the ground line A0→B0 (Table 1: 0)")
+    c2: Q("length", ge=0.0) = Field(description="crank mass centre from A0")
+    c3: Q("length", ge=0.0) = Field(description="coupler mass centre from A")
+    c4: Q("length", ge=0.0) = Field(description="rocker mass centre from B0")
+    beta2: Q("angle") = 0.0
+    beta3: Q("angle") = 0.0
+    beta4: Q("angle") = 0.0
+    m2: Q("mass", ge=0.0, what="a link mass")
+    m3: Q("mass", ge=0.0, what="a link mass")
+    m4: Q("mass", ge=0.0, what="a link mass")
+    J2: Q("inertia", ge=0.0, what="a link inertia") = Field(description="about the mass centre")
+    J3: Q("inertia", ge=0.0, what="a link inertia")
+    J4: Q("inertia", ge=0.0, what="a link inertia")
+    rC: Q("length", ge=0.0) = Field(0.0, description="coupler point C: distance from A")
+    betaC: Q("angle") = Field(0.0, description="coupler point C: angle from AB")
+    g: Q("acceleration", what="gravity") = G
+    branch: Literal["open", "crossed", 1, -1] = Field("open", description="assembly branch")
+    bearing_mass: Q("mass", ge=0.0) = Field(0.0, description="point mass in each bearing of bearing_joints")
+    bearing_joints: str | list[Literal["A0", "A", "B", "B0"]] = "all"
+    bearing_damping: Q("rot_damping", ge=0.0) = Field(0.0, description="viscous friction in each hinge of damping_joints")
+    damping_joints: str | list[Literal["A0", "A", "B", "B0"]] = "all"
+
+    @field_validator("bearing_joints", "damping_joints")
+    @classmethod
+    def _joints(cls, v):
+        _joint_list(v, "joints")
+        return v
+
+
+def _fourbar_from_seed000(p: FourBarParams) -> FourBar:
+    return FourBar(a=p.a, b=p.b, c=p.c, h_x=p.h_x, h_y=p.h_y, f=(p.f1, p.f2, p.f3),
+                   theta=(p.theta1, p.theta2, p.theta3), m=(p.m1, p.m2, p.m3), J_G=(p.J_G1, p.J_G2, p.J_G3),
+                   k=int(p.k), g=p.g, coupler_point=CouplerPoint(p.coupler_f, p.coupler_theta),
+                   joint_masses={j: getattr(p, f"joint_mass_{j}") for j in "ABCD" if getattr(p, f"joint_mass_{j}") > 0},
+                   joint_damping=p.joint_damping, damping_A=p.damping_A, damping_C=p.damping_C)
 
 
 #: seed-002 joint names → seed-000 joint names (A₀ crank pivot, A crank/coupler,
@@ -565,73 +635,35 @@ def from_params(p: dict) -> FourBar:
 SEED002_JOINTS = {"A0": "A", "A": "B", "B": "C", "B0": "D"}
 
 
-def from_seed002(p: dict) -> FourBar:
-    """Scenario ``[mechanism]`` table in the seed-002 notation (Hülako & Çakar, Eqs 2-17,
-    Table 1) → the same :class:`FourBar`.  Lengths [m], angles [rad], masses [kg], J [kg·m²].
-
-    Keys: ``notation = "seed002"`` (optional marker); r1 (ground A₀B₀), r2 (crank A₀A), r3
-    (coupler AB), r4 (rocker B₀B); beta1 = angle of the ground line A₀→B₀ (Table 1 β₁ = 0);
-    c2..c4, beta2..beta4: mass centre of link i at distance c_i from its proximal joint (A₀, A,
-    B₀) and angle β_i from the link line; m2..m4; J2..J4 about the mass centre; rC, betaC:
-    coupler point C at r_C, β_C from A relative to AB (Eq 13); g; branch = "open" | "crossed"
-    (or +1/−1 = seed-000 k directly): "open" is the circuit in which B lies left of A₀→B₀
-    (above the ground line for β₁ = 0) at q = β₁ + 90°; bearing_mass [kg] point mass in each
-    joint of ``bearing_joints`` (default all of A0, A, B, B0); bearing_damping [N·m·s/rad]
-    viscous friction in each hinge of ``damping_joints`` (default all four; "A" and "B0" must
-    be both in or both out, they share FourBar.joint_damping).
+def seed002_to_fourbar(p: FourBarSeed002Params) -> FourBar:
+    """The seed-002 description → the same :class:`FourBar` (seed-000 notation).
 
     Mapping: a = r2, b = r3, c = r4, (h_x, h_y) = r1·(cos β₁, sin β₁); q = α, φ₁ = β, φ₂ = γ,
-    g₁ = Q, g₂ = R; link i of seed 002 is link i−1 of seed 000.
-    """
-    p = dict(p)
-    notation = str(p.pop("notation", "seed002")).lower().replace("-", "")
-    if notation not in ("seed002", "002", "hulako2025"):
-        raise ParameterError(f"mechanism.notation = {notation!r}: expected 'seed002'")
-    try:
-        r1, r2, r3, r4 = (float(p.pop(f"r{i}")) for i in (1, 2, 3, 4))
-    except KeyError as e:
-        raise ParameterError(f"mechanism.{e.args[0]} is required for a seed-002 four-bar "
-                             f"(r1 ground, r2 crank, r3 coupler, r4 rocker) [m]") from None
-    if not (np.isfinite(r1) and r1 > 0):
-        raise ParameterError(f"mechanism.r1 = {r1!r}: ground link length must be finite > 0 [m]")
-    beta1 = float(p.pop("beta1", 0.0))
-    c = tuple(float(p.pop(f"c{i}", 0.0)) for i in (2, 3, 4))
-    beta = tuple(float(p.pop(f"beta{i}", 0.0)) for i in (2, 3, 4))
-    m = tuple(float(p.pop(f"m{i}", 0.0)) for i in (2, 3, 4))
-    J = tuple(float(p.pop(f"J{i}", 0.0)) for i in (2, 3, 4))
-    pt = CouplerPoint(float(p.pop("rC", 0.0)), float(p.pop("betaC", 0.0)))
-    g = float(p.pop("g", G))
-    branch = p.pop("branch", "open")
-    bmass = float(p.pop("bearing_mass", 0.0))
-    bjoints = _joint_list(p.pop("bearing_joints", "all"), "bearing_joints")
-    bdamp = float(p.pop("bearing_damping", 0.0))
-    djoints = _joint_list(p.pop("damping_joints", "all"), "damping_joints")
-    if p:
-        raise ParameterError(f"unknown seed-002 four-bar parameters: {sorted(p)}")
+    g₁ = Q, g₂ = R.  ``branch = "open"`` is the circuit in which B lies left of A₀→B₀ (above the
+    ground line for β₁ = 0) at q = β₁ + 90°; bearings: a point mass in each joint of
+    ``bearing_joints``, viscous friction in each hinge of ``damping_joints`` ("A" and "B0" share
+    FourBar.joint_damping, so both or neither)."""
+    bjoints = _joint_list(p.bearing_joints, "bearing_joints")
+    djoints = _joint_list(p.damping_joints, "damping_joints")
     if ("A" in djoints) != ("B0" in djoints):
         raise ParameterError(f"mechanism.damping_joints = {sorted(djoints)}: hinges 'A' and 'B0' share one "
                              f"coefficient (FourBar.joint_damping); list both or neither")
-    if not (np.isfinite(bmass) and bmass >= 0):
-        raise ParameterError(f"mechanism.bearing_mass = {bmass!r}: must be finite >= 0 [kg]")
-    hx, hy = r1 * math.cos(beta1), r1 * math.sin(beta1)
-    kw = dict(a=r2, b=r3, c=r4, h_x=hx, h_y=hy, f=c, theta=beta, m=m, J_G=J, g=g, coupler_point=pt,
+    hx, hy = p.r1 * math.cos(p.beta1), p.r1 * math.sin(p.beta1)
+    bmass, bdamp = p.bearing_mass, p.bearing_damping
+    kw = dict(a=p.r2, b=p.r3, c=p.r4, h_x=hx, h_y=hy, f=(p.c2, p.c3, p.c4), theta=(p.beta2, p.beta3, p.beta4),
+              m=(p.m2, p.m3, p.m4), J_G=(p.J2, p.J3, p.J4), g=p.g, coupler_point=CouplerPoint(p.rC, p.betaC),
               joint_masses={SEED002_JOINTS[j]: bmass for j in bjoints} if bmass > 0 else {},
               joint_damping=bdamp if "A" in djoints else 0.0,
               damping_A=bdamp if "A0" in djoints else 0.0,
               damping_C=bdamp if "B" in djoints else 0.0)
+    branch = p.branch
     if isinstance(branch, str):
-        b = branch.strip().lower()
-        if b not in ("open", "crossed"):
-            raise ParameterError(f"mechanism.branch = {branch!r}: choose 'open', 'crossed', +1 or -1")
-        # try k = +1: is B (seed-000 C) left of A0->B0 at q = beta1 + 90 deg?
         fb = FourBar(**kw, k=1)
-        q = beta1 + 0.5 * math.pi
+        q = p.beta1 + 0.5 * math.pi
         Cx, Cy = (float(v) for v in fb.joints(q)["C"])
         left = (hx * Cy - hy * Cx) > 0
-        k = 1 if left == (b == "open") else -1
+        k = 1 if left == (branch == "open") else -1
         return fb if k == 1 else FourBar(**kw, k=-1)
-    if branch not in (1, -1):
-        raise ParameterError(f"mechanism.branch = {branch!r}: choose 'open', 'crossed', +1 or -1")
     return FourBar(**kw, k=int(branch))
 
 
@@ -651,9 +683,16 @@ def _joint_list(v, name):
 
 
 def to_seed002(fb: FourBar) -> dict:
-    """The seed-002 description of a FourBar (inverse of from_seed002, bearings excluded)."""
-    return {"r1": math.hypot(fb.h_x, fb.h_y), "r2": fb.a, "r3": fb.b, "r4": fb.c,
+    """The seed-002 ``[mechanism]`` table of a FourBar (inverse of :func:`seed002_to_fourbar`,
+    bearings excluded)."""
+    return {"type": "fourbar", "notation": "seed002", "r1": math.hypot(fb.h_x, fb.h_y), "r2": fb.a, "r3": fb.b, "r4": fb.c,
             "beta1": math.atan2(fb.h_y, fb.h_x),
             **{f"c{i + 2}": fb.f[i] for i in range(3)}, **{f"beta{i + 2}": fb.theta[i] for i in range(3)},
             **{f"m{i + 2}": fb.m[i] for i in range(3)}, **{f"J{i + 2}": fb.J_G[i] for i in range(3)},
             "rC": fb.coupler_point.f, "betaC": fb.coupler_point.theta, "g": fb.g, "branch": fb.k}
+
+
+# ----------------------------------------------------------------- registration
+FourBar.Params = FourBarParams
+
+register(FourBar)

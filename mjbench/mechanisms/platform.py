@@ -1,38 +1,50 @@
 """Rotary platforms driven through an elastic transmission by a servomotor (seeds 001 and 003).
 
-Both reduce to one linear oscillator in the transmission deflection ψ driven by the motor
-acceleration φ̈ (the motor follows its motion law exactly — the papers' ideal-servo hypothesis):
+Both are machines with one driven coordinate, the motor angle φ (input coordinate q), and one
+internal coordinate, the transmission deflection ψ (platform side, rad).  With the drive torque
+τ on the motor shaft (the drive's inertia J_d and viscous c_d are added on q by the backends):
 
-    ψ̈ + 2ξω_n·ψ̇ + ω_n²·ψ = −ρ·φ̈(t)                     (seed 001 Eq 4, seed 003 Eq 6)
+    (J_d + J_in)·φ̈ = τ − c_d·φ̇ + ρ·(k·ψ + c·ψ̇)          motor side
+    ψ̈ + 2ξω_n·ψ̇ + ω_n²·ψ = −ρ·φ̈                         (seed 001 Eq 4, seed 003 Eq 6)
+
+J [kg·m²], k [N·m/rad], c [N·m·s/rad] on the platform side (ω_n² = k/J, 2ξω_n = c/J), ρ =
+platform rad per motor rad of the rigid transmission, J_in the mechanism's own inertia on the
+motor shaft (``J_motor``: pulley/reducer input; the rotor is the drive's J_m).  When the motor
+follows its motion law exactly (the papers' ideal-servo hypothesis) only the second equation
+remains (:class:`Oscillator`, :mod:`mjbench.vibration`).
 
 * :class:`BeltPlatform` (seed 001, Fig. 1, Table III): motor → gear reducer z → pulley r → two belt
   branches (stiffness k [N/m], damping c [N·s/m] each) → pulley R on the platform (inertia J).
-  ρ = λ = z·r/R, k_t = 2kR², c_t = 2cR² (Eqs 2-3), ψ = α = ϑ − λ·φ_m.
+  ρ = λ = z·r/R, k_t = 2kR², c_t = 2cR² (Eqs 2-3), ψ = α = ϑ − λ·φ.
 * :class:`ElasticPlatform` (seed 003, Fig. 1, Table II): motor → reducer z (α = z·φ) → torsional
   joint (k [N·m/rad], c [N·m·s/rad]) → gearbox 1:1 + platform, J_eq = J1 + J2 + J3 (Eqs 2-4).
   ρ = z, ψ = β − z·φ.
 
-MJCF (``build_spec``): every joint is a hinge about the vertical z axis, gravity off (it does no
-work on vertical-axis hinges).  The driven joint (``driven_joint`` of each class, ``driven_ratio`` rad per motor rad) is kinematically driven by
-``mjbench.vibration.simulate_multibody`` (the generalised force that makes its acceleration
-equal the law's is computed at every integrator stage), so the motor follows the law exactly.
+MJCF (``build_spec``): two hinges about the vertical z axis, gravity off (it does no work on
+vertical-axis hinges): ``motor`` (the input joint φ, carrying the drive's reflected inertia as
+armature) and ``platform`` (ϑ).  The elastic transmission is made of *fixed tendons* of length
+linear in the joint angles, with MuJoCo's tendon stiffness/damping (passive forces, integrated by
+MuJoCo inside every step):
 
-* belt: joint ``motor`` (the motor shaft φ_m; the reducer and pulley r are folded into the belt
-  tendons' coefficients), joint ``platform`` (ϑ).  Each branch is a *fixed tendon* of length
-  ±(R·ϑ − r·z·φ_m) with stiffness k, damping c and rest length 0 (a linear, always taut belt with
-  its pretension omitted: a constant pretension gives no net torque on a pulley).
-* elastic: joint ``reducer`` (α = z·φ, driven) carrying the body ``platform`` through the hinge
-  ``elastic_joint`` (ψ = β − α) with stiffness k, damping c (the spring of the joint).
+* belt: two branches, length ±(R·ϑ − r·z·φ) = ±R·ψ, stiffness k, damping c, rest length 0 (a
+  linear, always taut belt; a constant pretension gives no net torque on a pulley);
+* elastic joint: one tendon ``elastic_joint`` of length ϑ − z·φ = ψ, stiffness k, damping c.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+from pydantic import Field
 
 from ..errors import ParameterError
-from .base import new_spec
+from ..schema import Q, Strict
+from . import register
+from .base import Mechanism, new_spec
+
+J_MIN = 1e-9  #: [kg·m²] smallest body inertia given to MuJoCo for the motor-side body
 
 
 @dataclass
@@ -82,10 +94,6 @@ def _check_positive(obj, names, allow_zero=()):
                                  f"{'>= 0' if name in allow_zero else '> 0'}")
 
 
-def _spec_common(name, options):
-    return new_spec(name, options, gravity=(0.0, 0.0, 0.0), offscreen=(1280, 720))
-
-
 def _inertial(body, Izz, mass=1.0):
     body.mass = mass
     body.inertia = [0.6 * Izz, 0.6 * Izz, Izz]  # Izz about the hinge; Ixx + Iyy >= Izz
@@ -94,12 +102,146 @@ def _inertial(body, Izz, mass=1.0):
     body.explicitinertial = True
 
 
+# ============================================================================ parameters
+class BeltParams(Strict):
+    """``[mechanism] type = "platform"``, ``variant = "belt"`` (seed 001, Table III)."""
+
+    type: Literal["platform"] = "platform"
+    variant: Literal["belt"] = "belt"
+    J: Q("inertia", gt=0.0, what="a platform inertia") = Field(description="platform inertia")
+    k: Q("lin_stiffness", gt=0.0) = Field(description="stiffness of each belt branch")
+    c: Q("lin_damping", ge=0.0) = Field(description="damping of each belt branch")
+    r: Q("length", gt=0.0, what="a pulley radius") = Field(description="radius of pulley 1 (motor side)")
+    R: Q("length", gt=0.0, what="a pulley radius") = Field(description="radius of pulley 2 (platform)")
+    z: float = Field(gt=0.0, description="reducer: pulley-1 rad per motor rad (Table III '1:10' = 0.1)")
+    d: Q("length", gt=0.0) = Field(0.5, description="centre distance O1-O2 (drawing only)")
+    J_motor: Q("inertia", ge=0.0) = Field(0.0, description="transmission inertia on the motor shaft besides the rotor (drive J_m)")
+
+
+class ElasticParams(Strict):
+    """``[mechanism] type = "platform"``, ``variant = "elastic"`` (seed 003, Table II)."""
+
+    type: Literal["platform"] = "platform"
+    variant: Literal["elastic"]
+    J1: Q("inertia", ge=0.0) = Field(description="Eq 2: inertias rotating with the platform")
+    J2: Q("inertia", ge=0.0)
+    J3: Q("inertia", gt=0.0, what="a platform inertia")
+    k: Q("rot_stiffness", gt=0.0) = Field(description="joint torsional stiffness")
+    c: Q("rot_damping", ge=0.0) = Field(description="joint damping")
+    z: float = Field(gt=0.0, description="reducer α/φ (Table II: 1/20)")
+    J_motor: Q("inertia", ge=0.0) = Field(0.0, description="transmission inertia on the motor shaft besides the rotor (drive J_m)")
+
+
+# ============================================================================ mechanisms
+class Platform(Mechanism):
+    """Common part of the two platforms (input: motor angle φ; internal: deflection ψ)."""
+
+    type_name = "platform"
+    Params = BeltParams
+    input_joint = "motor"
+    internal = ("deflection",)
+    view = "top"
+    variant = ""
+
+    @classmethod
+    def params_for(cls, raw):
+        v = raw.get("variant", "belt") if isinstance(raw, dict) else "belt"
+        return ElasticParams if v == "elastic" else BeltParams
+
+    @classmethod
+    def from_params(cls, p):
+        if isinstance(p, ElasticParams):
+            return ElasticPlatform(J1=p.J1, J2=p.J2, J3=p.J3, k=p.k, c=p.c, z=p.z, J_motor=p.J_motor)
+        return BeltPlatform(J=p.J, k=p.k, c=p.c, r=p.r, R=p.R, z=p.z, d=p.d, J_motor=p.J_motor)
+
+    # --- subclasses: oscillator(), geometry for the MJCF ----------------------------------
+    def oscillator(self) -> Oscillator:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    @property
+    def ratio(self):
+        return self.oscillator().ratio
+
+    @property
+    def J_input(self):
+        """Mechanism inertia on the motor shaft [kg·m²] as the MJCF body carries it."""
+        return max(float(self.J_motor), J_MIN)
+
+    # --- reduced model -------------------------------------------------------------------
+    def reduced(self, q):
+        """Rigid transmission: J = J_in + ρ²J (constant), no potential energy."""
+        o = self.oscillator()
+        J = self.J_input + o.ratio ** 2 * o.J
+        return J + 0.0 * q, 0.0 * q, 0.0 * q
+
+    def potential_energy(self, q):
+        return 0.0 * q
+
+    def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
+        o = self.oscillator()
+        psi, psid = x[0], xd[0]
+        tr = o.k * psi + o.c * psid  # transmission torque on the platform side
+        qdd = (tau - c_add * qd + o.ratio * tr) / (J_add + self.J_input)
+        return qdd, (-tr / o.J - o.ratio * qdd,)
+
+    def energy(self, qd, psi, psid, J_add=0.0):
+        """Total mechanical energy [J]: motor side + platform + spring (passive checks)."""
+        o = self.oscillator()
+        thd = psid + o.ratio * qd
+        return 0.5 * (J_add + self.J_input) * qd * qd + 0.5 * o.J * thd * thd + 0.5 * o.k * psi * psi
+
+    # --- multibody -----------------------------------------------------------------------
+    def _spec_base(self, armature, options, name):
+        import mujoco
+
+        spec = new_spec(name, options, gravity=(0.0, 0.0, 0.0), offscreen=(1280, 720))
+        w = spec.worldbody
+        motor = w.add_body(name="motor_pulley", pos=[0, 0, 0])
+        _inertial(motor, self.J_input, mass=1.0)
+        j = motor.add_joint(name="motor", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+        j.armature = float(armature)
+        return spec, w, motor
+
+    def initial_qpos(self, model, q0, x0=None):
+        qpos = np.array(model.qpos0, dtype=float)
+        psi = 0.0 if not x0 else float(x0[0])
+        qpos[model.joint("motor").qposadr[0]] = q0
+        qpos[model.joint("platform").qposadr[0]] = self.ratio * q0 + psi
+        return qpos
+
+    def initial_qvel(self, model, q0, qd0, x0=None, xd0=None):
+        qvel = np.zeros(model.nv)
+        psid = 0.0 if not xd0 else float(xd0[0])
+        qvel[model.joint("motor").dofadr[0]] = qd0
+        qvel[model.joint("platform").dofadr[0]] = self.ratio * qd0 + psid
+        return qvel
+
+    def internal_state(self, model, qpos, qvel):
+        th, thd, _ = self.platform_state(model, qpos, qvel)
+        a, v = int(model.joint("motor").qposadr[0]), int(model.joint("motor").dofadr[0])
+        rho = self.ratio
+        return (th - rho * qpos[..., a],), (thd - rho * qvel[..., v],)
+
+    def platform_state(self, model, qpos, qvel, qacc=None):
+        """(ϑ, ϑ̇, ϑ̈) of the platform [rad, rad/s, rad/s²] from a multibody state."""
+        a = int(model.joint("platform").qposadr[0])
+        v = int(model.joint("platform").dofadr[0])
+        return qpos[..., a], qvel[..., v], (None if qacc is None else qacc[..., v])
+
+    def points(self, q):
+        """Top view: motor axis O1 at the origin, platform axis O2 (drawing only)."""
+        z = 0.0 * q
+        return {"O1": (z, z), "O2": (z + self._centre(), z)}
+
+    def _centre(self):
+        return 0.0
+
+
 @dataclass
-class BeltPlatform:
+class BeltPlatform(Platform):
     """Seed 001: platform inertia J [kg·m²], belt branch stiffness k [N/m] and damping c [N·s/m],
     pulley radii r, R [m], reducer ratio z (pulley-1 rad per motor rad; Table III "1:10" = 0.1),
-    centre distance d [m] (drawing only), rotor inertia J_motor [kg·m²] on the motor shaft
-    (not in the paper; only for the torque estimate and the DC-servo option)."""
+    centre distance d [m] (drawing only), transmission inertia J_motor [kg·m²] on the motor shaft."""
 
     J: float = 6.0
     k: float = 9e4
@@ -110,8 +252,6 @@ class BeltPlatform:
     d: float = 0.5
     J_motor: float = 0.0
     variant = "belt"
-    driven_joint = "motor"
-    driven_ratio = 1.0  # driven-joint rad per motor rad
 
     def __post_init__(self):
         _check_positive(self, ("J", "k", "r", "R", "z", "d"))
@@ -133,15 +273,13 @@ class BeltPlatform:
     def oscillator(self) -> Oscillator:
         return Oscillator(self.J, self.k_t, self.c_t, self.ratio)
 
-    # multibody --------------------------------------------------------------------------
-    def build_spec(self, options=None):
+    def _centre(self):
+        return self.d
+
+    def build_spec(self, armature: float = 0.0, options=None):
         import mujoco
 
-        spec = _spec_common("belt_platform", options)
-        w = spec.worldbody
-        motor = w.add_body(name="motor_pulley", pos=[0, 0, 0])
-        _inertial(motor, max(self.J_motor, 1e-4), mass=1.0)
-        motor.add_joint(name="motor", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
+        spec, w, motor = self._spec_base(armature, options, "belt_platform")
         motor.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[self.r, 0.02, 0], rgba=[0.8, 0.3, 0.2, 1],
                        contype=0, conaffinity=0)
         motor.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.9 * self.r, 0.005, 0.021], rgba=[0.2, 0.2, 0.2, 1],
@@ -163,22 +301,18 @@ class BeltPlatform:
             t.rgba = [0.1, 0.1, 0.1, 1]
         return spec
 
-    def platform_state(self, model, qpos, qvel, qacc=None):
-        """(ϑ, ϑ̇, ϑ̈) of the platform [rad, rad/s, rad/s²] from a multibody state."""
-        a = int(model.joint("platform").qposadr[0])
-        v = int(model.joint("platform").dofadr[0])
-        return qpos[..., a], qvel[..., v], (None if qacc is None else qacc[..., v])
-
     def describe(self):
+        o = self.oscillator()
         return {"type": "platform", "variant": "belt", "J": self.J, "k": self.k, "c": self.c, "r": self.r,
-                "R": self.R, "z": self.z, "d": self.d, "J_motor": self.J_motor, **_osc_summary(self)}
+                "R": self.R, "z": self.z, "d": self.d, "J_motor": self.J_motor,
+                "omega_n": o.omega_n, "xi": o.xi, "ratio": o.ratio}
 
 
 @dataclass
-class ElasticPlatform:
+class ElasticPlatform(Platform):
     """Seed 003: inertias J1, J2, J3 [kg·m²] (all rotate with the platform, Eq 2), joint stiffness
-    k [N·m/rad] and damping c [N·m·s/rad], reducer ratio z = α/φ (Table II: 1/20), rotor inertia
-    J_motor [kg·m²] (not in the paper)."""
+    k [N·m/rad] and damping c [N·m·s/rad], reducer ratio z = α/φ (Table II: 1/20), transmission
+    inertia J_motor [kg·m²] on the motor shaft."""
 
     J1: float = 5e-3
     J2: float = 5e-3
@@ -188,13 +322,10 @@ class ElasticPlatform:
     z: float = 1.0 / 20.0
     J_motor: float = 0.0
     variant = "elastic"
-    driven_joint = "reducer"
-    driven_ratio = None  # = z, set in __post_init__
 
     def __post_init__(self):
-        _check_positive(self, ("J1", "J2", "J3", "k", "z"))
-        _check_positive(self, ("c", "J_motor"), allow_zero=("c", "J_motor"))
-        self.driven_ratio = self.z
+        _check_positive(self, ("J3", "k", "z"))
+        _check_positive(self, ("J1", "J2", "c", "J_motor"), allow_zero=("J1", "J2", "c", "J_motor"))
 
     @property
     def J_eq(self):
@@ -207,58 +338,35 @@ class ElasticPlatform:
     def oscillator(self) -> Oscillator:
         return Oscillator(self.J_eq, self.k, self.c, self.z)
 
-    def build_spec(self, options=None):
+    def build_spec(self, armature: float = 0.0, options=None):
         import mujoco
 
-        spec = _spec_common("elastic_platform", options)
-        w = spec.worldbody
-        red = w.add_body(name="reducer_out", pos=[0, 0, 0])
-        _inertial(red, 1e-3, mass=1.0)
-        red.add_joint(name="reducer", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
-        red.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.02, 0.05, 0], pos=[0, 0, -0.15],
-                     rgba=[0.8, 0.3, 0.2, 1], contype=0, conaffinity=0)
-        plat = red.add_body(name="platform", pos=[0, 0, 0])
+        spec, w, motor = self._spec_base(armature, options, "elastic_platform")
+        motor.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.02, 0.05, 0], pos=[0, 0, -0.15],
+                       rgba=[0.8, 0.3, 0.2, 1], contype=0, conaffinity=0)
+        plat = w.add_body(name="platform", pos=[0, 0, 0])
         _inertial(plat, self.J_eq, mass=10.0)
-        j = plat.add_joint(name="elastic_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
-        j.stiffness = [float(self.k), 0.0, 0.0]
-        j.damping = [float(self.c), 0.0, 0.0]
-        j.springref = 0.0
+        plat.add_joint(name="platform", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 0, 1])
         plat.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[0.4, 0.02, 0], rgba=[0.2, 0.5, 0.85, 1],
                       contype=0, conaffinity=0)
         plat.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.38, 0.02, 0.021], rgba=[0.9, 0.9, 0.2, 1],
                       contype=0, conaffinity=0)
+        t = spec.add_tendon(name="elastic_joint")  # length ψ = ϑ − z·φ
+        t.wrap_joint("platform", 1.0)
+        t.wrap_joint("motor", -float(self.z))
+        t.stiffness = [float(self.k), 0.0, 0.0]
+        t.damping = [float(self.c), 0.0, 0.0]
+        t.springlength = [0.0, 0.0]
         return spec
 
-    def platform_state(self, model, qpos, qvel, qacc=None):
-        """(β, β̇, β̈) = reducer + elastic joint."""
-        ra, ea = int(model.joint("reducer").qposadr[0]), int(model.joint("elastic_joint").qposadr[0])
-        rv, ev = int(model.joint("reducer").dofadr[0]), int(model.joint("elastic_joint").dofadr[0])
-        acc = None if qacc is None else qacc[..., rv] + qacc[..., ev]
-        return qpos[..., ra] + qpos[..., ea], qvel[..., rv] + qvel[..., ev], acc
-
     def describe(self):
+        o = self.oscillator()
         return {"type": "platform", "variant": "elastic", "J1": self.J1, "J2": self.J2, "J3": self.J3,
-                "k": self.k, "c": self.c, "z": self.z, "J_motor": self.J_motor, **_osc_summary(self)}
+                "k": self.k, "c": self.c, "z": self.z, "J_motor": self.J_motor,
+                "omega_n": o.omega_n, "xi": o.xi, "ratio": o.ratio}
 
 
-def _osc_summary(p):
-    o = p.oscillator()
-    return {"omega_n": o.omega_n, "xi": o.xi, "ratio": o.ratio}
-
-
-def from_params(p: dict):
-    """Scenario ``[mechanism]`` table (type = "platform") → BeltPlatform | ElasticPlatform.
-    Key ``variant`` = "belt" (seed 001: J, k, c, r, R, z, d, J_motor) or "elastic" (seed 003:
-    J1, J2, J3, k, c, z, J_motor)."""
-    p = {k: v for k, v in p.items() if not k.startswith("_")}
-    variant = p.pop("variant", "belt")
-    cls = {"belt": BeltPlatform, "elastic": ElasticPlatform}.get(variant)
-    if cls is None:
-        raise ParameterError(f"mechanism.variant = {variant!r}: choose 'belt' (seed 001) or 'elastic' (seed 003)")
-    try:
-        return cls(**{k: float(v) for k, v in p.items()})
-    except TypeError as e:
-        raise ParameterError(f"[mechanism] ({variant} platform): {e}") from None
+register(Platform)
 
 
 def export_default_mjcf(folder="assets/mjcf"):

@@ -38,7 +38,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from typing import Literal
+
+from pydantic import Field
+
 from ..errors import GeometryError, ParameterError
+from ..schema import OptQ, Q, Strict
+from . import register
 from .base import INPUT_JOINT, Mechanism, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²]
@@ -85,6 +91,11 @@ class QuickReturn(Mechanism):
     cut_start: float = 0.0       # window: fraction of the working stroke where cutting starts
     cut_end: float = 1.0         # ... and ends
     name: str = "quickreturn"
+    type_name = "quickreturn"
+
+    @classmethod
+    def from_params(cls, p):
+        return cls(**{k: getattr(p, k) for k in _KEYS})
 
     def __post_init__(self):
         for nm, L in (("c2", self.r2), ("c3", self.r3), ("c4", self.r4)):
@@ -410,7 +421,7 @@ class QuickReturn(Mechanism):
     def _x_mid(self):
         return 0.5 * (self._x_start + self._x_end)
 
-    def initial_qpos(self, model, q0: float) -> np.ndarray:
+    def initial_qpos(self, model, q0: float, x0=None) -> np.ndarray:
         k = self.kin(float(q0))
         qpos = np.array(model.qpos0, dtype=float)
         qpos[model.joint(INPUT_JOINT).qposadr[0]] = q0
@@ -420,7 +431,7 @@ class QuickReturn(Mechanism):
         qpos[model.joint("slider").qposadr[0]] = k["xC"]
         return qpos
 
-    def initial_qvel(self, model, q0: float, qd0: float) -> np.ndarray:
+    def initial_qvel(self, model, q0: float, qd0: float, x0=None, xd0=None) -> np.ndarray:
         k = self.kin(float(q0))
         qvel = np.zeros(model.nv)
         qvel[model.joint(INPUT_JOINT).dofadr[0]] = qd0
@@ -480,24 +491,35 @@ _KEYS = ("r2", "r3", "r4", "a", "b", "m2", "m3", "m4", "m5", "I_G2", "I_G3", "I_
          "m_block", "I_block", "k", "g", "cut_force", "cut_profile", "cut_start", "cut_end")
 
 
-def from_params(p: dict) -> QuickReturn:
-    """Scenario ``[mechanism]`` table → QuickReturn.  Keys (SI): r2, r3, r4, a, b [m]; m2..m5 [kg];
-    I_G2..I_G4 [kg·m²] about the mass centres; c2..c4 [m] mass-centre distances (default mid-length);
-    m_block [kg], I_block [kg·m²]; k (±1); g [m/s²]; cut_force [N]; cut_profile
-    (stroke|window|sine|none); cut_start, cut_end (fractions of the working stroke, window)."""
-    p = dict(p)
-    unknown = sorted(set(p) - set(_KEYS))
-    if unknown:
-        raise ParameterError(f"unknown quick-return parameters: {unknown} (known: {list(_KEYS)})")
-    kw = {}
-    for key, v in p.items():
-        if key == "cut_profile":
-            kw[key] = str(v)
-        elif key == "k":
-            kw[key] = int(v)
-        else:
-            try:
-                kw[key] = float(v)
-            except (TypeError, ValueError):
-                raise ParameterError(f"mechanism.{key} = {v!r}: must be a number") from None
-    return QuickReturn(**kw)
+class QuickReturnParams(Strict):
+    """``[mechanism] type = "quickreturn"`` (Yiğit & Şen 2023, Table I; geometry reconstructed
+    from Eqs 3-6, docs/quickreturn.md).  Lengths [m], masses [kg], inertias about the mass centres."""
+
+    type: Literal["quickreturn"] = "quickreturn"
+    r2: Q("length", gt=0.0, what="a link length") = Field(description="crank")
+    r3: Q("length", gt=0.0, what="a link length") = Field(description="slotted lever")
+    r4: Q("length", gt=0.0, what="a link length") = Field(description="connecting rod")
+    a: Q("length", gt=0.0, what="a link length") = Field(description="|A0B0|: crank pivot above the lever pivot")
+    b: Q("length", gt=0.0, what="a link length") = Field(description="slider line height above A0")
+    m2: Q("mass", ge=0.0, what="a link mass")
+    m3: Q("mass", ge=0.0, what="a link mass")
+    m4: Q("mass", ge=0.0, what="a link mass")
+    m5: Q("mass", ge=0.0, what="a link mass") = Field(description="output slider")
+    I_G2: Q("inertia", ge=0.0, what="a link inertia")
+    I_G3: Q("inertia", ge=0.0, what="a link inertia")
+    I_G4: Q("inertia", ge=0.0, what="a link inertia")
+    c2: OptQ("length", ge=0.0) = Field(None, description="mass-centre distance from the proximal joint (default: mid-length)")
+    c3: OptQ("length", ge=0.0) = None
+    c4: OptQ("length", ge=0.0) = None
+    m_block: Q("mass", ge=0.0) = Field(description="block on the crank pin sliding in the lever slot (> 0 for MuJoCo)")
+    I_block: Q("inertia", ge=0.0) = Field(description="its inertia")
+    k: Literal[1, -1] = Field(1, description="assembly mode")
+    g: Q("acceleration", what="gravity") = Field(G, description="gravity, −y in the plane")
+    cut_force: Q("force", ge=0.0) = Field(0.0, description="cutting force on the slider (default: no load)")
+    cut_profile: Literal["stroke", "window", "sine", "none"] = "stroke"
+    cut_start: float = Field(0.0, ge=0.0, le=1.0, description="window profile: fraction of the working stroke")
+    cut_end: float = Field(1.0, ge=0.0, le=1.0)
+
+
+QuickReturn.Params = QuickReturnParams
+register(QuickReturn)

@@ -9,8 +9,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .metrics_coupler import signals  # noqa: E402
-from .trajectory import atomic_write  # noqa: E402
+from .hulako2025_metrics import signals  # noqa: E402
+from mjbench.trajectory import atomic_write  # noqa: E402
 
 STYLE = {"multibody": dict(color="C0", lw=1.0), "reduced": dict(color="C1", lw=1.0, ls="--")}
 

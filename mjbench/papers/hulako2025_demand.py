@@ -120,13 +120,14 @@ def predicted_error(mechanism, drive, reference, kp, ki, kd, n: int = 4096, harm
 
 def from_scenario(scn, mode: str | None = None, n: int = 4096) -> dict:
     """Demand report for a scenario (built through scenario.make_machine)."""
-    from . import scenario as S
+    from mjbench import scenario as S
 
     mach = S.make_machine(scn, mode)
     ctrl = mach.controller
     ref = getattr(ctrl, "reference", None)
     if ref is None or not hasattr(ref, "vc_at"):
-        raise ValueError("the scenario's controller has no coupler_speed reference")
+        from mjbench.errors import ParameterError
+        raise ParameterError("the scenario's controller has no coupler_speed reference")
     z = float(mach.drive.z)
     if hasattr(ctrl, "kp"):
         # PID gains are motor-side in the object: back to crank side (× z)

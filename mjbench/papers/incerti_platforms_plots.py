@@ -13,9 +13,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .motionlaws import BezierLaw  # noqa: E402
-from .trajectory import atomic_write  # noqa: E402
-from .vibration import ode_response  # noqa: E402
+from mjbench.motionlaws import BezierLaw  # noqa: E402
+from mjbench.trajectory import atomic_write  # noqa: E402
+from mjbench.vibration import ode_response  # noqa: E402
 
 
 def save(fig, path):
@@ -144,7 +144,7 @@ def fig_laws(laws: dict, path, title="Motor laws"):
 def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
     """Transmission deflection ψ(t) from MuJoCo (RK4, driven joint imposed per stage) over the
     reduced ODE, and their difference."""
-    from .vibration import simulate_multibody
+    from mjbench.vibration import simulate_multibody
 
     t_end = law.T + t_after
     r = simulate_multibody(platform, law, t_end=t_end, dt=dt, record_dt=max(dt, 1e-3))
@@ -166,13 +166,13 @@ def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
 
 def fig_servo(laws: dict, runs: dict, osc, path, t_after=0.5, title="Ideal vs real servo"):
     """Deflection ψ(t) with the ideal servo (law followed exactly, ODE) and with the DC motor +
-    cascade servo (``vibration.simulate_servo``), for each law in ``runs``."""
+    cascade servo (the machine run by the co-step kernel, a Trajectory), for each law in ``runs``."""
     fig, ax = plt.subplots(len(runs), 1, figsize=(9, 3.2 * len(runs)), sharex=True, squeeze=False)
     for a, (name, r) in zip(ax[:, 0], runs.items()):
         law = laws[name]
-        t, psi, _, _ = ode_response(law, osc, t_end=float(r["t"][-1]), t_eval=r["t"][::10])
+        t, psi, _, _ = ode_response(law, osc, t_end=float(r.t[-1]), t_eval=r.t[::10])
         a.plot(t, 1e3 * psi, "k-", lw=1.3, label="ideal servo (ODE)")
-        a.plot(r["t"], 1e3 * r["psi"], "r--", lw=1.0, label="DC motor + cascade servo")
+        a.plot(r.t, 1e3 * r["deflection_rad"], "r--", lw=1.0, label="DC motor + cascade servo")
         a.axvline(law.T, color="0.6", lw=0.8, ls=":")
         a.set_ylabel(f"{name}: ψ [mrad]")
         a.grid(alpha=0.3)

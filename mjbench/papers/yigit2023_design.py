@@ -107,7 +107,7 @@ def optimise(starts: int = 8, seed: int = 0, bounds=DEFAULT_BOUNDS, include_tabl
 
 def check_with_mechanism(x_mm) -> dict:
     """Cross-check the closed forms with the full kinematics of QuickReturn (lengths in mm)."""
-    from .mechanisms.quickreturn import QuickReturn
+    from mjbench.mechanisms.quickreturn import QuickReturn
 
     r2, r3, r4, a, b = (float(v) * 1e-3 for v in x_mm)
     m = QuickReturn(r2=r2, r3=r3, r4=r4, a=a, b=b)

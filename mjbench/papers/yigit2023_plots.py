@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 
 
 def _save(fig, path):
-    from .trajectory import atomic_write
+    from mjbench.trajectory import atomic_write
 
     ext = os.path.splitext(path)[1].lstrip(".") or "png"
     atomic_write(path, lambda f: fig.savefig(f, format=ext, dpi=130), mode="wb")
@@ -151,15 +151,15 @@ def draw_geometry(mech, path=None, q=2.0):
 def docs_figures(outdir="docs", t_end=5.0, backend="multibody"):
     """Regenerate docs/quickreturn_{geometry,fig6,fig7}.png from the yigit2023 scenario
     (open 48 V, SMC, PID; ≈ 5 s of computing per mode)."""
-    from . import scenario
-    from .backends import simulate
+    from mjbench import scenario
+    from mjbench.backends import simulate
 
     scn = scenario.load("yigit2023")
     runs = {}
     for mode in ("open", "smc", "pid"):
         runs[mode] = simulate(scenario.make_machine(scn, mode), backend, t_end, dt=1e-4,
                               record_dt=1e-3 if mode == "open" else 1e-4)
-    Ts = scn["modes"]["smc"]["Ts"]
+    Ts = scn.modes["smc"].Ts
     out = [draw_geometry(scenario.make_mechanism(scn), os.path.join(outdir, "quickreturn_geometry.png")),
            plot_speed([runs["open"], runs["smc"], runs["pid"]],
                       ["open loop 48 V", f"SMC (λ=50, K=1000, Ts={1e3 * Ts:g} ms)", "PID (our gains)"],

@@ -44,16 +44,15 @@ step with ``metrics.chi`` exactly as ``mjbench run`` measures it.
 """
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import metrics as M
-from . import scenario as S
-from .backends import simulate
-from .errors import GeometryError, ParameterError, ScenarioError, SimulationDiverged
+from mjbench import metrics as M
+from mjbench import scenario as S
+from mjbench.backends import simulate
+from mjbench.errors import GeometryError, ParameterError, ScenarioError, SimulationDiverged
 
 # --------------------------------------------------------------------------- seed-000 specification
 #: parameters the seed does not give (Table I illegible) → scenario key
@@ -101,10 +100,10 @@ def check_params(names, scn=None):
     if not names:
         raise ParameterError("--params: give at least one missing parameter to fit, e.g. a,b,c,h_x,m2,m3,R")
     if scn is not None:
-        seed = str(S.get(scn, "scenario.seed", ""))
+        seed = scn.scenario.seed
         if seed not in SEEDS:
-            raise ScenarioError(f"scenario {S.get(scn, 'scenario.name')!r} (seed {seed!r}): calibration is "
-                                f"defined for the seed-000 scenarios only (seeds {list(SEEDS)})")
+            raise ScenarioError(f"scenario {scn.name!r} (paper {scn.scenario.paper or seed or '?'!r}): calibration "
+                                f"is defined for the Incerti 2012 scenarios only")
     for n in names:
         if n in LEGIBLE:
             val = S.get(scn, LEGIBLE[n]) if scn is not None else None
@@ -215,10 +214,8 @@ def feasibility(scn, vals, J_G):
 
 
 def _with(scn, vals):
-    s = copy.deepcopy(scn)
-    for n, v in vals.items():
-        S.set_key(s, MISSING[n], float(v))
-    return s
+    """The scenario with the missing values set (validated by the schema)."""
+    return S.with_values(scn, {MISSING[n]: float(v) for n, v in vals.items()})
 
 
 # --------------------------------------------------------------------------- model evaluation
@@ -248,15 +245,13 @@ def measure(scn, dt=None, record_dt=None, backend="reduced", t_open=None, refine
 
     dt, record_dt default to the scenario's [simulation] values; the open loop runs
     simulation.t_end (steady state, last full cycle), the PID up to the end of the χ window."""
-    dt = float(dt if dt is not None else S.get(scn, "simulation.dt", 1e-4))
-    rec = float(record_dt if record_dt is not None else S.get(scn, "simulation.record_dt", dt))
+    dt = float(dt if dt is not None else scn.simulation.dt)
+    rec = float(record_dt if record_dt is not None else scn.simulation.record_dt)
     rec = max(rec, dt)
-    win = S.get(scn, "metrics.chi_window")
-    avg = S.get(scn, "metrics.chi_average", "mean")
-    t_open = float(t_open if t_open is not None else S.get(scn, "simulation.t_end", 2.0))
-    opts = {}
-    if backend == "multibody":
-        opts = dict(S._strip(scn.get("multibody", {})))
+    win = scn.metrics.chi_window
+    avg = scn.metrics.chi_average
+    t_open = float(t_open if t_open is not None else scn.simulation.t_end)
+    opts = scn.multibody_options() if backend == "multibody" else {}
     opts["timestep"] = dt
     tr = simulate(S.make_machine(scn, "open"), backend, t_open, record_dt=rec, options=opts)
     so = M.summary(tr, average=avg)
@@ -276,7 +271,7 @@ def residuals_of(meas):
 
 @dataclass
 class Problem:
-    scn: dict
+    scn: object
     names: list
     dt: float = 1e-3
     record_dt: float | None = None

@@ -91,7 +91,8 @@ def compute(traj, mechanism, reference, settle_time=1.5, band_rel=0.10, rise_fra
 
 def from_run(scn, traj, machine) -> dict:
     """Metrics of a scenario run (settings from the scenario's [metrics] table)."""
-    cfg = {**DEFAULTS, **{k: v for k, v in scn.get("metrics", {}).items() if k in DEFAULTS}}
+    mt = scn.metrics
+    cfg = {**DEFAULTS, **{k: getattr(mt, k) for k in DEFAULTS if getattr(mt, k, None) is not None}}
     ref = machine.controller.reference
     return compute(traj, machine.mechanism, ref, **cfg)
 

@@ -1,0 +1,75 @@
+"""Paper studies: one module per paper, registered here in code.
+
+Each module holds what is specific to its paper — which scenarios reproduce it, the cases
+``mjbench reproduce`` runs, the report rows (paper figure, ours, verdict) and the figures in the
+paper's style — plus, as submodules, the paper-specific tools (the seed-000 calibration, the
+seed-002 demand helper, the seed-004 optimum design).  The engine (scenario, mechanisms, drive,
+controllers, kernel, backends, outputs) never imports this package; ``reproduce`` and the
+commands do.
+
+A new paper = one module defining ``KEY``, ``CITATION``, ``TITLE``, ``SCENARIOS``, ``CASES``
+(a list of :class:`Case`), ``rows(ctx)`` and ``figures(ctx)`` (``ctx``: a
+:class:`mjbench.reproduce.CaseRun`), added to :data:`MODULES`.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+
+#: paper key → module (one module per paper)
+MODULES = {
+    "incerti2012": "mjbench.papers.incerti2012",
+    "incerti-platforms": "mjbench.papers.incerti_platforms",
+    "hulako2025": "mjbench.papers.hulako2025",
+    "yigit2023": "mjbench.papers.yigit2023",
+}
+
+
+@dataclass
+class Case:
+    """One ``mjbench reproduce`` case: a scenario run end to end (``kind = "run"``: the listed
+    modes on the backends; ``"optimize-law"``: the motion-law study)."""
+
+    name: str
+    scenario: str
+    kind: str = "run"
+    title: str = ""
+    modes: list = field(default_factory=list)
+    backend: str = "both"
+    t_end: float | None = None
+    overrides: list = field(default_factory=list)
+    video: bool = True
+    video_mode: str | None = None
+    video_t_end: float | None = None
+    note: str = ""
+    paper: str = ""
+
+
+def module(key: str):
+    return importlib.import_module(MODULES[key])
+
+
+def all_papers() -> list:
+    return [module(k) for k in MODULES]
+
+
+def cases() -> list[Case]:
+    """Every case of every paper, with its paper key filled in."""
+    out, seen = [], {}
+    for key in MODULES:
+        for c in module(key).CASES:
+            if c.name in seen:
+                raise ValueError(f"reproduce case {c.name!r} defined twice ({seen[c.name]}, {key})")
+            seen[c.name] = key
+            c.paper = key
+            out.append(c)
+    return out
+
+
+def paper_of_scenario(name: str):
+    """The paper module a scenario reproduces (None if none)."""
+    for key in MODULES:
+        m = module(key)
+        if name in m.SCENARIOS:
+            return m
+    return None
