@@ -103,7 +103,7 @@ class ReducedPlant:
             a4 = f(t + h, q + h * v3, v4, tau)
             self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
             self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-            return
+            return self.qd
         acc = self._mech.reduced_accel
         Ja, c = self._Ja, self._c
         x, xd = self.x, self.xd
@@ -118,6 +118,7 @@ class ReducedPlant:
         self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         self.x = tuple(p + h6 * (u + 2.0 * s2 + 2.0 * s3 + s4) for p, u, s2, s3, s4 in zip(x, xd, w2, w3, w4))
         self.xd = tuple(u + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4) for u, c1, c2, c3, c4 in zip(xd, b1, b2, b3, b4))
+        return self.qd
 
     def _advance_ivp(self, tau, t):
         nx = self._nx
@@ -137,6 +138,7 @@ class ReducedPlant:
         self.q, self.qd = float(u[0]), float(u[1])
         self.x = tuple(float(v) for v in u[2:2 + nx])
         self.xd = tuple(float(v) for v in u[2 + nx:])
+        return self.qd
 
 
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
