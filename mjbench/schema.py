@@ -527,11 +527,6 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
         for alias, target in scn.aliases.items():
             if not _path_exists(raw, target, scn):
                 problems.append(f"aliases.{alias}: target {target!r} is not a key of this scenario")
-        if mech is not None and drive is not None:
-            for name, mp in modes.items():
-                chk = getattr(mp, "check_against", None)
-                if chk is not None:
-                    problems += [f"modes.{name}.{m}" for m in chk(scn)]
     if problems:
         where = f" ({source})" if source else ""
         name = (raw.get("scenario") or {}).get("name", "?") if isinstance(raw.get("scenario"), dict) else "?"
