@@ -1,0 +1,148 @@
+"""Outputs you can trust (issue 12): whole output folders or none (also under SIGTERM/SIGINT),
+one message and exit 2 for bad input, strict JSON everywhere, plausibility flag, --version,
+MuJoCo's log kept out of the working folder."""
+import hashlib
+import json
+import os
+import signal
+import stat
+import subprocess
+import sys
+import time
+
+import pytest
+
+from mjbench import outputs
+from mjbench.cli import main
+from mjbench.outputs import OutputError, read_json, staged_dir
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUN = ["run", "incerti2012", "--mode", "pid", "--t-end", "0.1", "--no-figure", "--quiet"]
+NEW_FILES = ["manifest.json", "metrics.json", "trajectory_multibody.csv", "trajectory_reduced.csv"]
+
+
+def _tree(folder):
+    """{relative path: sha256} of every file below ``folder`` (hidden ones included)."""
+    out = {}
+    for d, _, files in os.walk(folder):
+        for f in files:
+            p = os.path.join(d, f)
+            with open(p, "rb") as fh:
+                out[os.path.relpath(p, folder)] = hashlib.sha256(fh.read()).hexdigest()
+    return out
+
+
+def _mjbench(args, cwd=None, env=None, **kw):
+    e = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), **(env or {})}
+    return subprocess.run([sys.executable, "-m", "mjbench.cli", *args], cwd=cwd or ROOT, env=e,
+                          capture_output=True, text=True, timeout=300, **kw)
+
+
+# ============================================================================ staged_dir
+def test_staged_dir_writes_whole_folder_with_0644_files(tmp_path):
+    out = tmp_path / "a" / "b" / "out"
+    with staged_dir(out) as tmp:
+        assert tmp.parent == out.parent and tmp.name.startswith(".out.staging-") and not out.exists()
+        outputs.write_json(tmp / "x.json", {"v": 1})
+        outputs.atomic_write(tmp / "y.csv", lambda f: f.write("a,b\n"))
+    assert sorted(os.listdir(out)) == ["x.json", "y.csv"]
+    assert os.listdir(out.parent) == ["out"]  # no staging, no .tmp left
+    for f in ("x.json", "y.csv"):
+        assert stat.S_IMODE(os.stat(out / f).st_mode) == outputs.FILE_MODE == 0o666 & ~outputs._UMASK
+    assert stat.S_IMODE(os.stat(out).st_mode) == outputs.DIR_MODE
+    if outputs._UMASK == 0o022:
+        assert outputs.FILE_MODE == 0o644
+
+
+def test_staged_dir_failure_leaves_nothing(tmp_path):
+    out = tmp_path / "new" / "out"
+    with pytest.raises(RuntimeError):
+        with staged_dir(out) as tmp:
+            (tmp / "half.csv").write_text("1,2\n")
+            raise RuntimeError("boom")
+    assert os.listdir(tmp_path) == []  # not even the parent folder the run created
+
+
+def test_staged_dir_refuses_non_empty_then_force_replaces_whole(tmp_path):
+    out = tmp_path / "out"
+    (out / "sub").mkdir(parents=True)
+    (out / "old.csv").write_text("old")
+    (out / "sub" / "old.png").write_text("old")
+    before = _tree(out)
+    with pytest.raises(OutputError, match="--force"):
+        with staged_dir(out):
+            pytest.fail("must refuse before the block runs")
+    assert _tree(out) == before and os.listdir(tmp_path) == ["out"]
+    with pytest.raises(KeyboardInterrupt):  # an interrupted --force run keeps the old folder
+        with staged_dir(out, force=True) as tmp:
+            (tmp / "new.csv").write_text("new")
+            raise KeyboardInterrupt
+    assert _tree(out) == before and os.listdir(tmp_path) == ["out"]
+    with staged_dir(out, force=True) as tmp:
+        (tmp / "new.csv").write_text("new")
+    assert _tree(out) == {"new.csv": hashlib.sha256(b"new").hexdigest()}
+    assert os.listdir(tmp_path) == ["out"]  # the old folder is gone
+
+
+def test_staged_dir_empty_folder_and_bad_paths(tmp_path, monkeypatch):
+    (tmp_path / "empty").mkdir()
+    with staged_dir(tmp_path / "empty") as tmp:
+        (tmp / "f").write_text("x")
+    assert os.listdir(tmp_path / "empty") == ["f"]
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OutputError, match="existing file, not a folder"):
+        with staged_dir(tmp_path / "file"):
+            pass
+    with pytest.raises(OutputError, match="is a file, not a folder"):
+        with staged_dir(tmp_path / "file" / "sub" / "out"):
+            pass
+    monkeypatch.chdir(tmp_path / "empty")
+    with pytest.raises(OutputError, match="current folder"):
+        with staged_dir(tmp_path / "empty", force=True):
+            pass
+    if os.path.isdir("/proc/self"):
+        with pytest.raises(OutputError, match="/proc"):
+            with staged_dir("/proc/mjbench-out"):
+                pass
+    if os.geteuid() != 0:  # root may write anywhere: the /proc and file cases above cover it
+        ro = tmp_path / "ro"
+        ro.mkdir()
+        ro.chmod(0o555)
+        try:
+            with pytest.raises(OutputError, match="permission denied"):
+                with staged_dir(ro / "out"):
+                    pass
+        finally:
+            ro.chmod(0o755)
+
+
+def test_leftovers_of_a_killed_run_are_removed(tmp_path):
+    dead = tmp_path / ".out.staging-999999999-abc"  # no such process
+    dead.mkdir()
+    (dead / "half.csv").write_text("1")
+    with staged_dir(tmp_path / "out") as tmp:
+        (tmp / "f").write_text("x")
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+    # killed between the two renames of a --force swap: the old folder is put back, not deleted
+    aside = tmp_path / ".res.old-999999999-abc"
+    aside.mkdir()
+    (aside / "old.csv").write_text("old")
+    with pytest.raises(OutputError, match="--force"):
+        with staged_dir(tmp_path / "res"):
+            pass
+    assert sorted(os.listdir(tmp_path)) == ["out", "res"] and os.listdir(tmp_path / "res") == ["old.csv"]
+
+
+# ============================================================================ strict JSON
+def test_strict_json_writer():
+    import numpy as np
+
+    text = outputs.dumps({"v_max": float("inf"), "x": [1.0, float("nan")], "a/b": {"c": -np.inf},
+                          "n": np.float32(1.5), "k": np.int64(3), "arr": np.arange(2), "ok": np.bool_(True)})
+    doc = json.loads(text, parse_constant=outputs._reject_constant)
+    assert doc["v_max"] is None and doc["x"] == [1.0, None] and doc["a/b"]["c"] is None
+    assert doc["_nonfinite"] == {"/v_max": "inf", "/x/1": "nan", "/a~1b/c": "-inf"}
+    assert doc["n"] == 1.5 and doc["k"] == 3 and doc["arr"] == [0, 1] and doc["ok"] is True
+    assert "_nonfinite" not in json.loads(outputs.dumps({"a": 1.0}))
+    with pytest.raises(ValueError, match="not strict JSON"):
+        json.loads('{"a": NaN}', parse_constant=outputs._reject_constant)
