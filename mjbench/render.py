@@ -505,10 +505,10 @@ class VideoWriter:
                     raise RenderError("no frame to write")
                 imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
                              duration=int(round(1000 / self.fps)), loop=0, optimize=False)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(self.tmp, 0o666 & ~umask)  # mkstemp creates 0600
+            from .outputs import FILE_MODE, _test_hook
+            os.chmod(self.tmp, FILE_MODE)  # mkstemp creates 0600
             os.replace(self.tmp, self.path)
+            _test_hook(os.path.basename(self.path))
         except BaseException:
             self.abort()
             raise

@@ -723,5 +723,5 @@ def reproduce(which="all", out_dir="results", quick=False, video=True, progress=
     total = time.perf_counter() - t0
     md, htm = write_report(results, out, total)
     _write_json(out / "summary.json", {"cases": [r["case"] for r in results], "total_runtime_s": total})
-    log(f"report: {md} and {htm} ({total:.0f} s)")
+    log(f"report: {md.name} and {htm.name} ({total:.0f} s)")
     return results

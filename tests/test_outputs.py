@@ -133,6 +133,66 @@ def test_leftovers_of_a_killed_run_are_removed(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["out", "res"] and os.listdir(tmp_path / "res") == ["old.csv"]
 
 
+# ============================================================================ killed runs
+@pytest.fixture(scope="module")
+def old_run(tmp_path_factory):
+    """A complete earlier run (open loop, with the figure) to be replaced with --force."""
+    out = tmp_path_factory.mktemp("old") / "out"
+    assert main(["run", "incerti2012", "--mode", "open", "--t-end", "0.1", "--quiet", "--out", str(out)]) == 0
+    assert sorted(os.listdir(out)) == sorted(NEW_FILES + ["fig4.png"])
+    return out
+
+
+@pytest.mark.parametrize("point,sig", [
+    ("during:trajectory_multibody.csv", "TERM"),  # a temporary file exists at that moment
+    ("trajectory_reduced.csv", "INT"),
+    ("metrics.json", "TERM"),
+    ("manifest.json", "TERM"),                    # every file complete, not yet moved in
+    ("swap", "TERM"),                             # inside the swap: deferred to its end
+])
+def test_killed_run_leaves_old_or_new_outputs(old_run, tmp_path, point, sig):
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(old_run, out)
+    old = _tree(out)
+    r = _mjbench([*RUN, "--out", str(out), "--force"],
+                 env={"MJBENCH_TEST_KILL_AFTER": point, "MJBENCH_TEST_KILL_SIGNAL": sig})
+    assert r.returncode == 128 + getattr(signal, "SIG" + sig), r.stderr
+    assert "Traceback" not in r.stderr and "interrupted" in r.stderr
+    assert os.listdir(tmp_path) == ["out"]  # no staging folder, no renamed-aside old folder
+    now = _tree(out)
+    if point == "swap":  # the new run was complete: its outputs, exactly
+        assert sorted(now) == NEW_FILES
+        assert read_json(out / "metrics.json")["mode"] == "pid"
+    else:
+        assert now == old  # the old run, untouched (no new metrics next to the old figure)
+
+
+def test_sigterm_from_outside_while_simulating(old_run, tmp_path):
+    import shutil
+
+    out = tmp_path / "out"
+    shutil.copytree(old_run, out)
+    old = _tree(out)
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    p = subprocess.Popen([sys.executable, "-m", "mjbench.cli", "run", "incerti2012", "--t-end", "30", "--quiet",
+                          "--out", str(out), "--force"], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not any(n.startswith(".out.staging-") for n in os.listdir(tmp_path)):  # simulating now
+            assert p.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 128 + signal.SIGTERM, err
+    assert "Traceback" not in err
+    assert os.listdir(tmp_path) == ["out"] and _tree(out) == old
+
+
 # ============================================================================ strict JSON
 def test_strict_json_writer():
     import numpy as np

@@ -21,14 +21,16 @@ def run(args) -> int:
     import time
 
     from .. import reproduce as R
+    from ..outputs import staged_dir
 
     t0 = time.perf_counter()
     if not args.no_video:
         from .. import render
         render.gl_setup()
     progress = not args.no_progress and sys.stderr.isatty()
-    R.reproduce("all", args.out, quick=True, video=not args.no_video, progress=progress,
-                width=args.width, height=args.height)
+    with staged_dir(args.out, force=args.force) as tmp:
+        R.reproduce("all", tmp, quick=True, video=not args.no_video, progress=progress,
+                    width=args.width, height=args.height)
     out = os.path.abspath(args.out)
     print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
           f"(or read {os.path.join(out, 'report.md')})")

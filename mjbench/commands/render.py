@@ -27,13 +27,15 @@ def register(sub):
 
 
 def run(args) -> int:
-    from .. import render, scenario
+    from .. import outputs, render, scenario
 
+    outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     render.gl_setup()
     scn = scenario.load(args.scenario, args.set)
-    info = render.render_scenario(scn, args.out, mode=args.mode, fps=args.fps, width=args.width,
-                                  height=args.height, t_end=args.t_end, progress=not args.no_progress,
-                                  crf=args.crf)
+    with outputs.output_file(args.out, suffixes=(".mp4", ".gif")) as out:
+        info = render.render_scenario(scn, out, mode=args.mode, fps=args.fps, width=args.width,
+                                      height=args.height, t_end=args.t_end, progress=not args.no_progress,
+                                      crf=args.crf)
     print(f"wrote {info['path']}: {info['frames']} frames {info['width']}x{info['height']} at {info['fps']:g} fps "
           f"({info['duration_s']:.2f} s video); simulation {info['sim_s']:.2f} s, rendering+encoding "
           f"{info['wall_s']:.1f} s ({info['frames_per_s']:.1f} frames/s, OpenGL: {info['gl']})")
