@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import outputs
 from . import scenario as S
 from .errors import ScenarioError
 from .trajectory import atomic_write
@@ -687,23 +688,12 @@ def _html(results, total_s):
 
 # ============================================================================ driver
 def _clean(o):
-    """JSON-safe copy (NaN/inf → None so that the file is strict JSON)."""
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (np.floating, float)):
-        v = float(o)
-        return v if math.isfinite(v) else None
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.ndarray):
-        return _clean(o.tolist())
-    return o
+    """JSON-safe copy (NaN/inf → None so that the file is strict JSON; mjbench/outputs.py)."""
+    return outputs.clean(o)
 
 
 def _write_json(path, obj):
-    atomic_write(path, lambda f: json.dump(_clean(obj), f, indent=2, ensure_ascii=False, default=_json_default))
+    outputs.write_json(path, obj)
 
 
 def reproduce(which="all", out_dir="results", quick=False, video=True, progress=True, width=None,

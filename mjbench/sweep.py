@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import metrics as M
+from . import outputs
 from . import scenario as S
 from .errors import MjbenchError, ParameterError, ScenarioError
 from .trajectory import atomic_write
@@ -279,7 +280,7 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     os.makedirs(out_dir, exist_ok=True)
     spec_path = os.path.join(out_dir, SPEC)
     table = os.path.join(out_dir, RESULTS)
-    spec_json = json.dumps(spec.to_json(), sort_keys=True, indent=1, default=str)
+    spec_json = outputs.dumps(spec.to_json(), sort_keys=True, indent=1)
     done = {}
     if os.path.exists(spec_path):
         with open(spec_path) as f:

@@ -206,3 +206,25 @@ def test_strict_json_writer():
     assert "_nonfinite" not in json.loads(outputs.dumps({"a": 1.0}))
     with pytest.raises(ValueError, match="not strict JSON"):
         json.loads('{"a": NaN}', parse_constant=outputs._reject_constant)
+
+
+def test_every_json_output_is_strict(tmp_path, capsys):
+    cmds = {
+        "run": ["run", "incerti2012", "--mode", "pid", "--t-end", "0.1", "--quiet", "--no-figure"],
+        "sweep": ["sweep", "incerti2012", "--grid", "modes.pid.kp=60", "--t-end", "0.02", "--quiet"],
+        "design": ["design", "quickreturn", "--starts", "1"],
+        "calibrate": ["calibrate", "incerti2012", "--params", "R", "--starts", "1", "--screen", "3",
+                      "--max-nfev", "2", "--dt", "2e-3", "--polish-nfev", "0", "--no-progress"],
+        "optimize-law": ["optimize-law", "incerti-bezier", "--no-multibody", "--no-plots"],
+    }
+    for name, argv in cmds.items():
+        assert main([*argv, "--out", str(tmp_path / name)]) == 0, name
+    capsys.readouterr()
+    assert main(["demand", "hulako2025-model1", "--json"]) == 0
+    json.loads(capsys.readouterr().out, parse_constant=outputs._reject_constant)
+    files = sorted(p for p in tmp_path.rglob("*.json"))
+    assert {p.parent.name for p in files} == set(cmds)
+    docs = {p.relative_to(tmp_path).as_posix(): read_json(p) for p in files}  # raises on NaN/Infinity
+    man = docs["run/manifest.json"]
+    assert man["scenario"]["modes"]["pid"]["t_ramp_max"] is None  # inf in the TOML: unbounded ramp
+    assert man["_nonfinite"]["/scenario/modes/pid/t_ramp_max"] == "inf"
