@@ -193,6 +193,43 @@ def test_sigterm_from_outside_while_simulating(old_run, tmp_path):
     assert os.listdir(tmp_path) == ["out"] and _tree(out) == old
 
 
+# ============================================================================ bad input: one message, exit 2
+@pytest.mark.parametrize("args,message", [
+    (["--out", "/etc/hostname"], "existing file, not a folder"),
+    (["--out", "{file}/sub"], "is a file, not a folder"),
+    (["--out", "{nonempty}"], "add --force"),
+    (["--set", "drive.R=abc", "--out", "{new}"], "--set drive.R=abc"),
+    (["--set", "drive.R=[1,2]", "--out", "{new}"], "takes one number"),
+    (["--set", "drive.R=true", "--out", "{new}"], "takes one number"),
+    (["--set", "modes.pid.kp=abc", "--out", "{new}"], "--set modes.pid.kp=abc"),
+    (["--set", "drive.L=1e-9", "--out", "{new}"], "diverged"),
+])
+def test_bad_input_is_one_message_and_exit_2(tmp_path, capsys, args, message):
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "nonempty").mkdir()
+    (tmp_path / "nonempty" / "keep.txt").write_text("x")
+    args = [a.format(file=tmp_path / "file", nonempty=tmp_path / "nonempty", new=tmp_path / "new") for a in args]
+    rc = main(["run", "incerti2012", "--mode", "pid", "--t-end", "0.1", "--quiet", "--no-figure", *args])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.startswith("mjbench: error: ") and err.count("\n") == 1 and message in err, err
+    assert sorted(os.listdir(tmp_path)) == ["file", "nonempty"]  # nothing written, nothing left
+    assert os.listdir(tmp_path / "nonempty") == ["keep.txt"]
+
+
+def test_other_commands_check_out_before_working(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    for argv in (["design", "quickreturn", "--starts", "1", "--out", str(tmp_path / "file")],
+                 ["render", "incerti2012", "--out", str(tmp_path / "v.avi")],
+                 ["render", "incerti2012", "--out", str(tmp_path)],
+                 ["sweep", "incerti2012", "--grid", "kp=1", "--out", str(tmp_path / "file")],
+                 ["reproduce", "nope", "--out", str(tmp_path / "r")]):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("mjbench: error: ") and err.count("\n") == 1, err
+    assert sorted(os.listdir(tmp_path)) == ["file"]
+
+
 # ============================================================================ strict JSON
 def test_strict_json_writer():
     import numpy as np

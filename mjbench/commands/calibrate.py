@@ -7,6 +7,7 @@ import os
 import re
 import sys
 
+from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir
 
 
@@ -48,6 +49,7 @@ def cmd_calibrate(args):
     from .. import scenario as S
 
     scn = S.load(args.scenario, args.overrides)
+    check_machine(scn)  # bad --set values: one message before any simulation
     names = args.params.split(",") if args.params else list(C.MISSING)
     C.check_params(names, scn)
     with maybe_staged_dir(args.out, force=args.force) as out:

@@ -28,11 +28,14 @@ def register(sub):
 
 def run(args) -> int:
     from .. import outputs, render, scenario
+    from ..preflight import check_machine, simulation_errors
 
     outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     render.gl_setup()
     scn = scenario.load(args.scenario, args.set)
-    with outputs.output_file(args.out, suffixes=(".mp4", ".gif")) as out:
+    if scn.get("modes"):
+        check_machine(scn, args.mode)
+    with outputs.output_file(args.out, suffixes=(".mp4", ".gif")) as out, simulation_errors(scn):
         info = render.render_scenario(scn, out, mode=args.mode, fps=args.fps, width=args.width,
                                       height=args.height, t_end=args.t_end, progress=not args.no_progress,
                                       crf=args.crf)

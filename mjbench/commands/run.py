@@ -30,11 +30,13 @@ def register(sub):
 def cmd_run(args):
     from .. import scenario as S
     from ..outputs import staged_dir
+    from ..preflight import check_machine, simulation_errors
     from ..runner import run
 
     scn = S.load(args.scenario, args.overrides)
     backend = args.backend or S.get(scn, "simulation.backend", "both")
-    with staged_dir(args.out, force=args.force) as tmp:
+    check_machine(scn, args.mode)  # bad values: one message before simulating
+    with staged_dir(args.out, force=args.force) as tmp, simulation_errors(scn):
         res = run(scn, tmp, mode=args.mode, backend=backend, t_end=args.t_end,
                   progress=not args.quiet and sys.stderr.isatty(), argv=sys.argv, figure=not args.no_figure)
     if not args.quiet:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 
+from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir, write_json
 
 
@@ -78,6 +79,7 @@ def cmd_tune(args):
     from ..tune import report, tune
 
     scn = S.load(args.scenario, args.overrides)
+    check_machine(scn)  # bad --set values: one message before any simulation
     limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds)
     with maybe_staged_dir(args.out, force=args.force) as out:
         res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
