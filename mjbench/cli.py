@@ -26,9 +26,11 @@ def build_parser():
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     from . import outputs
+    from .render import check_gl_env
 
     restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
     try:
+        check_gl_env()
         return int(args.func(args) or 0)
     except MjbenchError as e:
         print(f"mjbench: error: {e}", file=sys.stderr)

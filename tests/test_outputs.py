@@ -230,6 +230,38 @@ def test_other_commands_check_out_before_working(tmp_path, capsys):
     assert sorted(os.listdir(tmp_path)) == ["file"]
 
 
+def test_render_falls_back_from_an_unavailable_gl_backend(tmp_path):
+    for value in ("glfw", "bogus"):
+        out = tmp_path / f"{value}.mp4"
+        r = _mjbench(["render", "incerti2012", "--out", str(out), "--t-end", "0.1", "--width", "160",
+                      "--height", "96", "--no-progress"], env={"MUJOCO_GL": value})
+        assert r.returncode == 0, r.stderr
+        assert "Traceback" not in r.stderr and out.stat().st_size > 1000
+        assert ("falling back to" in r.stderr) if value == "glfw" else ("not a MuJoCo OpenGL backend" in r.stderr)
+        assert stat.S_IMODE(out.stat().st_mode) == outputs.FILE_MODE
+    assert sorted(os.listdir(tmp_path)) == ["bogus.mp4", "glfw.mp4"]
+
+
+def test_reproduce_without_opengl_still_writes_the_report(tmp_path, monkeypatch):
+    """No OpenGL at all: the case runs, its metrics and the report say why there is no video."""
+    from mjbench import render
+    from mjbench import reproduce as R
+
+    monkeypatch.setattr(render, "_GL_CHOICE", None)
+    monkeypatch.setattr(render, "_GL_ERROR", None)
+    monkeypatch.setattr(render, "_probe", lambda backend, timeout=60.0: (False, f"{backend} missing"))
+    with pytest.raises(render.RenderError, match="apt-get install libegl1"):
+        render.gl_setup()
+    case = R.Case(name="short", scenario="incerti2012", modes=["pid"], backend="reduced", t_end=0.1, seed="000")
+    with staged_dir(tmp_path / "rep") as tmp:
+        res = R.run_case(case, tmp, quick=True, progress=False)
+        R.write_report([R._clean(res)], tmp, total_s=res["runtime_s"])
+    assert res["video"] is None and "no offscreen OpenGL" in res["video_error"]
+    assert "no offscreen OpenGL" in read_json(tmp_path / "rep" / "short" / "metrics.json")["video_error"]
+    assert "No video: no offscreen OpenGL" in (tmp_path / "rep" / "report.md").read_text()
+    assert "No video: no offscreen OpenGL" in (tmp_path / "rep" / "report.html").read_text()
+
+
 # ============================================================================ strict JSON
 def test_strict_json_writer():
     import numpy as np

@@ -22,11 +22,10 @@ def run(args) -> int:
 
     from .. import reproduce as R
     from ..outputs import staged_dir
+    from .reproduce import with_gl
 
     t0 = time.perf_counter()
-    if not args.no_video:
-        from .. import render
-        render.gl_setup()
+    with_gl(args)
     progress = not args.no_progress and sys.stderr.isatty()
     with staged_dir(args.out, force=args.force) as tmp:
         R.reproduce("all", tmp, quick=True, video=not args.no_video, progress=progress,
