@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import metrics as M
+from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import manifest, write_json
@@ -51,6 +52,7 @@ def mode_metrics(scn: dict, mode: str, trajs: dict) -> dict:
     res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=win, average=avg) for b, tr in trajs.items()}}
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 

@@ -297,3 +297,18 @@ def test_every_json_output_is_strict(tmp_path, capsys):
     man = docs["run/manifest.json"]
     assert man["scenario"]["modes"]["pid"]["t_ramp_max"] is None  # inf in the TOML: unbounded ramp
     assert man["_nonfinite"]["/scenario/modes/pid/t_ramp_max"] == "inf"
+    assert docs["run/metrics.json"]["plausibility"]["backends_agree"] is True
+
+
+# ============================================================================ plausibility
+def test_backends_disagreeing_is_flagged_and_warned(tmp_path, capsys):
+    from mjbench.plausibility import BACKENDS_TOLERANCE
+
+    out = tmp_path / "kd"
+    assert main(["run", "incerti2012", "--mode", "pid", "--set", "modes.pid.kd=1e3", "--t-end", "0.1",
+                 "--quiet", "--no-figure", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    p = read_json(out / "metrics.json")["plausibility"]
+    assert p["backends_agree"] is False and p["tolerance"] == BACKENDS_TOLERANCE == 1e-3
+    assert p["max_rel_diff"] > 0.05  # 8 % at 0.1 s (178 % over the scenario's 2 s)
+    assert "mjbench: warning: multibody and reduced crank speeds differ by" in err and "not plausible" in err

@@ -30,6 +30,7 @@ def register(sub):
 def cmd_run(args):
     from .. import scenario as S
     from ..outputs import staged_dir
+    from ..plausibility import warnings_of
     from ..preflight import check_machine, simulation_errors
     from ..runner import run
 
@@ -42,6 +43,8 @@ def cmd_run(args):
     if not args.quiet:
         print(_summary_text(res))
         print(f"results written to {args.out}")
+    for w in warnings_of(res):
+        print(f"mjbench: warning: {w}", file=sys.stderr)
     return 0
 
 
