@@ -437,3 +437,55 @@ def add_force_option(parser):
     parser.add_argument("--force", action="store_true",
                         help="replace a non-empty --out folder (the old one is kept until the new outputs "
                              "are complete)")
+
+
+# ============================================================================ MuJoCo's log
+MUJOCO_WARNINGS: list = []  #: MuJoCo warnings of this process (at most 100 kept)
+_seen_warnings: dict = {}
+
+
+def _mujoco_warning(msg: str):
+    """Called by MuJoCo (mju_user_warning) instead of appending to ./MUJOCO_LOG.TXT and printing
+    on stdout: kept in MUJOCO_WARNINGS and printed once per kind on stderr.  MuJoCo calls it only
+    when a warning is raised (once per MjData and warning type), never per step."""
+    msg = str(msg).strip()
+    if len(MUJOCO_WARNINGS) < 100:
+        MUJOCO_WARNINGS.append(msg)
+    kind = msg.split(" Time =")[0]
+    n = _seen_warnings.get(kind, 0)
+    _seen_warnings[kind] = n + 1
+    if n == 0:
+        print(f"mjbench: MuJoCo warning: {msg}", file=sys.stderr)
+
+
+def mujoco_log_path() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "mjbench" / "MUJOCO_LOG.TXT"
+
+
+def route_mujoco_log():
+    """Keep MuJoCo's log out of the working folder: warnings go to :func:`_mujoco_warning` (unless
+    the process already set its own handler) and MuJoCo's log file, used for its remaining
+    messages, is moved to ~/.cache/mjbench/MUJOCO_LOG.TXT (file logging is switched off if that
+    folder cannot be created)."""
+    try:
+        import mujoco
+    except Exception as e:  # noqa: BLE001 - e.g. MUJOCO_GL=osmesa without libOSMesa
+        raise MjbenchError(f"MuJoCo cannot be imported with MUJOCO_GL={os.environ.get('MUJOCO_GL')!r} "
+                           f"({type(e).__name__}: {e}); unset MUJOCO_GL or set MUJOCO_GL=egl") from None
+    if mujoco.get_mju_user_warning() is None:
+        mujoco.set_mju_user_warning(_mujoco_warning)
+    cfg_cls = getattr(mujoco, "MjLogConfig", None)
+    if cfg_cls is not None:
+        try:
+            cfg = cfg_cls.get()
+            if os.path.basename(cfg.logfile or "") == "MUJOCO_LOG.TXT" and not os.path.isabs(cfg.logfile):
+                path = mujoco_log_path()
+                try:
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    cfg.logfile = str(path)
+                except OSError:
+                    cfg.logto_file = False
+                cfg.set()
+        except Exception:  # noqa: BLE001 - best effort, never fatal
+            pass

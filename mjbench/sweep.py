@@ -176,6 +176,7 @@ def run_chunk(scn: dict, rows: list, keys: list, st: dict, nthread: int = 0) -> 
     Pure: the same input gives the same output locally and on a Dask worker."""
     from .backends import batch
 
+    outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT
     out = {r["row"]: dict(r) for r in rows}
     machines, ok_rows, models, sts, cache = [], [], [], [], {}
     for r in rows:

@@ -300,7 +300,7 @@ def test_every_json_output_is_strict(tmp_path, capsys):
     assert docs["run/metrics.json"]["plausibility"]["backends_agree"] is True
 
 
-# ============================================================================ plausibility
+# ============================================================================ plausibility, version, MuJoCo log
 def test_backends_disagreeing_is_flagged_and_warned(tmp_path, capsys):
     from mjbench.plausibility import BACKENDS_TOLERANCE
 
@@ -312,3 +312,26 @@ def test_backends_disagreeing_is_flagged_and_warned(tmp_path, capsys):
     assert p["backends_agree"] is False and p["tolerance"] == BACKENDS_TOLERANCE == 1e-3
     assert p["max_rel_diff"] > 0.05  # 8 % at 0.1 s (178 % over the scenario's 2 s)
     assert "mjbench: warning: multibody and reduced crank speeds differ by" in err and "not plausible" in err
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    assert capsys.readouterr().out.strip() == f"mjbench {version('mjbench')}"
+
+
+def test_mujoco_warnings_do_not_write_a_log_in_the_working_folder(tmp_path):
+    code = ("from mjbench import outputs; outputs.route_mujoco_log(); import mujoco, math\n"
+            "m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><body><joint/><geom size=\".1\"/>"
+            "</body></worldbody></mujoco>')\n"
+            "d = mujoco.MjData(m); d.qvel[0] = math.nan; mujoco.mj_step(m, d)\n"
+            "print(len(outputs.MUJOCO_WARNINGS))\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       env=dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache")))
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "1"  # recorded ...
+    assert "mjbench: MuJoCo warning: Nan, Inf or huge value in QVEL" in r.stderr  # ... and shown once
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()

@@ -13,7 +13,7 @@ def register(sub):
     p = sub.add_parser("demo", help="run every paper case (short videos) and write DIR/report.html",
                        description=__doc__)
     add_common(p)
-    p.set_defaults(func=run, quick=True)
+    p.set_defaults(func=run, quick=True, gl=True)
 
 
 def run(args) -> int:

@@ -23,7 +23,7 @@ def register(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (repeatable), e.g. --set drive.R=2.5")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, gl=True)
 
 
 def run(args) -> int:
@@ -32,6 +32,7 @@ def run(args) -> int:
 
     outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     render.gl_setup()
+    outputs.route_mujoco_log()
     scn = scenario.load(args.scenario, args.set)
     if scn.get("modes"):
         check_machine(scn, args.mode)

@@ -28,7 +28,7 @@ def register(sub):
                    help="case name, scenario name (all its cases) or 'all' (default); see --list")
     p.add_argument("--list", action="store_true", help="list the registered cases and exit")
     add_common(p, out_required=False)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, gl=True)
 
 
 def list_cases():
@@ -65,10 +65,11 @@ def with_gl(args):
     why each video is missing (the simulations need no OpenGL)."""
     import sys
 
-    from .. import render
+    from .. import outputs, render
 
     if not args.no_video:
         try:
             render.gl_setup()
         except render.RenderError as e:
             print(f"mjbench: warning: {e} The report is written without videos.", file=sys.stderr)
+    outputs.route_mujoco_log()
