@@ -316,7 +316,7 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
             own_client = client = Client(scheduler)
         if client is not None and chunks:
             from dask.distributed import as_completed
-            scn_f = client.scatter(scn, broadcast=True)
+            scn_f = scatter_scenario(client, scn)
             futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False) for ch in chunks]
             for fut in as_completed(futs):
                 collect(fut.result())
@@ -334,6 +334,20 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     if plots:
         out["plots"] = summary_plots(spec, read_table(table), out_dir, metric=metric)
     return out
+
+
+def scatter_scenario(client, scn: dict):
+    """Ship the scenario to the cluster as ONE object under a key of its own:
+    ``mjbench-scenario-<content hash>-<random>``.  (``client.scatter(dict)`` would make one future
+    per top-level key — "drive", "modes", ... — which another client on the same scheduler
+    scattering its own scenario replaces: its tasks then read the other machine, or lose their
+    inputs when it is released.)  The random part keeps two clients from sharing a key."""
+    import hashlib
+    import uuid
+
+    digest = hashlib.sha256(outputs.dumps(scn, sort_keys=True, indent=None).encode()).hexdigest()[:16]
+    key = f"mjbench-scenario-{digest}-{uuid.uuid4().hex[:12]}"
+    return client.scatter({key: scn}, broadcast=True)[key]
 
 
 # ======================================================================== plots
