@@ -36,7 +36,8 @@ Test hook
 ``MJBENCH_TEST_KILL_AFTER=<event>`` makes the process send itself ``MJBENCH_TEST_KILL_SIGNAL``
 (``TERM``, default, or ``INT``) at that event, so tests can interrupt a real run at a chosen
 point: ``<file name>`` just after that file is complete, ``during:<file name>`` while its
-temporary file exists, ``swap`` inside the final swap (the signal is deferred to its end).
+temporary file exists, ``staged`` when every file is written but not moved in yet, ``swap``
+inside the final swap (the signal is deferred to its end).
 """
 from __future__ import annotations
 
