@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import metrics as M
+from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import manifest, write_json
@@ -63,6 +64,7 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
                 res["backends"][b]["residual_vibration"] = r
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 

@@ -530,7 +530,9 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     if problems:
         where = f" ({source})" if source else ""
         name = (raw.get("scenario") or {}).get("name", "?") if isinstance(raw.get("scenario"), dict) else "?"
-        raise ScenarioError(f"scenario {name!r}{where} has {len(problems)} problem{'s' if len(problems) > 1 else ''}:\n  "
+        if len(problems) == 1:
+            raise ScenarioError(f"scenario {name!r}{where}: {problems[0]}", problems=problems)
+        raise ScenarioError(f"scenario {name!r}{where} has {len(problems)} problems:\n  "
                             + "\n  ".join(problems), problems=problems)
     scn.mechanism, scn.drive = mech, drive
     scn.source, scn.overrides, scn.raw = source, list(overrides), raw

@@ -2,10 +2,10 @@
 design of the seed-004 quick-return mechanism (mjbench/design.py), compared with Table I."""
 from __future__ import annotations
 
-import json
 import os
 
 from ..errors import ParameterError
+from ..outputs import add_force_option, maybe_staged_dir, write_json
 
 MECHANISMS = ("quickreturn",)
 
@@ -19,6 +19,7 @@ def register(sub):
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"), default=(10.0, 500.0),
                    help="bounds of every design variable [mm] (not given in the paper; default 10 500)")
     p.add_argument("--out", help="folder for design.json")
+    add_force_option(p)
     p.set_defaults(func=run)
 
 
@@ -30,7 +31,17 @@ def run(args) -> int:
     lo, hi = args.bounds
     if not (0 < lo < hi):
         raise ParameterError(f"--bounds = {lo} {hi}: need 0 < LO < HI [mm]")
-    res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5)
+    with maybe_staged_dir(args.out, force=args.force) as out:
+        res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5)
+        _print(res)
+        if out is not None:
+            write_json(os.path.join(out, "design.json"), res)
+    if args.out:
+        print(f"wrote {os.path.join(args.out, 'design.json')}")
+    return 0 if "best" in res else 1
+
+
+def _print(res):
     tab = res["table_I"]
     print(f"{'':10s} {'r2':>8s} {'r3':>8s} {'r4':>8s} {'a':>8s} {'b':>8s} {'sum':>8s} {'TR':>6s} "
           f"{'stroke':>8s} {'mu_min':>7s}")
@@ -46,9 +57,3 @@ def run(args) -> int:
         print("no feasible design found; try more --starts or wider --bounds")
     nfeas = sum(r["feasible"] for r in res["runs"])
     print(f"{nfeas}/{len(res['runs'])} starts ended feasible; Table I violates: {tab['violated'] or 'nothing'}")
-    if args.out:
-        from ..trajectory import atomic_write
-        path = os.path.join(args.out, "design.json")
-        atomic_write(path, lambda f: json.dump(res, f, indent=2))
-        print(f"wrote {path}")
-    return 0 if "best" in res else 1
