@@ -1,14 +1,33 @@
 """Metrics on trajectories: plain functions on NumPy arrays, results as plain dicts.
 
-χ (seed 000 Eq 22) = (φ̇_max − φ̇_min) / φ̇_av, the speed fluctuation over a crank cycle or a time
-window divided by its average.  ``average="mean"`` takes the time mean (trapezoid), ``"midrange"``
-takes (max + min)/2 (the paper does not say which; see docs/errata.md).
+χ (Incerti 2012 Eq 22) = (φ̇_max − φ̇_min) / φ̇_av, the speed fluctuation over a crank cycle or
+a time window divided by its average (a fraction here; the report prints it in percent).
+``average="mean"`` takes the time mean (trapezoid), ``"midrange"`` takes (max + min)/2 (the paper
+does not say which; see docs/errata.md).  "The last cycle" has two readings, both in
+:func:`summary`: ``chi_last_cycle``, the last *complete* cycle counted from α(0) (it may end up to
+one period before the end of the run), and ``chi_last_turn``, the last 2π of crank travel ending
+at the end of the run.
+
+Coupler-point speed tracking (:func:`coupler_tracking`, Hülako & Çakar 2025 §4-§5.1, Table 3):
+computed by ``mjbench run`` whenever the controller tracks a ``coupler_speed`` reference.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .errors import ParameterError
+
+
+def unit_of(metric: str) -> str:
+    """Unit of a metric key from its SI suffix (:func:`summary` naming), '1' for ratios such as χ."""
+    if not metric:
+        return ""
+    for suf, unit in (("_rad_s2", "rad/s²"), ("_rad_s", "rad/s"), ("_m_s", "m/s"), ("_rad", "rad"),
+                      ("_s", "s"), ("_V", "V"), ("_A", "A"), ("_W", "W"), ("_J", "J"), ("_m", "m"),
+                      ("_Nm", "N·m")):
+        if metric.endswith(suf):
+            return unit
+    return "1"
 
 
 def _window(t, t0=None, t1=None):
@@ -61,6 +80,22 @@ def cycles(t, q):
     return np.column_stack([times[:-1], times[1:]])
 
 
+def last_turn(t, q):
+    """(t_start, t_end) of the last crank turn of the record: the last 2π of crank travel, ending
+    at the last sample (t_start interpolated; the latest instant at which the angle was 2π behind
+    its final value).  None if the crank never travels 2π."""
+    q = np.asarray(q, dtype=float)
+    s = 1.0 if q[-1] >= q[0] else -1.0
+    u = s * (q - q[0])
+    target = u[-1] - 2 * np.pi
+    below = np.flatnonzero(u[:-1] <= target)
+    if target < 0 or below.size == 0:
+        return None
+    i = int(below[-1])
+    f = (target - u[i]) / (u[i + 1] - u[i]) if u[i + 1] != u[i] else 0.0
+    return float(t[i] + f * (t[i + 1] - t[i])), float(t[-1])
+
+
 def chi_per_cycle(t, q, omega, average="mean"):
     """χ for every complete crank cycle: (array of (t_start, t_end), array of χ)."""
     cyc = cycles(t, q)
@@ -111,6 +146,9 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
         "max_closure_error_m": float(np.max(traj.closure)),
     }
     cyc, vals = chi_per_cycle(t, traj.q, om, average)
+    # two readings of "χ over the last cycle" (docs/validation.md): the last complete cycle
+    # counted from α(0) (cycles() — it may end up to one period before t_end), and the last
+    # 2π of crank travel ending at t_end
     if len(vals):
         out["chi_last_cycle"] = float(vals[-1])
         out["last_cycle_start_s"] = float(cyc[-1, 0])
@@ -121,6 +159,10 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
         out["n_cycles"] = int(len(vals))
         out["chi_cycles"] = [{"t_start_s": float(a), "t_end_s": float(b), "chi": float(v)}
                              for (a, b), v in zip(cyc, vals)]
+    turn = last_turn(t, traj.q)
+    if turn is not None:
+        out["chi_last_turn"] = chi(t, om, turn[0], turn[1], average)
+        out["last_turn_start_s"], out["last_turn_end_s"] = turn
     if chi_window is not None:
         t0, t1 = chi_window
         if t[-1] >= t1 - 1e-9:
@@ -134,3 +176,88 @@ def compare(traj_ref, traj_other, key="crank_speed_rad_s"):
     mx, rms = rel_difference(traj_ref.t, traj_ref[key], traj_other.t, traj_other[key])
     return {"max_rel_diff": mx, "rms_rel_diff": rms, "column": key,
             "normalisation": "peak |reference| over the run"}
+
+
+# ============================================================================ coupler-speed tracking
+def coupler_signals(traj, mechanism, reference) -> dict:
+    """t, q, q̇, q̇_trj (reference at the measured angle, clamped at ``reference.qd_max``),
+    e = q̇_trj − q̇, V_C = S(q)·|q̇| and the desired V_des of a coupler-speed run [SI]."""
+    t, q, qd = traj.t, traj.q, traj.qd
+    vdes = np.asarray(reference.vc_at(q, t), dtype=float) + 0.0 * q
+    S = mechanism.coupler_speed_ratio(q)
+    qd_ref = np.minimum(vdes / S, reference.qd_max)
+    return {"t": t, "q": q, "qd": qd, "qd_ref": qd_ref, "e": qd_ref - qd, "vc": S * np.abs(qd), "vdes": vdes}
+
+
+def _last_exceed(t, bad):
+    """Instant after which ``bad`` is False until the end (t[0] if never bad, nan if bad at the end)."""
+    idx = np.flatnonzero(bad)
+    if idx.size == 0:
+        return float(t[0])
+    if idx[-1] == len(t) - 1:
+        return float("nan")
+    return float(t[idx[-1] + 1])
+
+
+def coupler_tracking(traj, mechanism, reference, settle_time=None, band_rel=0.10, rise_fraction=0.90,
+                     crank_error_band=None) -> dict:
+    """Tracking metrics of a run whose controller follows a coupler-point speed V_C (SI units in
+    the keys; docs/coupler_speed.md §4):
+
+    * ``crank_error_max_after_rad_s``: max |e| for t ≥ ``settle_time``, e = q̇_trj(q) − q̇ the
+      crank-speed error (Hülako & Çakar Eq 22) with the reference at the measured angle;
+    * ``coupler_dev_max_after_m_s``: max |V_C − V_des| for t ≥ ``settle_time`` (their Table 3's
+      "maximum deviation"); ``*_rms_after_*`` the RMS; ``coupler_speed_mean_after_m_s``;
+    * ``rise_time_s``: first instant with V_C/V_des ≥ ``rise_fraction``; ``rise_time_10_90_s``;
+    * ``settling_time_s``: instant after which |V_C/V_des − 1| ≤ ``band_rel`` to the end (nan if
+      it never settles); ``crank_settling_time_s``: the same with |e| ≤ ``crank_error_band``;
+    * ``coupler_dev_windows``: [t_start, t_end, max|V_C − V_des|, max|e|] over consecutive 1 s
+      windows from ``settle_time``; ``coupler_dev_max_last_1s_m_s``,
+      ``crank_error_max_last_1s_rad_s``: over the last second of the run.
+
+    ``settle_time`` None: half the run; ``crank_error_band`` None: no crank settling time."""
+    sg = coupler_signals(traj, mechanism, reference)
+    t, e, vc, vdes = sg["t"], sg["e"], sg["vc"], sg["vdes"]
+    if settle_time is None:
+        settle_time = 0.5 * float(t[-1])
+    after = t >= settle_time - 1e-12
+    dev = vc - vdes
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(vdes > 0, vc / vdes, np.nan)
+    out = {"settle_time_s": float(settle_time), "band_rel": float(band_rel), "rise_fraction": float(rise_fraction),
+           "crank_error_band_rad_s": None if crank_error_band is None else float(crank_error_band),
+           "t_end_s": float(t[-1]),
+           "vc_desired_mean_m_s": float(np.mean(vdes))}
+    if after.any():
+        out["crank_error_max_after_rad_s"] = float(np.max(np.abs(e[after])))
+        out["crank_error_rms_after_rad_s"] = float(np.sqrt(np.mean(e[after] ** 2)))
+        out["coupler_dev_max_after_m_s"] = float(np.max(np.abs(dev[after])))
+        out["coupler_dev_rms_after_m_s"] = float(np.sqrt(np.mean(dev[after] ** 2)))
+        out["coupler_speed_mean_after_m_s"] = float(np.mean(vc[after]))
+    hit = np.flatnonzero(ratio >= rise_fraction)
+    out["rise_time_s"] = float(t[hit[0]]) if hit.size else float("nan")
+    lo = np.flatnonzero(ratio >= 0.1)
+    out["rise_time_10_90_s"] = float(t[hit[0]] - t[lo[0]]) if hit.size and lo.size else float("nan")
+    out["overshoot_rel"] = float(np.nanmax(ratio) - 1.0) if np.isfinite(ratio).any() else float("nan")
+    out["settling_time_s"] = _last_exceed(t, ~(np.abs(ratio - 1.0) <= band_rel))
+    if crank_error_band is not None:
+        out["crank_settling_time_s"] = _last_exceed(t, np.abs(e) > crank_error_band)
+    edges = list(np.arange(settle_time, t[-1] - 1e-9, 1.0)) + [float(t[-1])]
+    wins = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = (t >= a) & (t <= b)
+        if m.any():
+            wins.append([float(a), float(b), float(np.max(np.abs(dev[m]))), float(np.max(np.abs(e[m])))])
+    out["coupler_dev_windows"] = wins
+    last = t >= t[-1] - 1.0 - 1e-12
+    out["coupler_dev_max_last_1s_m_s"] = float(np.max(np.abs(dev[last])))
+    out["crank_error_max_last_1s_rad_s"] = float(np.max(np.abs(e[last])))
+    out["voltage_max_V"] = float(np.max(np.abs(traj.voltage)))
+    out["current_max_A"] = float(np.max(np.abs(traj.current)))
+    return out
+
+
+def voltage_at_limit(traj, v_limit, t0=None, t1=None, rel_tol=1e-9) -> float:
+    """Fraction of the samples in [t0, t1] at which |V| is at (or beyond) ``v_limit`` [V]."""
+    sel = _window(traj.t, t0, t1)
+    return float(np.mean(np.abs(traj.voltage[sel]) >= v_limit * (1.0 - rel_tol)))

@@ -62,6 +62,14 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
                 r = residual_from_trajectory(tr, mech.oscillator(), law.T, after)
                 r["max_tracking_error_rad"] = float(abs(law.position(tr.t) - tr.q).max())
                 res["backends"][b]["residual_vibration"] = r
+    ref = getattr(scn.modes.get(mode), "reference", None)
+    if ref is not None and getattr(ref, "type", None) == "coupler_speed":
+        # the controller tracks a coupler-point speed: its tracking metrics (metrics.coupler_tracking)
+        mach = S.make_machine(scn, mode)
+        cfg = {"settle_time": mt.settle_time, "band_rel": mt.band_rel, "rise_fraction": mt.rise_fraction,
+               "crank_error_band": mt.crank_error_band}
+        for b, tr in trajs.items():
+            res["backends"][b]["coupler_speed"] = M.coupler_tracking(tr, mach.mechanism, mach.controller.reference, **cfg)
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
@@ -69,20 +77,39 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     return res
 
 
-def paper_rows(scn: dict, mode: str, backend_metrics: dict) -> list:
-    """Rows {name, paper, ours (per backend), difference, note} for the scenario's
-    ``[[paper.figures]]`` entries of this mode (each: name, mode, metric, value, note)."""
+def metric_value(m: dict, key: str):
+    """A metric of one backend's dict by name; dotted names reach nested dicts
+    ("coupler_speed.coupler_dev_max_after_m_s")."""
+    v = m
+    for part in key.split("."):
+        if not isinstance(v, dict) or part not in v:
+            return None
+        v = v[part]
+    return v
+
+
+def paper_rows(scn, mode: str, backend_metrics: dict) -> list:
+    """The scenario's ``[[paper.figures]]`` entries of this mode as verdict rows (mjbench.verdicts):
+    {name, mode, metric, unit, paper, compare, tolerance, fitted, ours {backend: number},
+    paper_text, verdict, difference, rel_difference, reason}.  Each entry names a ``metric`` of
+    the run and states the paper's figure as one of ``value``, ``band``, ``max``, ``min``;
+    ``unit = "%"`` shows a fraction (χ, relative errors) in percent."""
+    from . import verdicts
+
     rows = []
     for fig in scn.paper.get("figures", []) or []:
         if fig.get("mode") not in (None, mode):
             continue
-        row = {"name": fig["name"], "metric": fig["metric"], "paper": fig["value"], "note": fig.get("note", "")}
+        exp = verdicts.from_figure(fig)
+        scale = 100.0 if exp["unit"] == "%" else 1.0
+        ours = {}
         for b, m in backend_metrics.items():
-            v = m.get(fig["metric"])
-            row[b] = v
-            if v is not None and fig["value"]:
-                row[f"{b}_rel_diff"] = (v - fig["value"]) / abs(fig["value"])
-        rows.append(row)
+            v = metric_value(m, fig["metric"])
+            ours[b] = scale * float(v) if verdicts._num(v) else None
+        row = {"name": fig["name"], "mode": mode, "metric": fig["metric"], "ours": ours,
+               "reason": fig.get("note", ""), **exp}
+        row["unit"] = exp["unit"] or M.unit_of(fig["metric"])
+        rows.append(verdicts.finish_row(row))
     return rows
 
 
@@ -127,12 +154,32 @@ def setpoint(scn, mode):
 
 
 def chi_text(res):
-    """χ annotation for the Fig.-4 speed plot from a mode's metrics dict."""
-    parts = []
-    for b, m in res["backends"].items():
+    """χ annotation for the Fig.-4 speed plot from a mode's metrics dict (percent).  The first
+    backend's values are printed; another backend's only where they differ in the digits shown."""
+    bs = list(res["backends"])
+    seen, lines, differ = {}, [], False
+    for b in bs:
+        m = res["backends"][b]
+        items = []
         if "chi_window" in m:
             t0, t1 = m["chi_window_s"]
-            parts.append(f"{b}: χ({t0:g}–{t1:g} s) = {100 * m['chi_window']:.2f} %")
+            items.append((f"χ({t0:g}–{t1:g} s)", m["chi_window"]))
         if "chi_last_cycle" in m:
-            parts.append(f"{b}: χ(last cycle) = {100 * m['chi_last_cycle']:.2f} %")
-    return "\n".join(parts)
+            items.append((f"χ(last cycle from α(0), {m['last_cycle_start_s']:.3f}–{m['last_cycle_end_s']:.3f} s)",
+                          m["chi_last_cycle"]))
+        if "chi_last_turn" in m:
+            items.append((f"χ(last 2π to t_end, {m['last_turn_start_s']:.3f}–{m['last_turn_end_s']:.3f} s)",
+                          m["chi_last_turn"]))
+        for label, v in items:
+            txt = f"{label} = {100 * v:.2f} %"
+            if b == bs[0]:
+                lines.append(txt)
+                seen[label] = txt
+            elif seen.get(label) != txt:
+                lines.append(f"{b}: {txt}")
+                differ = True
+    if lines and len(bs) > 1 and not differ:
+        lines.append(f"({bs[0]}; {', '.join(bs[1:])}: the same)")
+    elif lines and len(bs) > 1:
+        lines.insert(0, f"{bs[0]}:")
+    return "\n".join(lines)

@@ -67,16 +67,23 @@ def _read_manifest(path):
 def _summary_text(res):
     lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
     keys = [("mean_motor_speed_rad_s", "mean motor speed (2nd half) [rad/s]", "{:.3f}"),
-            ("chi_last_cycle", "χ last crank cycle [%]", "pct"),
+            ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),
+            ("chi_last_turn", "χ last 2π of travel to t_end [%]", "pct"),
             ("chi_window", "χ in the metrics window [%]", "pct"),
             ("peak_voltage_V", "peak |voltage| [V]", "{:.2f}"),
             ("peak_current_A", "peak |current| [A]", "{:.2f}"),
             ("max_closure_error_m", "max loop-closure error [m]", "{:.2e}")]
+    keys += [("coupler_speed.coupler_dev_max_after_m_s", "max |V_C − V_des| after settle_time [m/s]", "{:.5f}"),
+             ("coupler_speed.crank_error_max_after_rad_s", "max |crank-speed error| after settle_time [rad/s]", "{:.4f}"),
+             ("coupler_speed.rise_time_s", "rise time of V_C [s]", "{:.3f}"),
+             ("coupler_speed.settling_time_s", "settling time of V_C [s]", "{:.3f}")]
+    from ..runner import metric_value
+
     for k, label, fmt in keys:
         vals = []
         for b, m in res["backends"].items():
-            if k in m:
-                v = m[k]
+            v = metric_value(m, k)
+            if v is not None:
                 vals.append(f"{b}: " + (f"{100 * v:.3f}" if fmt == "pct" else fmt.format(v)))
         if vals:
             lines.append(f"  {label:<40s} " + "   ".join(vals))
@@ -84,8 +91,10 @@ def _summary_text(res):
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")
     for row in res.get("paper", []):
-        ours = "   ".join(f"{b}: {row[b]:.4g}" for b in ("multibody", "reduced") if row.get(b) is not None)
-        lines.append(f"  paper: {row['name']}: {row['paper']:.4g}   ours {ours}")
+        ours = "   ".join(f"{b}: {v:.4g}" for b, v in row["ours"].items() if v is not None)
+        unit = "" if row.get("unit") in ("", "1", None) else f" {row['unit']}"
+        lines.append(f"  paper: {row['name']}: {row['paper_text']}{unit}   ours {ours}\n"
+                     f"         verdict: {row['verdict']['text']}")
     return "\n".join(lines)
 
 
