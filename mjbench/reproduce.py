@@ -3,14 +3,18 @@
 Cases come from the paper registry (:mod:`mjbench.papers`): each paper module lists its cases
 (:class:`mjbench.papers.Case`), its report rows ``rows(ctx)`` and its figures ``figures(ctx)``,
 where ``ctx`` is a :class:`CaseRun` (scenario, runs {mode: {backend: Trajectory}}, machines,
-metrics, output folder) and a row is ``{"name", "unit", "paper" (number, text or None),
-"ours" {label: number}, "reason"}``.  For ``kind = "run"`` the rows of the scenario's
-``[[paper.figures]]`` (runner.paper_rows) come first.
+metrics, output folder; hooks may also append extra tables to ``ctx.tables`` and warnings to
+``ctx.warnings``).  A row is ``{"name", "unit", "paper" (number, [lo, hi] band or None),
+"compare" ("value" | "band" | "max" | "min"), "tolerance"?, "fitted"?, "ours" {label: number},
+"reason"}``; its verdict is computed from the numbers by :mod:`mjbench.verdicts` — never typed
+in.  For ``kind = "run"`` the rows of the scenario's ``[[paper.figures]]`` (runner.paper_rows)
+come first; ``kind = "optimize-law"`` runs the motion-law study (vibration.study);
+``kind = "study"`` calls the paper module's ``study(ctx)``.
 
 Outputs per case in ``DIR/<case>/``: PNG figures, ``metrics.json`` (metrics of every mode and
-backend + the comparison rows, exactly the numbers the report tables print), trajectory CSVs,
-``video.mp4``; then ``DIR/report.md`` and ``DIR/report.html`` (figures and videos embedded by
-relative path, one table per case: paper, ours, difference, stated reason).
+backend + the comparison rows with their verdicts, exactly the numbers the report tables print),
+trajectory CSVs, ``video.mp4``; then ``DIR/report.md`` and ``DIR/report.html`` (figures and videos
+embedded by relative path, one table per case: paper, ours, verdict, reason; a glossary).
 """
 from __future__ import annotations
 
@@ -27,10 +31,11 @@ import numpy as np
 from . import outputs
 from . import scenario as S
 from .errors import MjbenchError, ScenarioError
+from . import verdicts as V
 from .trajectory import atomic_write
 from .manifest import json_default as _json_default
 
-AGREE_REL = 0.05  #: |relative difference| up to which a row counts as agreeing with the paper
+AGREE_REL = V.TOLERANCE  #: relative tolerance of a point value (mjbench.verdicts)
 
 
 # ============================================================================ registry
@@ -39,9 +44,10 @@ def load_cases(scenarios=None) -> list:
     from . import papers
 
     out = [c for c in papers.cases() if scenarios is None or c.scenario in scenarios]
-    # within a paper: the paper's own scenario before derived ones (e.g. "-calibrated")
+    # within a paper: the order its module lists its cases in
     order = {k: i for i, k in enumerate(papers.MODULES)}
-    return sorted(out, key=lambda c: (order[c.paper], "calibrated" in c.scenario, c.name))
+    pos = {c.name: i for i, c in enumerate(papers.cases())}  # a paper's cases in the order it lists them
+    return sorted(out, key=lambda c: (order[c.paper], pos[c.name]))
 
 
 def select(cases, which) -> list:
@@ -67,6 +73,8 @@ class CaseRun:
     machines: dict = field(default_factory=dict)  # {mode: Machine} (fresh, for kinematics/references)
     metrics: dict = field(default_factory=dict)   # {mode: runner.mode_metrics(...)}
     extra: dict = field(default_factory=dict)     # kind-specific results (e.g. optimize-law report)
+    tables: list = field(default_factory=list)    # extra tables: {"title", "head", "rows", "note"?}
+    warnings: list = field(default_factory=list)  # sentences printed in the report above the table
 
 
 def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, height=None) -> dict:
@@ -78,21 +86,27 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
     out.mkdir(parents=True, exist_ok=True)
     scn = S.load(case.scenario, case.overrides)
     ctx = CaseRun(case, scn, out)
-    res = {"case": case.name, "scenario": case.scenario, "seed": scn.scenario.seed, "paper": case.paper,
-           "title": case.title or scn.scenario.title or case.scenario,
-           "scenario_title": scn.scenario.title, "kind": case.kind,
-           "overrides": list(case.overrides), "note": case.note, "modes": {}, "rows": [],
-           "figures": [], "video": None}
     from . import papers
 
     paper = papers.module(case.paper) if case.paper else None
+    res = {"case": case.name, "scenario": case.scenario, "paper": case.paper,
+           "citation": scn.scenario.paper or (getattr(paper, "CITATION", "") if paper is not None else ""),
+           "paper_title": (getattr(paper, "SCENARIO_TITLES", {}).get(case.scenario) or getattr(paper, "TITLE", ""))
+           if paper is not None else "",
+           "title": case.title or scn.scenario.title or case.scenario,
+           "scenario_title": scn.scenario.title, "kind": case.kind,
+           "overrides": list(case.overrides), "note": case.note, "modes": {}, "rows": [],
+           "tables": [], "warnings": [], "figures": [], "video": None}
     with plotstyle.context():
         if case.kind == "run":
             _run_kind(ctx, res, progress)
         elif case.kind == "optimize-law":
             _optimize_law_kind(ctx, res)
+        elif case.kind == "study" and paper is not None and hasattr(paper, "study"):
+            paper.study(ctx)
         else:
-            raise ScenarioError(f"reproduce case {case.name!r}: kind {case.kind!r} is not 'run' or 'optimize-law'")
+            raise ScenarioError(f"reproduce case {case.name!r}: kind {case.kind!r} is not 'run', 'optimize-law' "
+                                f"or 'study' (with a study(ctx) in its paper module)")
         if paper is not None:
             res["rows"] += [_normalise_row(r) for r in paper.rows(ctx)]
         figs = paper.figures(ctx) if paper is not None else (default_figures(ctx) if case.kind == "run" else [])
@@ -102,6 +116,9 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
                 figs.append(backend_comparison(trajs, out / f"backends_{mode}.png",
                                                title=f"{case.name}, mode {mode}: multibody vs reduced"))
         res["figures"] += [os.path.relpath(os.fspath(p), out) for p in figs or []]
+        res["tables"] = [_normalise_table(t) for t in ctx.tables]
+        res["warnings"] = [str(w) for w in ctx.warnings]
+        res["counts"] = V.counts(res["rows"])
     res["sim_figures_s"] = time.perf_counter() - t0
     try:  # a video that cannot be made (no OpenGL, encoder) is recorded; the report goes on
         if video and case.video and case.kind == "run":
@@ -127,25 +144,10 @@ def _run_kind(ctx: CaseRun, res: dict, progress: bool):
         m = runner.mode_metrics(scn, mode, trajs)
         ctx.metrics[mode] = m
         res["modes"][mode] = {k: v for k, v in m.items() if k != "paper"}
-        for row in m.get("paper", []):
-            res["rows"].append(_normalise_row({
-                "name": row["name"], "mode": mode, "metric": row.get("metric"), "paper": row.get("paper"),
-                "unit": row.get("unit") or _unit_of(row.get("metric")),
-                "ours": {b: row.get(b) for b in backends if row.get(b) is not None}, "reason": row.get("note", "")}))
+        for row in m.get("paper", []):  # the scenario's [[paper.figures]], verdicts computed by the runner
+            res["rows"].append(_normalise_row(row))
         for b, tr in trajs.items():
             tr.write_csv(ctx.out / f"trajectory_{mode}_{b}.csv")
-
-
-def _unit_of(metric):
-    """Unit from a metric key's SI suffix (metrics.summary naming), '1' for ratios such as χ."""
-    if not metric:
-        return ""
-    for suf, unit in (("_rad_s2", "rad/s²"), ("_rad_s", "rad/s"), ("_m_s", "m/s"), ("_rad", "rad"),
-                      ("_s", "s"), ("_V", "V"), ("_A", "A"), ("_W", "W"), ("_J", "J"), ("_m", "m"),
-                      ("_Nm", "N·m")):
-        if metric.endswith(suf):
-            return unit
-    return "1"
 
 
 def _optimize_law_kind(ctx: CaseRun, res: dict):
@@ -157,7 +159,7 @@ def _optimize_law_kind(ctx: CaseRun, res: dict):
 
 
 def default_figures(ctx: CaseRun):
-    """Seed 000 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
+    """Incerti 2012 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
     from .plots import fig4
     from .runner import chi_text, setpoint
 
@@ -205,7 +207,7 @@ def _video(ctx: CaseRun, quick, progress, width=None, height=None):
 
 
 def _platform_video(ctx: CaseRun, quick, progress, width=None, height=None):
-    """Seeds 001/003: the platform driven by the initial, then the optimised law (top view; the
+    """Incerti belt / Bezier platforms: the platform driven by the initial, then the optimised law (top view; the
     deflection ψ is shown magnified by a needle, render.PlatformView)."""
     from . import render
 
@@ -221,52 +223,78 @@ def _platform_video(ctx: CaseRun, quick, progress, width=None, height=None):
 
 # ============================================================================ rows
 def _num(x):
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+    return V._num(x)
 
 
 def _normalise_row(r: dict) -> dict:
-    """Fill unit/reason, cast numbers to float and add difference columns (first 'ours' value)."""
-    row = {"name": str(r["name"]), "unit": r.get("unit", ""), "paper": r.get("paper"),
+    """A report row with its verdict (mjbench.verdicts.finish_row): numbers cast to float, the
+    paper column's text, the verdict computed from the numbers, and a reason where the verdict
+    is not a match and the paper module states none."""
+    row = {"name": str(r["name"]), "unit": r.get("unit", "") or "", "paper": r.get("paper"),
+           "compare": r.get("compare"), "tolerance": r.get("tolerance"), "fitted": r.get("fitted", False),
            "ours": {k: (float(v) if _num(v) else v) for k, v in (r.get("ours") or {}).items()},
            "reason": r.get("reason", "") or ""}
     for k in ("mode", "metric"):
         if r.get(k) is not None:
             row[k] = r[k]
-    if _num(row["paper"]):
+    if isinstance(row["paper"], (list, tuple)):
+        row["paper"] = [float(x) for x in row["paper"]]
+    elif _num(row["paper"]):
         row["paper"] = float(row["paper"])
-    first = next((v for v in row["ours"].values() if _num(v) and math.isfinite(v)), None)
-    if _num(row["paper"]) and first is not None:
-        row["difference"] = first - row["paper"]
-        row["rel_difference"] = row["difference"] / abs(row["paper"]) if row["paper"] else None
-    else:
-        row["difference"] = row["rel_difference"] = None
-    rel = row["rel_difference"]
-    if not row["reason"]:
-        if rel is not None and abs(rel) <= AGREE_REL:
-            row["reason"] = f"agrees within {100 * AGREE_REL:g} %"
-        elif row["paper"] is None:
-            row["reason"] = "not reported in the paper (our figure for reference)"
-        elif rel is not None:
-            row["reason"] = "no reason stated by the scenario"
+    V.finish_row(row)
+    if not row["reason"] and row["verdict"]["ok"] is False:
+        row["reason"] = "no reason stated"
     return row
 
 
-# ---------------------------------------------------------------------------- seed 002 hooks
+def _normalise_table(t: dict) -> dict:
+    """An extra table: {"title", "head": [..], "rows": [[..]], "note"} with cells as printed."""
+    return {"title": str(t.get("title", "")), "head": [str(h) for h in t["head"]],
+            "rows": [[c if isinstance(c, str) else fmt(c) for c in row] for row in t["rows"]],
+            "note": str(t.get("note", "") or "")}
+
+
 # ============================================================================ report
-def fmt(v) -> str:
-    """How every number appears in the report tables (4 significant digits)."""
-    if v is None:
-        return "—"
-    if isinstance(v, bool):
-        return str(v)
-    if _num(v):
-        v = float(v)
-        if math.isnan(v):
-            return "nan"
-        return f"{v:.4g}"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(fmt(x) for x in v) + "]"
-    return str(v)
+fmt = V.fmt
+
+GLOSSARY = [
+    ("Incerti 2012", "G. Incerti, four-bar linkage driven by a DC motor under a PID with the time-varying "
+                     "gain K_p·t (scenarios incerti2012, incerti2012-calibrated)."),
+    ("Incerti belt / Incerti Bezier", "G. Incerti's two motion-law studies on elastic rotary platforms: the "
+                                      "belt-driven platform with pseudo-polynomial laws (incerti-belt) and the "
+                                      "elastic-joint platform with Bezier laws (incerti-bezier)."),
+    ("Hülako & Çakar 2025", "four-bar whose coupler point C moves at a constant speed V_C under a crank-speed "
+                            "PID (hulako2025-model1, -model2)."),
+    ("Yiğit & Şen 2023", "quick-return mechanism: optimum design (Eqs 1-2, Table I) and sliding-mode speed "
+                         "control (yigit2023)."),
+    ("multibody", "the MuJoCo model of the mechanism (joints, bodies, loop-closure constraints), stepped by "
+                  "MuJoCo."),
+    ("reduced", "the same machine written as one equation of motion in the crank angle α: "
+                "J(α)·α̈ + ½J′(α)·α̇² + dE_p/dα = torque (Eksergian's form), integrated by RK4; the two "
+                "backends share the drive and the controller, so their difference is the mechanics alone."),
+    ("J(α)", "reduced (generalised) inertia of the mechanism seen at the crank [kg·m²]; it varies with the "
+             "crank angle α."),
+    ("χ", "speed fluctuation of Incerti 2012 Eq 22: (φ̇_max − φ̇_min)/φ̇_average of the motor speed over a "
+          "crank cycle or a time window, in percent."),
+    ("last cycle from α(0)", "the last complete crank cycle counted from the initial angle α(0): it may end up "
+                             "to one period before the end of the run."),
+    ("last 2π to t_end", "the last 2π of crank travel, ending at the end of the run."),
+    ("V_C, V_des", "speed of the coupler point C [m/s], and the speed the reference asks for."),
+    ("E(T)", "residual vibration energy of the platform when the motor stops at the end T of the move [J]."),
+    ("ψ", "deflection of the elastic transmission (platform side) [rad]."),
+    ("residual envelope at T", "amplitude of the free vibration that starts at T from the state at T "
+                               "(√(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²)): an envelope, not a measured peak."),
+    ("peak |ψ| over [T, T+2 s]", "the largest deflection actually reached in the 2 s after the move."),
+    ("ideal servo / DC motor + servo", "the motor follows the law exactly (the papers' assumption) / a DC "
+                                       "motor under a cascade position servo tracks the law (our machine)."),
+    ("Ts", "control sampling period of the sliding-mode controller (Yiğit & Şen give none)."),
+    ("verdict", f"computed from the numbers: a point value agrees when |ours − paper| ≤ {100 * V.TOLERANCE:g} % "
+                "of the paper's value (else 'differs', signed); a band [lo, hi] is 'inside', 'below by X' or "
+                "'above by X'; an upper bound is 'met' or 'exceeded by X'. 'fitted': a figure our parameters "
+                "were fitted to (agreement by construction, not a prediction)."),
+    ("reason", "why ours differs, or what the figure depends on: stated by the paper module or the "
+               "scenario file; it never states the verdict."),
+]
 
 
 def _rel(v):
@@ -282,26 +310,50 @@ def _labels(rows):
     return labs
 
 
+def _counts(r):
+    return r.get("counts") or V.counts(r["rows"])
+
+
+def _count_text(c):
+    judged = c["meet"] + c["differ"] + c["fitted"]
+    txt = f"{c['meet'] + c['fitted']}/{judged}"
+    return txt + (f" ({c['fitted']} fitted)" if c["fitted"] else "")
+
+
+SUMMARY_HEAD = ["case", "paper", "rows", "meet the paper", "differ", "no paper figure", "runtime [s]"]
+
+
+def _summary_cells(r):
+    c = _counts(r)
+    return [r["case"], r.get("citation") or r.get("paper") or "", str(len(r["rows"])), _count_text(c),
+            str(c["differ"]), str(c["unjudged"]), f"{r['runtime_s']:.1f}"]
+
+
+INTRO = ("Every paper case run end to end by `mjbench reproduce` (figures in the papers' style, metrics, "
+         "a real-time video of the multibody run).  Each table lists, for every quantity, the paper's figure "
+         "(a value, a band lo–hi, or a bound ≤ / ≥), ours (one column per simulator backend where both ran), "
+         "the **verdict computed from these numbers** and the reason where ours differs.  A point value "
+         f"agrees when it is within ±{100 * V.TOLERANCE:g} % of the paper's; a band or a bound is met or "
+         "missed by the amount shown.  'meet the paper' counts the rows that agree, lie inside the band or "
+         "meet the bound, out of the rows with a paper figure.  Words and symbols: see the glossary at the end.")
+
+
 def write_report(results: list, out_dir, total_s=None) -> tuple:
     """``report.md`` and ``report.html`` in ``out_dir`` from the case results."""
     out = Path(out_dir)
-    md = ["# mjbench — reproduction report", "",
-          "Every paper case run end to end by `mjbench reproduce` (figures in the papers' style, metrics, "
-          "a real-time video of the multibody run).  Tables: the paper's reported figure, ours, the "
-          "difference (ours − paper, relative to the paper; first 'ours' column) and the stated reason "
-          f"where they differ (|difference| > {100 * AGREE_REL:g} %).", ""]
+    md = ["# mjbench — reproduction report", "", INTRO, ""]
     if total_s is not None:
         md += [f"Total runtime: {total_s:.0f} s.", ""]
     md += [f"Environment: {_env_text()}.", ""]
-    md += ["| case | scenario | seed | rows | within 5 % | runtime [s] |", "|---|---|---|---|---|---|"]
+    md += ["| " + " | ".join(SUMMARY_HEAD) + " |", "|" + "---|" * len(SUMMARY_HEAD)]
     for r in results:
-        n_ok = sum(1 for row in r["rows"] if row.get("rel_difference") is not None and abs(row["rel_difference"]) <= AGREE_REL)
-        n_cmp = sum(1 for row in r["rows"] if row.get("rel_difference") is not None)
-        md.append(f"| [{r['case']}](#{_anchor(r['case'])}) | {r['scenario']} | {r.get('seed') or ''} | "
-                  f"{len(r['rows'])} | {n_ok}/{n_cmp} | {r['runtime_s']:.1f} |")
+        cells = _summary_cells(r)
+        cells[0] = f"[{r['case']}](#{_anchor(r['case'])})"
+        md.append("| " + " | ".join(cells) + " |")
     md.append("")
     for r in results:
         md += _case_md(r)
+    md += ["## Glossary", ""] + [f"* **{k}** — {v}" for k, v in GLOSSARY] + [""]
     md_text = "\n".join(md) + "\n"
     html_text = _html(results, total_s)
     atomic_write(out / "report.md", lambda f: f.write(md_text))
@@ -333,34 +385,75 @@ def _anchor(name):
     return "case-" + "".join(c if c.isalnum() else "-" for c in name.lower())
 
 
+def _ours_head(b):
+    return "ours" if b == "ours" else f"ours: {b}"
+
+
+MAX_OURS_COLUMNS = 3  #: more distinct labels of ours in a case: one "ours" column of "label: value" items
+
+
+def ours_columns(rows) -> list | None:
+    """The labels of ours shown as columns, or None when they are folded into one column."""
+    labs = _labels(rows)
+    return labs if len(labs) <= MAX_OURS_COLUMNS else None
+
+
+def _ours_text(ours: dict) -> str:
+    return "; ".join(fmt(v) if k == "ours" else f"{k}: {fmt(v)}" for k, v in ours.items())
+
+
 def _table_rows(r):
-    labs = _labels(r["rows"])
-    head = ["quantity", "unit", "paper"] + [("ours" if b == "ours" else f"ours: {b}") for b in labs] + ["difference", "relative", "reason"]
+    """Header and cells of a case's verdict table (every number printed with :func:`fmt`)."""
+    labs = ours_columns(r["rows"])
+    head = ["quantity", "unit", "paper"] + ([_ours_head(b) for b in labs] if labs is not None else ["ours"]) \
+        + ["verdict", "reason"]
     body = []
     for row in r["rows"]:
-        body.append([row["name"], row.get("unit", ""), fmt(row["paper"])]
-                    + [fmt(row["ours"].get(b)) for b in labs]
-                    + [fmt(row.get("difference")), _rel(row.get("rel_difference")), row.get("reason", "")])
+        ours = [fmt(row["ours"].get(b)) for b in labs] if labs is not None else [_ours_text(row["ours"])]
+        body.append([row["name"], row.get("unit", ""), row.get("paper_text") or fmt(row["paper"])] + ours
+                    + [row["verdict"]["text"], row.get("reason", "") or "—"])
     return head, body
+
+
+def _case_intro(r):
+    bits = [f"Paper: **{r.get('citation') or r.get('paper')}**"
+            + (f", “{r['paper_title']}”" if r.get("paper_title") else "") + ".",
+            f"Scenario `{r['scenario']}` — {r.get('scenario_title', '')}."]
+    return bits
+
+
+def _md_cell(x):
+    return str(x).replace("|", "\\|").replace("\n", " ")
+
+
+def _md_table(head, body):
+    out = ["| " + " | ".join(_md_cell(h) for h in head) + " |", "|" + "---|" * len(head)]
+    for b in body:
+        out.append("| " + " | ".join(_md_cell(x) for x in b) + " |")
+    return out
 
 
 def _case_md(r):
     case = r["case"]
-    md = [f'<a id="{_anchor(case)}"></a>', f"## {case}: {r['title']}", "",
-          f"Scenario `{r['scenario']}` (seed {r.get('seed') or '?'}) — {r.get('scenario_title', '')}."]
+    md = [f'<a id="{_anchor(case)}"></a>', f"## {case}: {r['title']}", ""]
+    md += _case_intro(r)
     if r.get("overrides"):
         md.append(f"Overrides: `{' '.join(r['overrides'])}`.")
     if r.get("note"):
         md.append(r["note"])
     md.append(f"Files: [`{case}/metrics.json`]({case}/metrics.json).")
     md.append("")
+    for w in r.get("warnings") or []:
+        md += [f"> **Warning:** {w}", ""]
     head, body = _table_rows(r)
     if body:
-        md.append("| " + " | ".join(head) + " |")
-        md.append("|" + "---|" * len(head))
-        for b in body:
-            md.append("| " + " | ".join(str(x).replace("|", "\\|") for x in b) + " |")
-        md.append("")
+        md += _md_table(head, body) + [""]
+    for t in r.get("tables") or []:
+        if t.get("title"):
+            md += [f"**{t['title']}**", ""]
+        md += _md_table(t["head"], t["rows"]) + [""]
+        if t.get("note"):
+            md += [t["note"], ""]
     for f in r["figures"]:
         md += [f"![{f}]({case}/{f})", ""]
     v = r.get("video")
@@ -384,9 +477,10 @@ h1{font-size:1.6em}h2{font-size:1.25em;border-bottom:1px solid #ccc;padding-bott
 table{border-collapse:collapse;margin:.8em 0;font-size:.88em}
 th,td{border:1px solid #bbb;padding:.25em .5em;text-align:left;vertical-align:top}
 th{background:#eef1f5}td.num{text-align:right;font-family:DejaVu Sans Mono,monospace}
-tr.agree td{background:#f1faf1}tr.differ td.rel{background:#fff3e6}
+tr.meet td.verdict{background:#e6f5e6}tr.differ td.verdict{background:#fdebd6}tr.fitted td.verdict{background:#eceff7}
 img{max-width:100%;border:1px solid #ddd;margin:.4em 0}video{max-width:100%;background:#000}
-.meta{color:#555;font-size:.9em}
+.meta{color:#555;font-size:.9em}.warn{background:#fff4d6;border-left:4px solid #e0a000;padding:.4em .8em}
+dt{font-weight:bold;margin-top:.4em}dd{margin-left:1.5em}
 """
 
 _CHECK_JS = """
@@ -400,49 +494,78 @@ window.addEventListener('load', function () {
 """
 
 
+def _md_inline(text):
+    """HTML of a sentence written with the report's markdown subset (**bold**, `code`)."""
+    import re
+
+    t = html.escape(text)
+    t = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", t)
+    return re.sub(r"`(.+?)`", r"<code>\1</code>", t)
+
+
+def _html_table(head, body, num_cols=(), row_classes=None, col_classes=None):
+    e = html.escape
+    parts = ['<table class="rows"><tr>' + "".join(f"<th>{e(h)}</th>" for h in head) + "</tr>"]
+    for i, cells in enumerate(body):
+        cls = f' class="{row_classes[i]}"' if row_classes and row_classes[i] else ""
+        tds = []
+        for j, c in enumerate(cells):
+            k = (col_classes or {}).get(j) or ("num" if j in num_cols else "")
+            tds.append(f'<td class="{k}">{e(str(c))}</td>' if k else f"<td>{e(str(c))}</td>")
+        parts.append(f"<tr{cls}>" + "".join(tds) + "</tr>")
+    parts.append("</table>")
+    return "\n".join(parts)
+
+
+def _row_class(row):
+    v = row.get("verdict") or {}
+    if v.get("ok") is None:
+        return ""
+    if v.get("fitted"):
+        return "fitted"
+    return "meet" if v["ok"] else "differ"
+
+
 def _html(results, total_s):
     e = html.escape
     parts = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
              "<title>mjbench reproduction report</title>", f"<style>{_CSS}</style>",
              f"<script>{_CHECK_JS}</script></head><body>",
-             "<h1>mjbench — reproduction report</h1>",
-             "<p>Every paper case run end to end by <code>mjbench reproduce</code>: figures in the papers' style, "
-             "metrics, a real-time video of the multibody run. Tables: the paper's reported figure, ours, the difference "
-             "(ours − paper, relative to the paper; first 'ours' column) and the stated reason where they differ "
-             f"(|difference| &gt; {100 * AGREE_REL:g} %).</p>"]
+             "<h1>mjbench — reproduction report</h1>", f"<p>{_md_inline(INTRO)}</p>"]
     if total_s is not None:
         parts.append(f'<p class="meta">Total runtime: {total_s:.0f} s.</p>')
     parts.append(f'<p class="meta">Environment: {e(_env_text())}.</p>')
-    parts.append("<table><tr><th>case</th><th>scenario</th><th>seed</th><th>rows</th><th>runtime [s]</th></tr>")
+    parts.append("<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in SUMMARY_HEAD) + "</tr>")
     for r in results:
-        parts.append(f'<tr><td><a href="#{_anchor(r["case"])}">{e(r["case"])}</a></td><td>{e(r["scenario"])}</td>'
-                     f'<td>{e(str(r.get("seed") or ""))}</td><td class="num">{len(r["rows"])}</td>'
-                     f'<td class="num">{r["runtime_s"]:.1f}</td></tr>')
+        cells = _summary_cells(r)
+        tds = [f'<td><a href="#{_anchor(r["case"])}">{e(r["case"])}</a></td>', f"<td>{e(cells[1])}</td>"]
+        tds += [f'<td class="num">{e(c)}</td>' for c in cells[2:]]
+        parts.append("<tr>" + "".join(tds) + "</tr>")
     parts.append("</table>")
     for r in results:
         case = r["case"]
         parts.append(f'<h2 id="{_anchor(case)}">{e(case)}: {e(r["title"])}</h2>')
-        meta = f'Scenario <code>{e(r["scenario"])}</code> (seed {e(str(r.get("seed") or "?"))}) — {e(r.get("scenario_title", ""))}.'
+        meta = " ".join(_md_inline(b) for b in _case_intro(r))
         if r.get("overrides"):
             meta += f' Overrides: <code>{e(" ".join(r["overrides"]))}</code>.'
         meta += f' Files: <a href="{e(case)}/metrics.json">{e(case)}/metrics.json</a>.'
         parts.append(f'<p class="meta">{meta}</p>')
         if r.get("note"):
-            parts.append(f"<p>{e(r['note'])}</p>")
+            parts.append(f"<p>{_md_inline(r['note'])}</p>")
+        for w in r.get("warnings") or []:
+            parts.append(f'<p class="warn"><b>Warning:</b> {_md_inline(w)}</p>')
         head, body = _table_rows(r)
         if body:
-            parts.append('<table class="rows"><tr>' + "".join(f"<th>{e(h)}</th>" for h in head) + "</tr>")
-            for row, cells in zip(r["rows"], body):
-                rel = row.get("rel_difference")
-                cls = "" if rel is None else (" class=\"agree\"" if abs(rel) <= AGREE_REL else " class=\"differ\"")
-                tds = []
-                for i, c in enumerate(cells):
-                    k = "num" if 2 <= i < len(cells) - 1 else ("" if i < 2 else "")
-                    if i == len(cells) - 2:
-                        k = "num rel"
-                    tds.append(f'<td class="{k}">{e(str(c))}</td>' if k else f"<td>{e(str(c))}</td>")
-                parts.append(f"<tr{cls}>" + "".join(tds) + "</tr>")
-            parts.append("</table>")
+            nlab = len(head) - 5
+            parts.append(_html_table(head, body, num_cols=range(2, 3 + nlab),
+                                     row_classes=[_row_class(row) for row in r["rows"]],
+                                     col_classes={len(head) - 2: "verdict"}))
+        for t in r.get("tables") or []:
+            if t.get("title"):
+                parts.append(f"<p><b>{e(t['title'])}</b></p>")
+            parts.append(_html_table(t["head"], t["rows"]))
+            if t.get("note"):
+                parts.append(f'<p class="meta">{_md_inline(t["note"])}</p>')
         for f in r["figures"]:
             parts.append(f'<div><img src="{e(case)}/{e(f)}" alt="{e(f)}" loading="eager"></div>')
         v = r.get("video")
@@ -457,7 +580,10 @@ def _html(results, total_s):
         elif r["kind"] == "optimize-law":
             parts.append('<p class="meta">No video: a motion-law case (<code>mjbench optimize-law</code>), '
                          "evaluated on the platform model.</p>")
-    parts.append("</body></html>")
+    parts.append('<h2 id="glossary">Glossary</h2><dl>')
+    for k, v in GLOSSARY:
+        parts.append(f"<dt>{e(k)}</dt><dd>{e(v)}</dd>")
+    parts.append("</dl></body></html>")
     return "\n".join(parts) + "\n"
 
 
