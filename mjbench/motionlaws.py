@@ -102,8 +102,13 @@ class LawReference:
         pass
 
     def __call__(self, t, y=None):
-        p, v, a = self.law.evaluate(float(t) - self.t0, 2)
+        tl = float(t) - self.t0
         s = self.scale
+        if tl > self.law.T:  # at rest after the move: no law evaluation on the hot path
+            return s * self.law.Phi, 0.0, 0.0
+        if tl < 0.0:
+            return 0.0, 0.0, 0.0
+        p, v, a = self.law.evaluate(tl, 2)
         return s * p, s * v, s * a
 
 

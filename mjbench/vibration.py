@@ -200,6 +200,19 @@ def residual_energy(law, osc, t_end=None) -> float:
     return 0.5 * osc.J * (osc.ratio / osc.omega_d) ** 2 * (G * G + osc.omega_n ** 2 * F * F)
 
 
+PEAK_WINDOW = 2.0  #: [s] window after T over which the actual residual peak |ψ| is reported
+
+
+def residual_peak(law, osc, window: float = PEAK_WINDOW, n: int = 8001) -> float:
+    """Largest |ψ| [rad, platform] actually reached over [T, T + window] with the motor at rest
+    after T (ideal servo), from the closed form ψ(T + τ) = −(ρ/ω_d)·Im(W(T)·e^{sτ}) on n points
+    (relative error ≲ (ω_d·window/n)²/8 ≈ 1e-5 for the platforms here)."""
+    W = convolution_W(law, osc)
+    tau = np.linspace(0.0, float(window), int(n))
+    psi = -osc.ratio / osc.omega_d * np.imag(W * np.exp(osc.s * tau))
+    return float(np.max(np.abs(psi)))
+
+
 def residual_amplitude(psi, psid, osc) -> float:
     """Amplitude [rad, platform] of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
     that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²)."""
@@ -326,6 +339,44 @@ def residual_energy_multibody(platform, law, dt=1e-4) -> float:
     return float(energy_from_state(r["psi"][-1], r["psid"][-1], osc, r["motor_speed"][-1]))
 
 
+# ====================================================================== degenerate laws
+GAMMA_GAP_MIN = 0.1   #: exponents of a pseudo-polynomial law closer than this: collapsing together
+GAMMA_LIMIT_MARGIN = 0.05  #: an exponent within this of its validity limit n: at the edge
+COEFF_MAX = 100.0     #: |C_i| above this: large cancelling terms (the 3-4-5 law has |C| ≤ 15)
+POLYGON_MARGIN = 1.0  #: Bezier interior ordinates beyond [−1, 2]·Φ: a polygon far outside the move
+
+
+def law_warnings(law) -> list:
+    """Signs that a law (typically an optimiser's result) is degenerate, as sentences: exponents
+    collapsing together or at their validity limit, large cancelling coefficients (the law is
+    the small difference of huge terms: sensitive to every digit), a Bezier polygon leaving
+    [0, Φ], a motor that reverses during the move.  Empty when the law is healthy."""
+    out = []
+    if isinstance(law, PseudoPolynomialLaw):
+        g = np.sort(law.gammas)
+        gaps = np.diff(g)
+        if gaps.size and gaps.min() < GAMMA_GAP_MIN:
+            i = int(np.argmin(gaps))
+            out.append(f"exponents collapsing together: γ = {g[i]:.4g} and {g[i + 1]:.4g} differ by {gaps[i]:.3g} "
+                       f"(< {GAMMA_GAP_MIN:g})")
+        if g[0] - law.n < GAMMA_LIMIT_MARGIN:
+            out.append(f"exponent γ = {g[0]:.4g} at its validity limit n = {law.n} (the law's derivative "
+                       f"{law.n} barely vanishes at T)")
+        cmax = float(np.max(np.abs(law.C)))
+        if cmax > COEFF_MAX:
+            out.append(f"large cancelling coefficients: max |C_i| = {cmax:.3g} (> {COEFF_MAX:g}; the 3-4-5 "
+                       "polynomial has 15)")
+    if isinstance(law, BezierLaw):
+        y = np.asarray(law.interior, dtype=float) / law.Phi
+        if np.any(y < -POLYGON_MARGIN) or np.any(y > 1.0 + POLYGON_MARGIN):
+            out.append(f"control polygon far outside [0, Φ]: interior ordinates / Φ = "
+                       f"{', '.join(f'{v:.3g}' for v in y)} (large cancelling terms)")
+    v = law.velocity(np.linspace(0.0, law.T, 2001))
+    if np.any(np.sign(law.Phi) * v < -1e-9 * np.max(np.abs(v))):
+        out.append("the motor reverses during the move (the speed changes sign)")
+    return out
+
+
 # ====================================================================== optimisation
 @dataclass
 class Constraints:
@@ -443,11 +494,15 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
 
 # ====================================================================== summaries
 def summary(law, osc, J_motor=0.0) -> dict:
-    """E(T) (closed form), residual state and amplitude, peaks of the motor law."""
+    """E(T) (closed form), residual state, the free-vibration envelope at T (``residual_envelope_at_T_rad``,
+    also under its old name ``residual_amplitude_rad``) and the actual peak |ψ| over [T, T + 2 s]
+    (``residual_peak_after_T_rad``), peaks of the motor law."""
     psi, psid = residual_state(law, osc)
     pk = law.peaks()
+    env = residual_amplitude(psi, psid, osc)
     return {"E_T_J": residual_energy(law, osc), "psi_T_rad": psi, "psid_T_rad_s": psid,
-            "residual_amplitude_rad": residual_amplitude(psi, psid, osc),
+            "residual_amplitude_rad": env, "residual_envelope_at_T_rad": env,
+            "residual_peak_after_T_rad": residual_peak(law, osc), "residual_peak_window_s": PEAK_WINDOW,
             "peak_motor_speed_rad_s": pk["speed"], "peak_motor_accel_rad_s2": pk["accel"],
             "peak_motor_jerk_rad_s3": pk["jerk"], "T_total_s": law.T,
             "peak_torque_rigid_Nm": (J_motor + osc.ratio ** 2 * osc.J) * pk["accel"]}
@@ -516,7 +571,7 @@ def study(scn, progress=None, multibody=None) -> dict:
     laws = {"initial": law0, "optimised": law1}
     if "gammas_optimum" in paper and isinstance(law0, PseudoPolynomialLaw):
         laws["paper_optimum"] = PseudoPolynomialLaw(law0.Phi, law0.T, paper["gammas_optimum"])
-    rep = {"scenario": scn.name, "seed": scn.scenario.seed,
+    rep = {"scenario": scn.name, "paper_name": scn.scenario.paper,
            "platform": plat.describe(), "oscillator": osc.describe(),
            "omega_n_rad_s": osc.omega_n, "xi": osc.xi,
            "optimiser": {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
@@ -525,7 +580,7 @@ def study(scn, progress=None, multibody=None) -> dict:
                                          "max_torque": cons.max_torque}},
            "laws": {}, "paper": {k: v for k, v in paper.items()}}
     for name, law in laws.items():
-        rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor)}
+        rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor), "warnings": law_warnings(law)}
     for name, law in laws.items():
         rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
         rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
@@ -585,9 +640,10 @@ def servo_machine(scn, mode, law):
 
 def residual_from_trajectory(tr, osc, T, t_after):
     """Residual-vibration figures of a machine run (columns deflection_rad, deflection_rate_rad_s):
-    E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (seed 001 Eq 25, with the actual motor
-    speed), the free-vibration envelope at T (``residual_amplitude``), the actual peak |ψ| over
-    [T, T + t_after], the energy at T + t_after and the motor's peak tracking error."""
+    E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (Incerti belt Eq 25, with the actual
+    motor speed), the free-vibration envelope at T (``residual_amplitude``), the actual peak |ψ|
+    over [T, T + t_after] (``residual_peak_after_T_rad``, window in ``residual_peak_window_s``;
+    cut at the end of the run), the energy at the end of the run."""
     t = tr.t
     iT = int(np.argmin(np.abs(t - T)))
     psi, psid, om = tr["deflection_rad"], tr["deflection_rate_rad_s"], tr.qd
@@ -597,13 +653,15 @@ def residual_from_trajectory(tr, osc, T, t_after):
     return {"E_T_J": E_T, "E_end_J": E_end,
             "residual_envelope_at_T_rad": residual_amplitude(float(psi[iT]), float(psid[iT]), osc),
             "residual_peak_after_T_rad": float(np.max(np.abs(psi[after]))),
+            "residual_peak_window_s": float(min(t_after, t[-1] - T)),
             "peak_current_A": float(np.max(np.abs(tr.current))),
             "peak_voltage_V": float(np.max(np.abs(tr.voltage)))}
 
 
-def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced") -> dict:
-    """Each law run by the real motor + servo of ``mode`` (the co-step kernel, ``backend``) next to
-    its ideal-servo figures: {"laws": {name: {...}}, "drive": ..., "controller": ...}."""
+def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced", peak_window=PEAK_WINDOW) -> dict:
+    """Each law run by the real motor + servo of ``mode`` (the co-step kernel, ``backend``) for
+    T + max(t_after, peak_window) s, next to its ideal-servo figures: {"laws": {name: {...}},
+    "drive": ..., "controller": ...}.  The residual peak is over [T, T + peak_window]."""
     from .backends import simulate
 
     out = {"mode": mode, "backend": backend, "drive": scn.drive.to_dict(),
@@ -612,13 +670,14 @@ def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced"
         mc = servo_machine(scn, mode, law)
         osc = mc.mechanism.oscillator()
         opts = {"timestep": scn.simulation.dt} if backend == "reduced" else scn.multibody_options()
-        tr = simulate(mc, backend, law.T + t_after, record_dt=scn.simulation.dt, options=opts)
-        r = residual_from_trajectory(tr, osc, law.T, t_after)
+        tr = simulate(mc, backend, law.T + max(t_after, peak_window), record_dt=scn.simulation.dt, options=opts)
+        r = residual_from_trajectory(tr, osc, law.T, peak_window)
         err = law.position(tr.t) - tr.q
         r["max_tracking_error_rad"] = float(np.max(np.abs(err)))
         psi, psid = residual_state(law, osc)
         r["ideal_E_T_J"] = residual_energy(law, osc)
         r["ideal_residual_envelope_rad"] = residual_amplitude(psi, psid, osc)
+        r["ideal_residual_peak_after_T_rad"] = residual_peak(law, osc, peak_window)
         out["laws"][name] = r
         if runs is not None:
             runs[name] = tr
