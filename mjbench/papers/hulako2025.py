@@ -1,19 +1,27 @@
-"""Hülako & Çakar 2025 (seed 002): four-bar whose coupler point moves at constant speed V_C.
+"""Hülako & Çakar 2025: four-bar whose coupler point moves at constant speed V_C.
 
-Report rows: §4 crank-speed error, Table 3 coupler-speed deviation, §5.1 rise and settling
-times; figures: crank speed (cf. Figs 9-12) and coupler-point speed (cf. Figs 18-21).  Metrics:
-:mod:`mjbench.papers.hulako2025_metrics`, plots: :mod:`mjbench.papers.hulako2025_plots`, what a
-reference demands from the drive: :mod:`mjbench.papers.hulako2025_demand`.
+Report rows: the scenario's ``[[paper.figures]]`` (§4 crank-speed error, Table 3 coupler-speed
+deviation, §5.1 rise and settling times) are judged by the runner on the engine's coupler-speed
+metrics (:func:`mjbench.metrics.coupler_tracking`, also in ``mjbench run``'s metrics.json).  This
+module adds the other reading of "after 1.5 s" (the last second of the run: the periodic
+residual), the same figures with the paper's plain Eq 21 (no anti-windup: ``--set vlimit=none``,
+one more run on the multibody backend) and a table of the start-up dynamics that Eq 21's gains
+impose (the reason behind the slow start-up), all computed from the scenario.  Figures: crank
+speed (cf. Figs 9-12) and coupler-point speed (cf. Figs 18-21).  Plots:
+:mod:`mjbench.papers.hulako2025_plots`, what a reference demands from the drive:
+:mod:`mjbench.papers.hulako2025_demand`.
 """
 from __future__ import annotations
 
-from mjbench.papers import Case
+import numpy as np
 
 from mjbench import scenario as S
+from mjbench.papers import Case
 
 KEY = "hulako2025"
 CITATION = "Hülako & Çakar 2025"
-TITLE = "A Study on Four-Bar Mechanism with Constant Coupler Point Velocity"
+TITLE = ("A Study on Four-Bar Mechanism with Constant Coupler Point Velocity: Modelling, Numerical Simulation "
+         "and Experimental Application")
 SCENARIOS = ("hulako2025-model1", "hulako2025-model2")
 CASES = [
     Case(name=f"hulako2025-model{m}-vc{vc}", scenario=f"hulako2025-model{m}",
@@ -24,49 +32,96 @@ CASES = [
     for m in (1, 2) for vc in ("0.1", "0.2")
 ]
 
+#: the paper's plain Eq 21: our clip at the motor voltage stays, the anti-windup goes
+PLAIN_EQ21 = {"modes.pid.v_limit": "none"}
+
+
+def _fig(scn, metric):
+    return next((f for f in scn.paper.get("figures", []) or [] if f.get("metric") == metric), None)
+
+
+def startup_dynamics(scn) -> dict:
+    """What Eq 21's gains impose on the start-up, linearised about rest (current ≈ V/R, the
+    inductance neglected): the D term K_d·de/dt gives the crank a virtual inertia z·k_m·K_d/R, the
+    P term a damping z·k_m·K_p/R, the I term a stiffness z·k_m·K_i/R (crank-side gains).  Poles of
+    K_d·s² + K_p·s + K_i, and of the full polynomial with the mechanism's mean J(α), the motor
+    inertia z²·J_m, the back-EMF damping z²·k_m²/R and the motor's viscous z²·λ."""
+    p, d = scn.modes["pid"], scn.drive
+    z, km, R = float(d.z), float(d.k_m), float(d.R)
+    kp, ki, kd = float(p.kp), float(p.ki), float(p.kd)
+    if p.side != "crank":  # motor-side gains act on z × the crank errors
+        kp, ki, kd = kp * z, ki * z, kd * z
+    mech = S.make_mechanism(scn)
+    J = np.asarray(mech.reduced(np.linspace(0.0, 2 * np.pi, 361))[0], dtype=float)
+    g = z * km / R
+    J_motor = z * z * (float(d.J_m) + float(d.J_a or 0.0) + float(d.J_b or 0.0))
+    c_phys = z * z * km * km / R + z * z * float(d.lam)
+    gains = np.roots([kd, kp, ki])
+    full = np.roots([g * kd + J.mean() + J_motor, g * kp + c_phys, g * ki])
+    return {"virtual_inertia": g * kd, "J_min": float(J.min()), "J_max": float(J.max()), "J_motor": J_motor,
+            "poles_gains": gains, "poles_full": full}
+
+
+def _poles(p):
+    out = []
+    for r in sorted(p, key=lambda x: -x.real):
+        out.append(f"{r.real:.3g}" if abs(r.imag) < 1e-12 else f"{r.real:.3g} {'+' if r.imag > 0 else '−'} {abs(r.imag):.3g}j")
+    return ", ".join(out) + " 1/s"
+
 
 def rows(ctx) -> list:
-    from mjbench.reproduce import _num
-
-    """Seed 002 (Hülako & Çakar): §4 crank error, Table 3 deviation, §5.1 rise/settling times."""
-    from . import hulako2025_metrics as MC
+    """Last-second residual, the plain-Eq-21 what-if, and the start-up table (ctx.tables)."""
+    from mjbench import runner
 
     mode = ctx.case.modes[-1]
-    pap = ctx.scn.get("paper", {})
-    mach = ctx.machines[mode]
-    per = {b: MC.from_run(ctx.scn, tr, mach) for b, tr in ctx.runs[mode].items()}
-    ctx.metrics[mode]["coupler"] = per
-    vc = S.get(ctx.scn, "modes.pid.reference.vc")
-    defs = "rise/settling times are not defined in the paper: ours = 90 % of V_C / ±10 % band (docs/coupler_speed.md)"
-    rows = [
-        {"name": "max |crank-speed error| after 1.5 s (§4: 'under 0.1')", "unit": "rad/s",
-         "paper": pap.get("crank_error_after_1_5s"),
-         "ours": {b: m.get("crank_error_max_after_rad_s") for b, m in per.items()}, "reason": ""},
-        {"name": f"max coupler-speed deviation after 1.5 s, V_C = {vc} m/s (Table 3, simulation)", "unit": "m/s",
-         "paper": pap.get("max_deviation_sim"),
-         "ours": {b: m.get("coupler_dev_max_after_m_s") for b, m in per.items()}, "reason": ""},
-        {"name": "rise time (§5.1)", "unit": "s", "paper": pap.get("rise_time"),
-         "ours": {b: m.get("rise_time_s") for b, m in per.items()}, "reason": defs},
-        {"name": "settling time (§5.1)", "unit": "s", "paper": pap.get("settling_time"),
-         "ours": {b: m.get("settling_time_s") for b, m in per.items()}, "reason": defs},
-    ]
-    for r in rows[:2]:
-        bound = r["paper"]
-        vals = [v for v in r["ours"].values() if _num(v)]
-        if bound is not None and vals:
-            ok = max(vals) <= bound
-            r["reason"] = ("the paper gives an upper bound; ours is below it" if ok else
-                           "the paper gives an upper bound; ours exceeds it: see docs/coupler_speed.md for the "
-                           "interpretations (motor constant, gravity plane, bearings) behind our model")
-    notes = ctx.scn.get("paper", {}).get("notes", {})
-    for r, key in zip(rows, ("crank_error_after_1_5s", "max_deviation_sim", "rise_time", "settling_time")):
-        if isinstance(notes, dict) and notes.get(key):
-            r["reason"] = notes[key]
-    return rows
+    scn = ctx.scn
+    per = {b: m["coupler_speed"] for b, m in ctx.metrics[mode]["backends"].items() if "coupler_speed" in m}
+    if not per:
+        return []
+    out = []
+    m0 = next(iter(per.values()))
+    t_end = m0["t_end_s"]
+    dev, err = _fig(scn, "coupler_speed.coupler_dev_max_after_m_s"), _fig(scn, "coupler_speed.crank_error_max_after_rad_s")
+    last = f"over the last second ({t_end - 1:g}–{t_end:g} s)"
+    if dev:
+        out.append({"name": f"max coupler-speed deviation {last}", "unit": "m/s", "paper": dev["max"], "compare": "max",
+                    "ours": {b: m["coupler_dev_max_last_1s_m_s"] for b, m in per.items()},
+                    "reason": "the other reading of Table 3: the periodic residual once the start-up transient "
+                              "has decayed (the paper's simulation may have started closer to the reference)"})
+    if err:
+        out.append({"name": f"max |crank-speed error| {last}", "unit": "rad/s", "paper": err["max"], "compare": "max",
+                    "ours": {b: m["crank_error_max_last_1s_rad_s"] for b, m in per.items()},
+                    "reason": "the periodic residual once the start-up transient has decayed"})
+    # the paper's plain Eq 21 (no anti-windup): one more run, multibody
+    sv = S.with_values(scn, PLAIN_EQ21)
+    tr = runner.run_mode(sv, mode, ("multibody",), ctx.case.t_end)["multibody"]
+    plain = runner.mode_metrics(sv, mode, {"multibody": tr})["backends"]["multibody"]["coupler_speed"]
+    sets = " ".join(f"--set {k}={v}" for k, v in PLAIN_EQ21.items())
+    for fig, key, unit in ((dev, "coupler_dev_max_after_m_s", "m/s"), (err, "crank_error_max_after_rad_s", "rad/s")):
+        if fig:
+            out.append({"name": f"{fig['name']}, paper's plain Eq 21 (no anti-windup)", "unit": unit,
+                        "paper": fig["max"], "compare": "max", "ours": {"multibody": plain.get(key)},
+                        "reason": f"what-if on our anti-windup assumption (`{sets}`; the {float(scn.drive.v_max):g} V "
+                                  "clip stays): the paper's Eq 21 has a bare integral"})
+    sd = startup_dynamics(scn)
+    ctx.tables.append({
+        "title": "Start-up dynamics imposed by Eq 21's gains (linearised about rest, from the scenario's values)",
+        "head": ["quantity", "value"],
+        "rows": [["virtual inertia of the D term, z·k_m·K_d/R [kg·m²]", sd["virtual_inertia"]],
+                 ["mechanism's reduced inertia J(α), min–max [kg·m²]", f"{sd['J_min']:.3g}–{sd['J_max']:.3g}"],
+                 ["motor inertia at the crank, z²·J_m [kg·m²]", sd["J_motor"]],
+                 ["poles of K_d·s² + K_p·s + K_i", _poles(sd["poles_gains"])],
+                 ["poles with the physical inertia and damping", _poles(sd["poles_full"])],
+                 ["slowest time constant [s]", 1.0 / min(abs(p.real) for p in sd["poles_full"])]],
+        "note": "The D term dominates the inertia: the start-up takes several slowest time constants, which is "
+                "why the rise time, the settling time and the figures 'after 1.5 s' are far from the paper's "
+                "(docs/coupler_speed.md §5)."})
+    ctx.extra["plain_eq21"] = plain
+    return out
 
 
 def figures(ctx) -> list:
-    """Seed 002 Figs 9-12 (crank speed and error) and 18-21 (coupler-point speed)."""
+    """Figs 9-12 (crank speed and error) and 18-21 (coupler-point speed)."""
     from . import hulako2025_plots as PC
 
     mode = ctx.case.modes[-1]
@@ -74,9 +129,10 @@ def figures(ctx) -> list:
     ref = mach.controller.reference
     p1 = ctx.out / "crank_speed.png"
     p2 = ctx.out / "coupler_speed.png"
-    PC.crank_speed(ctx.runs[mode], mach.mechanism, ref, p1, title=f"{ctx.case.name}: crank speed (cf. Figs 9-12)")
-    PC.coupler_speed(ctx.runs[mode], mach.mechanism, ref, p2, title=f"{ctx.case.name}: coupler-point speed (cf. Figs 18-21)",
-                     paper_dev=ctx.scn.get("paper", {}).get("max_deviation_sim"))
+    dev = _fig(ctx.scn, "coupler_speed.coupler_dev_max_after_m_s")
+    PC.crank_speed(ctx.runs[mode], mach.mechanism, ref, p1,
+                   title=f"{ctx.case.name}: crank speed (cf. Hülako & Çakar Figs 9-12)")
+    PC.coupler_speed(ctx.runs[mode], mach.mechanism, ref, p2,
+                     title=f"{ctx.case.name}: coupler-point speed (cf. Hülako & Çakar Figs 18-21)",
+                     paper_dev=dev["max"] if dev else None)
     return [p1, p2]
-
-

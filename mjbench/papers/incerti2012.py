@@ -1,11 +1,23 @@
-"""Incerti 2012 (seed 000): four-bar linkage + DC motor + PID with the time-varying gain K_p·t.
+"""Incerti 2012: four-bar linkage + DC motor + PID with the time-varying gain K_p·t.
 
-Report rows: the scenario's ``[[paper.figures]]`` (χ of Eq 22 open loop and PID) come from the
-run itself (:func:`mjbench.runner.paper_rows`); the figure is Fig. 4's layout (both columns,
-both backends).  The calibration of the illegible Table I values is
-:mod:`mjbench.papers.incerti2012_calibration`.
+Report rows: the scenario's ``[[paper.figures]]`` (χ of Eq 22, open loop and PID) come from the
+run itself (:func:`mjbench.runner.paper_rows`); this module adds the figures they depend on:
+
+* χ of the open loop over the other reading of "the cycle" (the last 2π of crank travel ending
+  at t_end, next to the last complete cycle counted from α(0));
+* the closed-loop χ in the paper's window with our assumed ±48 V limiter removed, and with a
+  plain clip instead of the clip + anti-windup (the paper gives neither: Fig. 3 draws a limiter
+  without a value) — short runs to the end of the window on the multibody backend;
+* how much of the PID run the voltage sits at the limit (Fig. 4 panel d shows it switching
+  between the limits over the whole run; the paper prints no number);
+* χ of the PID run over its last cycle, both readings (no paper figure).
+
+The figure is Fig. 4's layout (both columns, both backends).  The calibration of the illegible
+Table I values is :mod:`mjbench.papers.incerti2012_calibration`.
 """
 from __future__ import annotations
+
+import math
 
 from mjbench.papers import Case
 
@@ -22,13 +34,92 @@ CASES = [
          modes=["open", "pid"], backend="both", t_end=2.0, video=True, video_mode="pid", video_t_end=2.0),
 ]
 
+#: the limiter variants of the closed-loop χ: label → scenario values
+LIMITER_VARIANTS = {
+    "without the voltage limiter": {"drive.v_max": "inf", "modes.pid.v_limit": "none"},
+    "with a plain clip at the limit (no anti-windup)": {"modes.pid.v_limit": "none"},
+}
+
+
+def _fig(scn, mode, metric):
+    return next((f for f in scn.paper.get("figures", []) or []
+                 if f.get("mode") == mode and f.get("metric") == metric), None)
+
+
+def limiter_variants(scn, t_end: float, backend: str = "multibody") -> dict:
+    """χ in the metrics window of the PID mode for each :data:`LIMITER_VARIANTS` entry (a run to
+    ``t_end`` on ``backend``): {label: (χ as a fraction, the --set items)}."""
+    from mjbench import metrics as M
+    from mjbench import runner
+    from mjbench import scenario as S
+
+    out = {}
+    mt = scn.metrics
+    for label, values in LIMITER_VARIANTS.items():
+        sv = S.with_values(scn, values)
+        tr = runner.run_mode(sv, "pid", (backend,), t_end)[backend]
+        out[label] = (M.chi(tr.t, tr.omega, *mt.chi_window, average=mt.chi_average),
+                      " ".join(f"--set {k}={v}" for k, v in values.items()))
+    return out
+
+
+def _span(m, key):
+    a, b = ("last_cycle_start_s", "last_cycle_end_s") if key == "chi_last_cycle" else \
+        ("last_turn_start_s", "last_turn_end_s")
+    return f"{m[a]:.3f}–{m[b]:.3f} s"
+
 
 def rows(ctx) -> list:
-    """No rows beyond the scenario's [[paper.figures]] (added by reproduce for every run case)."""
-    return []
+    """χ over the last 2π (open loop), the limiter variants and the time at the limit (PID)."""
+    from mjbench import metrics as M
+
+    scn, out = ctx.scn, []
+    if "open" in ctx.metrics:
+        fig = _fig(scn, "open", "chi_last_cycle")
+        ms = ctx.metrics["open"]["backends"]
+        m0 = next(iter(ms.values()))
+        if "chi_last_turn" in m0:
+            out.append({"name": f"χ, open loop 25 V (Eq 22), last 2π of travel ending at t_end ({_span(m0, 'chi_last_turn')})",
+                        "unit": "%", "paper": fig.get("value") if fig else None, "compare": "value",
+                        "fitted": bool(fig and fig.get("fitted")),
+                        "ours": {b: 100 * m["chi_last_turn"] for b, m in ms.items() if "chi_last_turn" in m},
+                        "reason": "the other reading of the paper's 'steady cycle' (the last complete cycle "
+                                  f"counted from α(0) spans {_span(m0, 'chi_last_cycle')})"
+                                  if "chi_last_cycle" in m0 else "the paper's 'steady cycle', read as the last 2π"})
+    if "pid" not in ctx.runs:
+        return out
+    ms = ctx.metrics["pid"]["backends"]
+    m0 = next(iter(ms.values()))
+    fig = _fig(scn, "pid", "chi_window")
+    v_max = float(scn.drive.v_max) if scn.drive.v_max is not None else math.inf
+    if scn.metrics.chi_window is not None:
+        t0, t1 = scn.metrics.chi_window
+        for label, (chi, sets) in limiter_variants(scn, t1).items():
+            out.append({"name": f"χ, PID K_p·t, window {t0:g}–{t1:g} s, {label}", "unit": "%",
+                        "paper": fig.get("value") if fig else None, "compare": "value",
+                        "ours": {"multibody": 100 * chi},
+                        "reason": f"what-if on our limiter assumption (`{sets}`; ours keeps ±{v_max:g} V with the "
+                                  "anti-windup); the paper states no limiter value"})
+    if math.isfinite(v_max):
+        windows = [("over the whole run", None, None)]
+        if scn.metrics.chi_window is not None:
+            t0, t1 = scn.metrics.chi_window
+            windows.append((f"in the window {t0:g}–{t1:g} s", t0, t1))
+        for what, a, b in windows:
+            out.append({"name": f"time at the ±{v_max:g} V limit, PID, {what}", "unit": "%", "paper": None,
+                        "ours": {bk: 100 * M.voltage_at_limit(tr, v_max, a, b) for bk, tr in ctx.runs["pid"].items()},
+                        "reason": "Fig. 4 panel d shows the voltage switching between the limits over the whole run; "
+                                  "the paper prints no number"})
+    for key, what in (("chi_last_cycle", "last complete cycle from α(0)"),
+                      ("chi_last_turn", "last 2π of travel ending at t_end")):
+        if key in m0:
+            out.append({"name": f"χ, PID K_p·t, {what} ({_span(m0, key)})", "unit": "%", "paper": None,
+                        "ours": {b: 100 * m[key] for b, m in ms.items() if key in m},
+                        "reason": "the paper quotes the closed-loop χ on its window only"})
+    return out
 
 
 def figures(ctx) -> list:
-    """Seed 000 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
+    """Incerti 2012 Fig. 4 layout: one column per mode, every backend drawn, set-point dashed."""
     from mjbench.reproduce import default_figures
     return default_figures(ctx)

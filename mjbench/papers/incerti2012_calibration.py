@@ -72,7 +72,7 @@ LEGIBLE = {
     "voltage": "modes.open.voltage",
 }
 #: seed of the scenarios this calibration applies to
-SEEDS = ("000",)
+PAPERS = ("Incerti 2012",)  #: the scenarios' [scenario] paper for which the calibration is defined
 DEFAULT_PARAMS = tuple(MISSING)
 
 #: box bounds of lengths [m] and R [Ω]
@@ -100,9 +100,9 @@ def check_params(names, scn=None):
     if not names:
         raise ParameterError("--params: give at least one missing parameter to fit, e.g. a,b,c,h_x,m2,m3,R")
     if scn is not None:
-        seed = scn.scenario.seed
-        if seed not in SEEDS:
-            raise ScenarioError(f"scenario {scn.name!r} (paper {scn.scenario.paper or seed or '?'!r}): calibration "
+        paper = scn.scenario.paper
+        if paper not in PAPERS:
+            raise ScenarioError(f"scenario {scn.name!r} (paper {paper or '?'!r}): calibration "
                                 f"is defined for the Incerti 2012 scenarios only")
     for n in names:
         if n in LEGIBLE:

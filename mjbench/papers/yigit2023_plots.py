@@ -1,4 +1,4 @@
-"""Figures of the seed-004 scenario in the style of the paper's Figs 6-7 (matplotlib, Agg).
+"""Figures of the Yiğit & Şen 2023 scenario in the style of the paper's Figs 6-7 (matplotlib, Agg).
 
 ``plot_speed`` (Fig. 6: crank angular velocity, with a zoom on the steady state) and
 ``plot_voltage`` (Fig. 7: a section of the input signal) take Trajectory objects.
@@ -37,7 +37,7 @@ def plot_speed(trajs, labels=None, path=None, omega_d=None, zoom=None, band=None
         ax.axhspan(band[0], band[1], color="0.8", alpha=0.5, label=f"paper band {band[0]:g}-{band[1]:g} rad/s")
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("crank angular velocity ω [rad/s]")
-    ax.set_title(title or "Crank angular velocity (cf. seed 004 Fig. 6)")
+    ax.set_title(title or "Crank angular velocity (cf. Yiğit & Şen Fig. 6)")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="lower right", fontsize=8)
     if zoom is not None:
@@ -71,7 +71,7 @@ def plot_voltage(trajs, labels=None, path=None, window=None, v_limit=None, title
             ax.axhline(s * v_limit, color="k", ls=":", lw=0.8)
     ax.set_xlabel("time t [s]")
     ax.set_ylabel("input voltage V_m [V]")
-    ax.set_title(title or "Input signal (cf. seed 004 Fig. 7)")
+    ax.set_title(title or "Input signal (cf. Yiğit & Şen Fig. 7)")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="upper right", fontsize=8)
     if path:
@@ -88,6 +88,69 @@ def figures(runs: dict, outdir, omega_d=5.0, zoom=(3.0, 4.0), window=(3.0, 3.05)
     p7 = plot_voltage([v for _, v in closed], [k for k, _ in closed], os.path.join(outdir, "fig7_voltage.png"),
                       window=window, v_limit=v_limit)
     return [p6, p7]
+
+
+def ts_study(rows, path, paper_pct=None, default_Ts=None, matched=None, title=""):
+    """SMC steady error against the control period: ``rows`` = [(Ts [s], |mean e| [%], max |e| [%])];
+    the paper's figure dashed, the scenario's Ts and the interpolated matching Ts marked."""
+    Ts = np.array([r[0] for r in rows]) * 1e3
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    ax.loglog(Ts, [r[1] for r in rows], "o-", color="C0", label="|mean e| (steady state, t ≥ 2 s)")
+    ax.loglog(Ts, [r[2] for r in rows], "s--", color="C1", ms=4, lw=0.9, label="max |e|")
+    if paper_pct is not None:
+        ax.axhline(paper_pct, color="k", ls="--", lw=0.9, label=f"paper §4: {paper_pct:g} %")
+    if default_Ts is not None:
+        ax.axvline(1e3 * default_Ts, color="0.5", ls=":", lw=1, label=f"scenario Ts = {1e3 * default_Ts:g} ms")
+    if matched is not None:
+        ax.plot([1e3 * matched], [paper_pct], "r*", ms=12, label=f"matches the paper at Ts ≈ {1e3 * matched:.2g} ms")
+    ax.set_xlabel("control period Ts [ms]")
+    ax.set_ylabel("crank-speed error [%] of ω_d")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    ax.set_title(title or "SMC steady error vs control period", fontsize=10)
+    return _save(fig, path)
+
+
+def design_comparison(designs: dict, path, title=""):
+    """The mechanisms of several designs {label: (r₂, r₃, r₄, a, b) [mm]} at one scale: crank
+    circle, lever and rod at both swing ends (solid) and at mid-swing (dotted), slider path and
+    stroke."""
+    n = len(designs)
+    fig, axes = plt.subplots(1, n, figsize=(3.6 * n, 5.2), squeeze=False)
+    xs, ys = [0.0], [0.0]
+    for ax, (label, x) in zip(axes[0], designs.items()):
+        r2, r3, r4, a, b = (float(v) for v in x)
+        H = a + b
+        d = np.arcsin(min(r2 / a, 1.0))
+        tt = np.linspace(0, 2 * np.pi, 200)
+        ax.plot(r2 * np.cos(tt), a + r2 * np.sin(tt), color="tab:red", lw=1)
+        for th, ls in ((np.pi / 2 - d, "-"), (np.pi / 2 + d, "-"), (np.pi / 2, ":")):
+            B = np.array([r3 * np.cos(th), r3 * np.sin(th)])
+            sphi = (H - B[1]) / r4
+            if abs(sphi) <= 1:
+                C = B + np.array([r4 * np.sqrt(1 - sphi * sphi), H - B[1]])
+                ax.plot(*zip(B, C), color="tab:green", lw=2 if ls == "-" else 1, ls=ls)
+                ax.plot(*C, "s", color="tab:purple", ms=5, mfc="none" if ls == ":" else "tab:purple")
+            ax.plot([0, B[0]], [0, B[1]], color="tab:blue", lw=2 if ls == "-" else 1, ls=ls)
+            xs += [B[0], B[0] + r4]
+            ys += [B[1], H]
+        ax.axhline(H, color="0.4", lw=0.8)
+        ax.plot([0, 0], [0, a], "ko", ms=4)
+        ax.text(4, 4, "B₀", fontsize=8)
+        ax.text(4, a + 4, "A₀", fontsize=8)
+        ax.set_title(f"{label}\nsum {r2 + r3 + r4 + a + b:.1f} mm", fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.set_xlabel("x [mm]")
+    pad = 20.0
+    for ax in axes[0]:  # one scale for every design
+        ax.set_xlim(min(xs) - pad, max(xs) + pad)
+        ax.set_ylim(min(ys) - pad, max(ys) + pad)
+        ax.set_aspect("equal")
+    axes[0, 0].set_ylabel("y [mm]")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
 
 
 def draw_geometry(mech, path=None, q=2.0):
@@ -140,7 +203,7 @@ def draw_geometry(mech, path=None, q=2.0):
     ax.set_ylim(-30, mm * H + 60)
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
-    ax.set_title("Seed 004 quick-return mechanism: geometry reconstructed from Eqs 3-6 (Table I)")
+    ax.set_title("Yiğit & Şen quick-return mechanism: geometry reconstructed from Eqs 3-6 (Table I)")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="center right", fontsize=7)
     if path:
