@@ -511,7 +511,7 @@ def _html_table(head, body, num_cols=(), row_classes=None, col_classes=None):
         tds = []
         for j, c in enumerate(cells):
             k = (col_classes or {}).get(j) or ("num" if j in num_cols else "")
-            tds.append(f'<td class="{k}">{e(str(c))}</td>' if k else f"<td>{e(str(c))}</td>")
+            tds.append(f'<td class="{k}">{_md_inline(str(c))}</td>' if k else f"<td>{_md_inline(str(c))}</td>")
         parts.append(f"<tr{cls}>" + "".join(tds) + "</tr>")
     parts.append("</table>")
     return "\n".join(parts)

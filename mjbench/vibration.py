@@ -203,10 +203,10 @@ def residual_energy(law, osc, t_end=None) -> float:
 PEAK_WINDOW = 2.0  #: [s] window after T over which the actual residual peak |ψ| is reported
 
 
-def residual_peak(law, osc, window: float = PEAK_WINDOW, n: int = 8001) -> float:
+def residual_peak(law, osc, window: float = PEAK_WINDOW, n: int = 20001) -> float:
     """Largest |ψ| [rad, platform] actually reached over [T, T + window] with the motor at rest
     after T (ideal servo), from the closed form ψ(T + τ) = −(ρ/ω_d)·Im(W(T)·e^{sτ}) on n points
-    (relative error ≲ (ω_d·window/n)²/8 ≈ 1e-5 for the platforms here)."""
+    (relative error ≲ (ω_d·window/n)²/8 ≈ 4e-6 for the platforms here)."""
     W = convolution_W(law, osc)
     tau = np.linspace(0.0, float(window), int(n))
     psi = -osc.ratio / osc.omega_d * np.imag(W * np.exp(osc.s * tau))

@@ -271,6 +271,34 @@ def test_paper_figures_vs_stated_model(runs5s):
     assert m1["rise_time_s"] > 0.07 and m2["rise_time_s"] > 0.07                      # §5.1: 0.07 s
 
 
+def test_run_writes_coupler_metrics_and_judges_the_paper(tmp_path, capsys):
+    """`mjbench run` on a coupler-speed scenario: metrics.json holds the tracking metrics of each
+    backend (engine: metrics.coupler_tracking) and the [[paper.figures]] with verdicts computed
+    from them (§4 and Table 3 as upper bounds)."""
+    from mjbench.cli import main
+    from mjbench.outputs import read_json
+
+    out = tmp_path / "run"
+    assert main(["run", M2, "--set", "vc=0.2", "--backend", "reduced", "--t-end", "2", "--no-figure",
+                 "--out", str(out)]) == 0
+    m = read_json(out / "metrics.json")
+    cs = m["backends"]["reduced"]["coupler_speed"]
+    scn = S.load(M2, ["vc=0.2"])
+    tr = reduced.simulate(S.make_machine(scn), 2.0, dt=1e-4, record_dt=scn.simulation.record_dt)
+    ref = metrics_coupler.from_run(scn, tr, S.make_machine(scn))
+    for k in ("coupler_dev_max_after_m_s", "crank_error_max_after_rad_s", "rise_time_s", "settling_time_s"):
+        assert cs[k] == pytest.approx(ref[k], rel=1e-9), k
+    rows = {r["metric"]: r for r in m["paper"]}
+    dev = rows["coupler_speed.coupler_dev_max_after_m_s"]
+    assert (dev["compare"], dev["paper"]) == ("max", 0.01)
+    assert dev["verdict"]["ok"] == (cs["coupler_dev_max_after_m_s"] <= 0.01)
+    err = rows["coupler_speed.crank_error_max_after_rad_s"]
+    assert err["verdict"]["ok"] == (cs["crank_error_max_after_rad_s"] <= 0.1)
+    assert rows["coupler_speed.rise_time_s"]["compare"] == "value"
+    text = capsys.readouterr().out
+    assert "max |V_C − V_des| after settle_time" in text and "verdict:" in text
+
+
 def test_metrics_definitions_on_synthetic_run(fb1):
     """Rise/settling definitions on a hand-made trajectory."""
     from mjbench.trajectory import Trajectory

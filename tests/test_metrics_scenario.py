@@ -24,6 +24,38 @@ def test_cycles_of_constant_speed():
     np.testing.assert_allclose(np.diff(cyc, axis=1), 1 / 3, rtol=1e-6)
 
 
+def test_two_readings_of_the_last_cycle():
+    """chi_last_cycle: the last complete cycle counted from α(0); chi_last_turn: the last 2π of
+    travel ending at t_end.  On q(t) = ω·t + a·sin(ν t) (exact phase known) both windows span
+    exactly 2π of travel, the first ends at the last multiple of 2π from q(0), the second at
+    t_end, and χ over each equals a direct evaluation on its window."""
+    from scipy.optimize import brentq
+
+    from mjbench.trajectory import Trajectory
+
+    w, a, nu, t_end = 10.0, 0.05, 37.0, 2.0
+    t = np.linspace(0.0, t_end, 40001)
+
+    def q(x):
+        return w * x + a * np.sin(nu * x)
+
+    qd = w + a * nu * np.cos(nu * t)
+    tr = Trajectory(len(t), "synthetic")
+    tr.data[:, 0], tr.data[:, 1], tr.data[:, 2], tr.data[:, 4] = t, q(t), qd, qd
+    tr.data[:, 5:11] = 0.0
+    tr.n = len(t)
+    s = M.summary(tr)
+    k = int(q(t_end) // (2 * np.pi))
+    t_k = brentq(lambda x: q(x) - 2 * np.pi * k, 0, t_end)
+    t_k1 = brentq(lambda x: q(x) - 2 * np.pi * (k - 1), 0, t_end)
+    assert (s["last_cycle_start_s"], s["last_cycle_end_s"]) == pytest.approx((t_k1, t_k), abs=2e-5)
+    t_turn = brentq(lambda x: q(x) - (q(t_end) - 2 * np.pi), 0, t_end)
+    assert (s["last_turn_start_s"], s["last_turn_end_s"]) == pytest.approx((t_turn, t_end), abs=2e-5)
+    assert s["chi_last_turn"] == pytest.approx(M.chi(t, qd, t_turn, t_end), rel=1e-3)
+    assert s["last_cycle_end_s"] < t_end - 0.05  # here the complete cycle ends well before t_end
+    assert M.last_turn(t[:100], q(t[:100])) is None  # less than 2π of travel
+
+
 def test_relative_difference_is_peak_normalised():
     t = np.linspace(0, 1, 101)
     a = np.sin(2 * np.pi * t) * 10

@@ -330,12 +330,43 @@ def test_design_optimum_is_feasible_and_below_table_I():
     assert res["table_I"]["violated"] == ["c3 stroke>250"]   # by 0.06 mm (rounding)
 
 
+def test_design_c4_readings_against_the_closed_form_optimum():
+    """At a 54 mm lower bound the optimum has r₂ = r₄ = 54 mm (bounds), TR = 2 (δ = 30°, a = 2r₂),
+    stroke = 250 mm (r₃ = 250 mm), and the smallest slider-line height H = a + b allowed by c4/c5:
+    max-abs reading: μ_min = 45° at mid-swing, H = r₃ − r₄·sin 45°  → sum 569.82 mm;
+    signed reading:  c4 ≥ 250 needs H ≥ r₃·cos δ (slider line not below the lever tip at the
+    swing ends) → sum 574.51 mm.  A local optimiser from Table I stops on the other branch (605.5)."""
+    r2 = r4 = 54.0
+    a, r3 = 2 * r2, 250.0
+    H_abs, H_signed = r3 - r4 * np.sin(np.pi / 4), r3 * np.cos(np.pi / 6)
+    expect = {"max-abs": r2 + r3 + r4 + H_abs, "signed": r2 + r3 + r4 + H_signed}
+    for c4, want in expect.items():
+        res = design.optimise(starts=2, seed=0, bounds=((54.0, 500.0),) * 5, c4=c4, eps=0.0)
+        assert res["best"]["sum_mm"] == pytest.approx(want, abs=0.02), c4
+        assert res["from_table_I"]["sum_mm"] == pytest.approx(605.48, abs=0.05)  # the upper branch
+        assert design.feasible(res["best"]["x"], c4=c4)
+    # the max-abs optimum violates the signed reading of c4 (its rod points down at the swing ends)
+    best_abs = design.optimise(starts=1, bounds=((54.0, 500.0),) * 5, eps=0.0)["best"]
+    assert not design.feasible(best_abs["x"], c4="signed") and best_abs["c4_signed_mm"] < 250.0
+    with pytest.raises(ValueError, match="c4"):
+        design.optimise(starts=1, c4="largest")
+
+
+def test_design_margin_cost():
+    """eps = 1e-3 on TR < 2 lengthens r₃ by 250·(1/sin δ(TR = 2 − 1e-3) − 2)/2 ≈ 0.15 mm."""
+    a, z = (design.optimise(starts=1, eps=e)["best"] for e in (1e-3, 0.0))
+    d = np.pi / 2 * (2 - 1e-3 - 1) / (2 - 1e-3 + 1)  # δ from TR = (π + 2δ)/(π − 2δ)
+    assert a["r3"] - z["r3"] == pytest.approx(125 / np.sin(d) - 250, abs=2e-3)
+    assert 0.29 < a["sum_mm"] - z["sum_mm"] < 0.31
+
+
 def test_design_cli(tmp_path, capsys):
     from mjbench.cli import main
 
-    assert main(["design", "quickreturn", "--starts", "2", "--out", str(tmp_path)]) == 0
+    assert main(["design", "quickreturn", "--starts", "2", "--c4", "signed", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "design.json").is_file()
-    assert "Table I" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "Table I" in out and "c4 read as signed" in out
 
 
 def test_metrics_and_plots(open_runs, tmp_path):

@@ -125,6 +125,33 @@ def test_residual_amplitude_matches_free_vibration(belt):
     assert np.max(np.abs(p) / env) > 0.999  # and touches it within one period
 
 
+def test_residual_peak_is_the_actual_peak_of_the_ode(belt, elastic):
+    """The named 'peak |ψ| over [T, T + 2 s]' (closed form on a grid) is the largest deflection the
+    independent ODE integration reaches after the move, and lies below the envelope at T."""
+    for plat, law in ((belt, PseudoPolynomialLaw(PHI_001, 1.0)), (elastic, BezierLaw(PHI_003, 1.0, 2, 3))):
+        osc = plat.oscillator()
+        t_after = np.linspace(1.0, 3.0, 40001)
+        _, p, _, _ = vibration.ode_response(law, osc, t_end=3.0, t_eval=t_after)
+        peak = vibration.residual_peak(law, osc, 2.0)
+        assert peak == pytest.approx(np.max(np.abs(p)), rel=1e-5)
+        s = vibration.summary(law, osc)
+        assert s["residual_peak_after_T_rad"] == pytest.approx(peak)
+        assert s["residual_peak_after_T_rad"] < s["residual_envelope_at_T_rad"] == s["residual_amplitude_rad"]
+
+
+def test_degenerate_law_warnings(belt):
+    """Healthy laws give no warning; collapsing exponents / huge coefficients, an exponent at
+    its validity limit, a wild Bezier polygon and a reversing motor each give one."""
+    assert vibration.law_warnings(PseudoPolynomialLaw(PHI_001, 1.0, (3, 4, 5))) == []
+    assert vibration.law_warnings(BezierLaw(PHI_003, 1.0, 2, 3)) == []
+    w = vibration.law_warnings(PseudoPolynomialLaw(PHI_001, 1.0, (3.4471, 3.3962, 7.6174)))
+    assert any("collapsing" in x for x in w) and any("cancelling coefficients" in x for x in w)
+    assert any("validity limit" in x for x in vibration.law_warnings(PseudoPolynomialLaw(PHI_001, 1.0, (2.01, 5, 9))))
+    wild = BezierLaw(PHI_003, 1.0, 2, 3, np.array([-1.5, 0.5, 2.5]) * PHI_003)
+    w = vibration.law_warnings(wild)
+    assert any("polygon" in x for x in w) and any("reverses" in x for x in w)
+
+
 def test_optimisation_six_orders_both_seeds(opt_belt, opt_bezier):
     assert opt_belt.E < 1e-6 * opt_belt.E0
     assert opt_bezier.E < 1e-6 * opt_bezier.E0

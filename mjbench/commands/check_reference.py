@@ -7,7 +7,7 @@ from ..outputs import dumps
 
 
 def register(sub):
-    p = sub.add_parser("demand", help="peak speed/torque/voltage a coupler-speed reference demands (seed 002)",
+    p = sub.add_parser("demand", help="peak speed/torque/voltage a coupler-speed reference demands (Hülako & Çakar)",
                        description=__doc__)
     p.add_argument("scenario", help="built-in scenario name or TOML path (e.g. hulako2025-model1)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",

@@ -22,7 +22,7 @@ def register(sub):
     p.add_argument("--omega-s", type=float, default=0.05,
                    help="speed scale of the smoothed Coulomb friction tanh(ω/ω_s) [rad/s] (default 0.05)")
     p.add_argument("--synthetic", action="store_true",
-                   help="first write a synthetic noisy record of the seed-000 motor to --data (demo/check)")
+                   help="first write a synthetic noisy record of the Incerti 2012 motor to --data (demo/check)")
     p.add_argument("--out", help="write identify.json and identify_fit.png here")
     add_force_option(p)
     p.set_defaults(func=cmd_identify)
@@ -56,7 +56,7 @@ def cmd_identify(args):
     if args.synthetic:
         truth = SEED000_MOTOR
         ID.write_record(args.data, ID.synthetic_record(truth, seed=0, omega_s=args.omega_s))
-        print(f"synthetic record (seed-000 motor, T_c = 0.05 N·m, noise 0.05 rad/s and 0.05 A) -> {args.data}")
+        print(f"synthetic record (Incerti 2012 motor, T_c = 0.05 N·m, noise 0.05 rad/s and 0.05 A) -> {args.data}")
     rec = ID.read_record(args.data)
     I = None if args.no_current else rec.get("I")
     res = ID.fit(rec["t"], rec["V"], rec["omega"], I, fixed=_kv(args.fix, "fix"), guess=_kv(args.guess, "guess"),

@@ -1,5 +1,5 @@
 """``mjbench optimize-law SCENARIO``: minimise the residual energy E(T) of an elastic platform
-over the shape parameters of its motion law (seeds 001, 003); before/after figures, shapers and
+over the shape parameters of its motion law (Incerti belt, Incerti Bezier); before/after figures, shapers and
 ω_n sensitivity.  Writes ``<out>/optimize_law.json`` and PNG plots (atomic writes)."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from ..outputs import add_force_option, staged_dir, write_json
 
 
 def register(sub):
-    p = sub.add_parser("optimize-law", help="optimise a motion law against residual vibration (seeds 001/003)",
+    p = sub.add_parser("optimize-law", help="optimise a motion law against residual vibration (Incerti belt/Bezier)",
                        description=__doc__)
     p.add_argument("scenario", help="built-in scenario name (incerti-belt, incerti-bezier) or TOML path")
     p.add_argument("--out", default=None, help="output folder (default results/<scenario>-optimize-law)")

@@ -17,7 +17,7 @@ def register(sub):
                     "(default limits: the peaks of the scenario's gains).")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--controller", required=True, choices=["pid", "pid-tv", "smc"],
-                   help="pid: constant K_p; pid-tv: K_p·t (seed 000 Eq 15); smc: sliding mode (λ, K)")
+                   help="pid: constant K_p; pid-tv: K_p·t (Incerti 2012 Eq 15); smc: sliding mode (λ, K)")
     p.add_argument("--objective", default="chi", choices=["chi", "chi_cycle", "ise", "iae", "itae"],
                    help="chi: χ on the scenario's metrics.chi_window (default); chi_cycle: last crank cycle; "
                         "ise/iae/itae: crank-speed error to the set-point")

@@ -2,14 +2,18 @@
 
 Each module holds what is specific to its paper — which scenarios reproduce it, the cases
 ``mjbench reproduce`` runs, the report rows (paper figure, ours, verdict) and the figures in the
-paper's style — plus, as submodules, the paper-specific tools (the seed-000 calibration, the
-seed-002 demand helper, the seed-004 optimum design).  The engine (scenario, mechanisms, drive,
+paper's style — plus, as submodules, the paper-specific tools (the Incerti 2012 calibration, the
+Hülako & Çakar demand helper, the Yiğit & Şen optimum design).  The engine (scenario, mechanisms, drive,
 controllers, kernel, backends, outputs) never imports this package; ``reproduce`` and the
 commands do.
 
 A new paper = one module defining ``KEY``, ``CITATION``, ``TITLE``, ``SCENARIOS``, ``CASES``
 (a list of :class:`Case`), ``rows(ctx)`` and ``figures(ctx)`` (``ctx``: a
-:class:`mjbench.reproduce.CaseRun`), added to :data:`MODULES`.
+:class:`mjbench.reproduce.CaseRun`), added to :data:`MODULES`; optional: ``study(ctx)`` for cases
+of ``kind = "study"``, ``SCENARIO_TITLES`` ({scenario: paper title} when a module covers several
+papers).  Rows state the paper's figure (a value, a band [lo, hi], a bound) and our numbers,
+never a verdict: :mod:`mjbench.verdicts` computes it.  Hooks may append extra tables to
+``ctx.tables`` and warnings to ``ctx.warnings``.
 """
 from __future__ import annotations
 
@@ -28,7 +32,8 @@ MODULES = {
 @dataclass
 class Case:
     """One ``mjbench reproduce`` case: a scenario run end to end (``kind = "run"``: the listed
-    modes on the backends; ``"optimize-law"``: the motion-law study)."""
+    modes on the backends; ``"optimize-law"``: the motion-law study; ``"study"``: the paper
+    module's ``study(ctx)``)."""
 
     name: str
     scenario: str

@@ -1,8 +1,8 @@
 """"What gain do I need": what a coupler-speed reference demands from the drive, before simulating.
 
-For a desired coupler-point speed V_C (or profile V_C(s), seed 002 Eq 17) the ideal motion
+For a desired coupler-point speed V_C (or profile V_C(s), Hülako & Çakar Eq 17) the ideal motion
 q̇(q) = V_C(s(q))/S(q) is known in closed form along the path (S = |dC/dq|, ``FourBar``).
-Following it exactly needs (seed 000 Eq 5 / seed 002 Eqs 18-20 inverted):
+Following it exactly needs (Incerti 2012 Eq 5 / Hülako & Çakar Eqs 18-20 inverted):
 
     q̈ = q̇·dq̇/dq,   dq̇/dq = dV_C/ds − V_C·S'/S²
     T_c = (J_eq + J(q))·q̈ + ½·J'(q)·q̇² + E_p'(q) − Q_ext(q, q̇)        crank torque [N·m]

@@ -1,4 +1,4 @@
-"""Plots of constant-coupler-speed runs in the style of seed 002:
+"""Plots of constant-coupler-speed runs in the style of Hülako & Çakar:
 Figs 9-12 (desired vs actual crank speed, crank-speed error), Figs 18-21 (coupler-point speed
 vs desired), Fig. 22 (coupler speed for several V_C; deviation vs V_C)."""
 from __future__ import annotations

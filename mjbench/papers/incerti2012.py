@@ -100,6 +100,9 @@ def rows(ctx) -> list:
                         "ours": {"multibody": 100 * chi},
                         "reason": f"what-if on our limiter assumption (`{sets}`; ours keeps ±{v_max:g} V with the "
                                   "anti-windup); the paper states no limiter value"})
+    out.append({"name": "peak |armature voltage|, PID", "unit": "V", "paper": None,
+                "ours": {bk: float(abs(tr.voltage).max()) for bk, tr in ctx.runs["pid"].items()},
+                "reason": f"our limiter: ±{v_max:g} V (Fig. 3 draws one without a value)"})
     if math.isfinite(v_max):
         windows = [("over the whole run", None, None)]
         if scn.metrics.chi_window is not None:

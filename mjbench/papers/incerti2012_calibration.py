@@ -1,4 +1,4 @@
-"""Explicit calibration of the *missing* seed-000 parameters to the paper's reported figures.
+"""Explicit calibration of the *missing* Incerti 2012 parameters to the paper's reported figures.
 
 Seed 000 (Incerti 2012) Table I is partly illegible: a, b, c, h_x, f_1..f_3, m_1..m_3 and the
 armature resistance R are missing (docs/errata.md, Incerti 2012).  The default scenario
@@ -54,7 +54,7 @@ from mjbench import scenario as S
 from mjbench.backends import simulate
 from mjbench.errors import GeometryError, ParameterError, ScenarioError, SimulationDiverged
 
-# --------------------------------------------------------------------------- seed-000 specification
+# --------------------------------------------------------------------------- Incerti 2012 specification
 #: parameters the seed does not give (Table I illegible) → scenario key
 MISSING = {
     "a": "mechanism.a", "b": "mechanism.b", "c": "mechanism.c", "h_x": "mechanism.h_x",
@@ -439,7 +439,7 @@ def pick_starts(scored, k, min_dist=0.15):
 
 def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0, n_screen=256,
               polish=True, polish_nfev=4, jobs=1, progress=True, accept=1.0, select="closest"):
-    """Fit the missing parameters ``names`` of a seed-000 scenario to TARGETS.
+    """Fit the missing parameters ``names`` of an Incerti 2012 scenario to TARGETS.
 
     Stages: (1) ``n_screen`` feasible Sobol points evaluated at ``dt``; (2) ``least_squares``
     from the ``starts`` best mutually distant ones (``max_nfev`` iterations each, finite-

@@ -1,4 +1,4 @@
-"""Plots of the residual-vibration study (seed 001 Fig. 3, seed 003 Figs 5-6, ω_n sensitivity).
+"""Plots of the residual-vibration study (Incerti belt Fig. 3, Incerti Bezier Figs 5-6, ω_n sensitivity).
 
 All curves come from the reduced ODE (``vibration.ode_response``, DOP853 rtol 1e-12) run past
 the end of the move by ``t_after`` seconds with the motor locked; files are written atomically.
@@ -166,17 +166,25 @@ def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
 
 def fig_servo(laws: dict, runs: dict, osc, path, t_after=0.5, title="Ideal vs real servo"):
     """Deflection ψ(t) with the ideal servo (law followed exactly, ODE) and with the DC motor +
-    cascade servo (the machine run by the co-step kernel, a Trajectory), for each law in ``runs``."""
-    fig, ax = plt.subplots(len(runs), 1, figsize=(9, 3.2 * len(runs)), sharex=True, squeeze=False)
-    for a, (name, r) in zip(ax[:, 0], runs.items()):
+    cascade servo (the machine run by the co-step kernel, a Trajectory), for each law in ``runs``:
+    the whole run (left) and the residual vibration after T on its own scale (right)."""
+    fig, ax = plt.subplots(len(runs), 2, figsize=(12, 3.2 * len(runs)), squeeze=False,
+                           gridspec_kw={"width_ratios": [1.2, 1]})
+    for row, (name, r) in zip(ax, runs.items()):
         law = laws[name]
-        t, psi, _, _ = ode_response(law, osc, t_end=float(r.t[-1]), t_eval=r.t[::10])
-        a.plot(t, 1e3 * psi, "k-", lw=1.3, label="ideal servo (ODE)")
-        a.plot(r.t, 1e3 * r["deflection_rad"], "r--", lw=1.0, label="DC motor + cascade servo")
-        a.axvline(law.T, color="0.6", lw=0.8, ls=":")
-        a.set_ylabel(f"{name}: ψ [mrad]")
-        a.grid(alpha=0.3)
-        a.legend(fontsize=8)
+        t, psi, _, _ = ode_response(law, osc, t_end=float(r.t[-1]), t_eval=r.t[::5])
+        after_i, after_r = t >= law.T, r.t >= law.T
+        for a, sel_i, sel_r in ((row[0], slice(None), slice(None)), (row[1], after_i, after_r)):
+            a.plot(t[sel_i], 1e3 * psi[sel_i], "k-", lw=1.3, label="ideal servo (ODE)")
+            a.plot(r.t[sel_r], 1e3 * r["deflection_rad"][sel_r], "r--", lw=1.0, label="DC motor + cascade servo")
+            a.grid(alpha=0.3)
+        row[0].axvline(law.T, color="0.6", lw=0.8, ls=":")
+        row[0].set_ylabel(f"{name}: ψ [mrad]")
+        row[0].legend(fontsize=8)
+        row[1].set_title(f"after the move (t ≥ T = {law.T:g} s), own scale", fontsize=9)
+        row[1].set_ylabel("ψ [mrad]")
     ax[-1, 0].set_xlabel("t [s]")
-    ax[0, 0].set_title(title)
+    ax[-1, 1].set_xlabel("t [s]")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
     return save(fig, path)

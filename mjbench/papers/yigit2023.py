@@ -52,7 +52,7 @@ def no_load_crank_speed(scn, voltage: float) -> float:
 
 def ts_study(ctx, backend: str = "multibody") -> dict:
     """The SMC's steady error for each control period of :data:`TS_STUDY` (the scenario's own Ts
-    is taken from the case's run): {"rows": [(Ts, |mean e| %, max |e| %, switches/s)],
+    is taken from the case's run): {"rows": [(Ts, |mean e| %, max |e| %)],
     "matched": Ts at which |mean e| equals the paper's figure (log-log interpolation) or None}."""
     from mjbench import runner
 
@@ -69,8 +69,7 @@ def ts_study(ctx, backend: str = "multibody") -> dict:
         else:
             tr = runner.run_mode(S.with_values(scn, {"modes.smc.Ts": Ts}), "smc", (backend,), ctx.case.t_end)[backend]
         e = MQ.steady_error(tr, wd, t_start)
-        sw = MQ.switching(tr, t_start)
-        rows.append((Ts, 100 * e["error_abs_mean"], 100 * e["error_abs_max"], sw["switch_rate_hz"]))
+        rows.append((Ts, 100 * e["error_abs_mean"], 100 * e["error_abs_max"]))
     paper = 100 * float(scn.paper.get("smc_steady_error", float("nan")))
     matched = None
     for (t0, e0, *_), (t1, e1, *_) in zip(rows[:-1], rows[1:]):
@@ -115,7 +114,7 @@ def _fig6_rows(ctx) -> list:
                     "unit": "%", "paper": st["paper_pct"], "ours": errs,
                     "reason": f"bang-bang switching (K ≫ the 48 V bound): the residual error is set by the control "
                               f"period Ts, which the paper does not give; {match}"})
-        for Ts, e_mean, _, _ in st["rows"]:
+        for Ts, e_mean, _ in st["rows"]:
             if math.isclose(Ts, Ts0):
                 continue
             out.append({"name": f"SMC steady error |mean e|/ω_d with Ts = {1e3 * Ts:g} ms", "unit": "%",
@@ -129,9 +128,9 @@ def _fig6_rows(ctx) -> list:
         ctx.tables.append({
             "title": f"SMC steady error against the control period Ts ({st['backend']} backend, t ≥ {t_start:g} s, "
                      "whole crank turns)",
-            "head": ["Ts [ms]", "|mean e|/ω_d [%]", "max |e|/ω_d [%]", "voltage switches [1/s]"],
-            "rows": [[f"{1e3 * Ts:g}" + (" (scenario)" if math.isclose(Ts, Ts0) else ""), e1, e2, sw]
-                     for Ts, e1, e2, sw in st["rows"]],
+            "head": ["Ts [ms]", "|mean e|/ω_d [%]", "max |e|/ω_d [%]"],
+            "rows": [[f"{1e3 * Ts:g}" + (" (scenario)" if math.isclose(Ts, Ts0) else ""), e1, e2]
+                     for Ts, e1, e2 in st["rows"]],
             "note": f"Paper (§4): {st['paper_pct']:g} %. " + (match[0].upper() + match[1:] + ".")})
     return out
 
@@ -241,7 +240,7 @@ def figures(ctx) -> list:
                       zoom=zoom, window=window, band=band, v_limit=float(S.get(ctx.scn, "drive.v_max", 48.0)))
     st = ctx.extra.get("ts_study")
     if st is not None:
-        figs.append(PQ.ts_study([r[:3] for r in st["rows"]], str(ctx.out / "smc_ts_study.png"),
+        figs.append(PQ.ts_study(st["rows"], str(ctx.out / "smc_ts_study.png"),
                                 paper_pct=st["paper_pct"], default_Ts=st["Ts_default"], matched=st["matched"],
                                 title=f"{ctx.case.name}: SMC steady error vs control period ({st['backend']})"))
     return figs

@@ -1,4 +1,4 @@
-"""Metrics of the seed-004 scenario (quick-return + SMC), computed on Trajectory objects.
+"""Metrics of the Yiğit & Şen scenario (quick-return + SMC), computed on Trajectory objects.
 
 Steady state = samples with t ≥ ``t_start`` cut to a whole number of crank revolutions (so that the
 mean is a cycle mean, not biased by a partial cycle); if less than one revolution is available
