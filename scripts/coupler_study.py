@@ -14,7 +14,9 @@ import json
 import os
 import time
 
-from mjbench import gains, metrics_coupler, plots_coupler
+from mjbench.papers import hulako2025_demand as gains
+from mjbench.papers import hulako2025_metrics as metrics_coupler
+from mjbench.papers import hulako2025_plots as plots_coupler
 from mjbench import scenario as S
 from mjbench.backends import multibody, reduced
 from mjbench.trajectory import atomic_write
