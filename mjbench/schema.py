@@ -162,6 +162,8 @@ class ReducedOptions(Strict):
     """``[reduced]``: integrator of the reduced model over one co-simulation step."""
 
     method: Literal["rk4", "solve_ivp"] = "rk4"
+    model: Literal["table", "closed"] = Field(
+        "table", description="rigid mechanisms: tabulated J, J', E_p' (error ≤ 1e-9, fast) or the closed forms")
     rtol: float = Field(1e-10, gt=0.0)
     atol: float = Field(1e-12, gt=0.0)
 

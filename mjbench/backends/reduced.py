@@ -16,14 +16,27 @@ Methods (``[reduced] method``):
 * ``solve_ivp``: adaptive ``scipy.integrate.solve_ivp`` (DOP853, rtol/atol settable) over every
   step with τ held — a reference to check the fixed-step run against.
 The drive's current update and limits are the kernel's, so every method applies the same limits.
+
+Model of a rigid mechanism (``[reduced] model``):
+* ``table`` (default for RK4): J, J'/2, E_p' (and a viscous external D) from the mechanism's
+  periodic cubic-spline table (:mod:`mjbench.backends.table`; relative interpolation error
+  measured ≤ 1e-9, recorded in the trajectory's meta) — plain float arithmetic, no trigonometry,
+  ≈ 10× cheaper per step than the closed forms, and the same operations as the batched reduced
+  plant (:mod:`mjbench.backends.reduced_batch`), which therefore gives the same bits;
+* ``closed``: the mechanism's closed forms at every stage (the reference; 2.8 µs per four-bar
+  evaluation).
+Mechanisms with internal coordinates (the platforms) and ``solve_ivp`` always use the closed forms.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import kernel
 from ..errors import ParameterError, SimulationDiverged
+from . import table as _table
 from ..trajectory import Trajectory
 from .multibody import _extra_names
 
@@ -33,9 +46,12 @@ class ReducedPlant:
 
     nsim = None
 
-    def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12):
+    def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12,
+                 model: str = "table"):
         if method not in ("rk4", "solve_ivp"):
             raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
+        if model not in ("table", "closed"):
+            raise ParameterError(f"reduced.model = {model!r}: choose 'table' or 'closed'")
         self.machine = machine
         self.h = float(dt)
         self.method, self.rtol, self.atol = method, rtol, atol
@@ -45,8 +61,15 @@ class ReducedPlant:
         self._c = float(drive.crank_damping) if np.ndim(drive.crank_damping) == 0 else drive.crank_damping
         self._nx = len(mech.internal)
         self.extra_columns = _extra_names(mech)
-        self.meta = {"method": method}
+        self.meta = {"method": method, "model": "closed"}
         self._accel = self._rigid_accel() if self._nx == 0 else None
+        self._table = None
+        if model == "table" and method == "rk4" and _table.supports(mech):
+            self._table = tab = _table.table_for(mech)
+            self.meta.update(tab.describe())
+            self._accel = _table_accel(tab, self._Ja, self._c,
+                                       mech.external_torque if (mech.has_external_torque() and not tab.viscous)
+                                       else None)
 
     def _rigid_accel(self):
         reduced, ext = self._mech.reduced, self._mech.external_torque
@@ -94,13 +117,17 @@ class ReducedPlant:
         q, qd = self.q, self.qd
         if self._nx == 0:
             f = self._accel
-            a1 = f(t, q, qd, tau)
-            v2 = qd + h2 * a1
-            a2 = f(t + h2, q + h2 * qd, v2, tau)
-            v3 = qd + h2 * a2
-            a3 = f(t + h2, q + h2 * v2, v3, tau)
-            v4 = qd + h * a3
-            a4 = f(t + h, q + h * v3, v4, tau)
+            try:
+                a1 = f(t, q, qd, tau)
+                v2 = qd + h2 * a1
+                a2 = f(t + h2, q + h2 * qd, v2, tau)
+                v3 = qd + h2 * a2
+                a3 = f(t + h2, q + h2 * v2, v3, tau)
+                v4 = qd + h * a3
+                a4 = f(t + h, q + h * v3, v4, tau)
+            except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged
+                self.q = self.qd = math.nan
+                return
             self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
             self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             return
@@ -139,16 +166,50 @@ class ReducedPlant:
         self.xd = tuple(float(v) for v in u[2 + nx:])
 
 
+def _table_accel(tab, Ja, c, ext):
+    """Acceleration of the tabulated rigid model, f(t, q, q̇, τ) on Python floats; the batched
+    plant performs the same operations in the same order (same bits).  ``ext``: the mechanism's
+    external torque when it is not tabulated (None: none, or the tabulated viscous D)."""
+    rows, n, k = tab.rows, tab.n, tab.k
+    floor = math.floor
+    if tab.viscous:
+        def accel(t, q, qd, tau):
+            u = q * k
+            fl = floor(u)
+            f = u - fl
+            J0, H0, E0, D0, J1, H1, E1, D1, J2, H2, E2, D2, J3, H3, E3, D3 = rows[fl % n]
+            return ((tau - (c + (((D3 * f + D2) * f + D1) * f + D0)) * qd - (((E3 * f + E2) * f + E1) * f + E0)
+                     - (((H3 * f + H2) * f + H1) * f + H0) * qd * qd) / (Ja + (((J3 * f + J2) * f + J1) * f + J0)))
+    elif ext is None:
+        def accel(t, q, qd, tau):
+            u = q * k
+            fl = floor(u)
+            f = u - fl
+            J0, H0, E0, J1, H1, E1, J2, H2, E2, J3, H3, E3 = rows[fl % n]
+            return ((tau - c * qd - (((E3 * f + E2) * f + E1) * f + E0)
+                     - (((H3 * f + H2) * f + H1) * f + H0) * qd * qd) / (Ja + (((J3 * f + J2) * f + J1) * f + J0)))
+    else:
+        def accel(t, q, qd, tau):
+            u = q * k
+            fl = floor(u)
+            f = u - fl
+            J0, H0, E0, J1, H1, E1, J2, H2, E2, J3, H3, E3 = rows[fl % n]
+            return ((tau - c * qd + ext(q, qd, t) - (((E3 * f + E2) * f + E1) * f + E0)
+                     - (((H3 * f + H2) * f + H1) * f + H0) * qd * qd) / (Ja + (((J3 * f + J2) * f + J1) * f + J0)))
+    return accel
+
+
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
              method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12, progress=None,
-             options=None) -> Trajectory:
+             options=None, model: str = "table") -> Trajectory:
     """Run the reduced model of ``machine`` for ``t_end`` s (co-simulation step ``dt``)."""
     if options:
         dt = float(options.get("timestep", dt))
         method = options.get("method", method)
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
-    plant = ReducedPlant(machine, dt, method, rtol, atol)
+        model = options.get("model", model)
+    plant = ReducedPlant(machine, dt, method, rtol, atol, model)
     rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
                      backend="reduced")
     return Trajectory.from_record(rec, "reduced")
