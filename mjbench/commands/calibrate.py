@@ -34,6 +34,9 @@ def register(sub):
     p.add_argument("--select", choices=["closest", "best"], default="closest",
                    help="which converged solution becomes the result: closest to the uncalibrated values "
                         "(default) or lowest cost")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
+                   help="search backend (default reduced: the batched reduced model; the result is then re-measured "
+                        "on the multibody backend and both figures reported)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", help="write calibrate.json and calibrated.toml here")
@@ -51,7 +54,7 @@ def cmd_calibrate(args):
     C.check_params(names, scn)
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,
                       n_screen=args.screen, polish=args.polish_nfev > 0, polish_nfev=max(args.polish_nfev, 1),
-                      jobs=args.jobs, progress=not args.no_progress, select=args.select)
+                      jobs=args.jobs, progress=not args.no_progress, select=args.select, backend=args.backend)
     res["command"] = "mjbench " + " ".join(sys.argv[1:]) if sys.argv and "mjbench" in sys.argv[0] else None
     print(C.table(res))
     if args.out:
