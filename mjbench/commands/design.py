@@ -18,6 +18,12 @@ def register(sub):
     p.add_argument("--seed", type=int, default=0, help="random seed of the start points")
     p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"), default=(10.0, 500.0),
                    help="bounds of every design variable [mm] (not given in the paper; default 10 500)")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody", "none"],
+                   help="closed-loop check of the designs (seed-004 SMC): reduced (default; the best designs are then "
+                        "re-run on the multibody backend and both figures reported), multibody, or none")
+    p.add_argument("--verify", type=int, default=1,
+                   help="optimum designs re-run on the multibody backend besides Table I (default 1)")
+    p.add_argument("--t-end", type=float, help="simulated time of the closed-loop check [s] (default: the scenario's)")
     p.add_argument("--out", help="folder for design.json")
     p.set_defaults(func=run)
 
@@ -46,6 +52,9 @@ def run(args) -> int:
         print("no feasible design found; try more --starts or wider --bounds")
     nfeas = sum(r["feasible"] for r in res["runs"])
     print(f"{nfeas}/{len(res['runs'])} starts ended feasible; Table I violates: {tab['violated'] or 'nothing'}")
+    if args.backend != "none":
+        res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end)
+        print(design.dynamic_table(res["dynamics"]))
     if args.out:
         from ..trajectory import atomic_write
         path = os.path.join(args.out, "design.json")
