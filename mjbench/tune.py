@@ -127,6 +127,7 @@ class Problem:
             self.setpoint = None
         self.limits = dict(limits or {})
         self.nfev = 0
+        self._plant = None
 
     # ------------------------------------------------------------------ evaluation
     def machine(self, x, params=None):
@@ -141,7 +142,9 @@ class Problem:
                 if not (math.isfinite(float(v)) and float(v) >= 0):
                     raise ParameterError(f"tune: {p} = {v!r} is not a valid gain")
         scn = self.scn
-        mech, drive = S.make_mechanism(scn), S.make_drive(scn)
+        if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
+            self._plant = S.make_mechanism(scn), S.make_drive(scn)
+        mech, drive = self._plant
         ctrl = controllers.build(params, drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
@@ -295,7 +298,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
             best_x, best_s = x, float(opt.fun)
     t_search = time.perf_counter() - t0
     # ---- verification of the best distinct candidates on MuJoCo
-    verified = []
+    verified, tuned_m = [], None
     if backend != "multibody" and verify > 0:
         cands.sort(key=lambda c: c[0])
         cands += [(float(scores[i]), X[i]) for i in order]
@@ -306,7 +309,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
             if len(pick) == verify:
                 break
         Xv = np.array([x for _, x in pick])
-        sv, mv = prob.evaluate(Xv, backend="multibody")
+        sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
         for k, (sc, x) in enumerate(pick):
             verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
                              "score_multibody": float(sv[k]),
@@ -316,7 +319,9 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
             log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
         best_x = pick[kbest][1]
         log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
-    tuned_m, _ = prob.validate(best_x)
+        tuned_m = mv[kbest]
+    if not verified or tuned_m is None:
+        tuned_m, _ = prob.validate(best_x)
     search = {"baseline": base_m}
     if backend != "multibody":
         search["tuned"], _ = prob.run(best_x)

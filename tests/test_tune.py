@@ -34,3 +34,19 @@ def test_tune_cli_limits_and_errors(tmp_path, capsys):
     assert (tmp_path / "tune_speed.png").stat().st_size > 1000
     with pytest.raises(ParameterError, match="objective"):
         Problem(scenario.load("incerti2012"), "pid", "nope")
+
+
+def test_reduced_search_finds_the_multibody_optimum():
+    """Search on the reduced model, verify on MuJoCo: same winner as a search on MuJoCo itself."""
+    scn = scenario.load("incerti2012")
+    kw = dict(n_global=8, maxfev=10, t_end=0.5, log=lambda *a: None)
+    red = tune(scn, "pid-tv", "chi", backend="reduced", verify=2, **kw)
+    mb = tune(scn, "pid-tv", "chi", backend="multibody", **kw)
+    assert red.backend == "reduced" and len(red.verified) == 2
+    for p in red.params:
+        assert red.best[p] == pytest.approx(mb.best[p], rel=1e-3)
+    chi_r, chi_m = red.validation["tuned"]["chi"], mb.validation["tuned"]["chi"]
+    assert chi_r == pytest.approx(chi_m, rel=1e-2)
+    # both figures of the winner are stated and agree to the models' accuracy (≈ 1e-5)
+    assert red.search["tuned"]["chi"] == pytest.approx(chi_r, rel=1e-3)
+    assert red.verified[0]["score_multibody"] == pytest.approx(red.verified[0]["score_search"], rel=1e-3)

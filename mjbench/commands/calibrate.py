@@ -7,6 +7,8 @@ import os
 import re
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
+
 
 def register(sub):
     p = sub.add_parser(
@@ -40,6 +42,7 @@ def register(sub):
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", help="write calibrate.json and calibrated.toml here")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_calibrate)
 
 
@@ -49,7 +52,7 @@ def cmd_calibrate(args):
     from ..manifest import write_json
     from ..trajectory import atomic_write
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     names = args.params.split(",") if args.params else list(C.MISSING)
     C.check_params(names, scn)
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,

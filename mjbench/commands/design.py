@@ -6,6 +6,7 @@ import json
 import os
 
 from ..errors import ParameterError
+from . import add_fast_multibody, apply_fast_multibody
 
 MECHANISMS = ("quickreturn",)
 
@@ -25,6 +26,7 @@ def register(sub):
                    help="optimum designs re-run on the multibody backend besides Table I (default 1)")
     p.add_argument("--t-end", type=float, help="simulated time of the closed-loop check [s] (default: the scenario's)")
     p.add_argument("--out", help="folder for design.json")
+    add_fast_multibody(p)
     p.set_defaults(func=run)
 
 
@@ -53,7 +55,8 @@ def run(args) -> int:
     nfeas = sum(r["feasible"] for r in res["runs"])
     print(f"{nfeas}/{len(res['runs'])} starts ended feasible; Table I violates: {tab['violated'] or 'nothing'}")
     if args.backend != "none":
-        res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end)
+        res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end,
+                                               overrides=apply_fast_multibody(args, []))
         print(design.dynamic_table(res["dynamics"]))
     if args.out:
         from ..trajectory import atomic_write

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
+
 
 def register(sub):
     p = sub.add_parser("run", help="simulate a scenario on one or both backends and write results",
@@ -19,6 +21,7 @@ def register(sub):
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--no-figure", action="store_true", help="skip the PNG")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_run)
 
     q = sub.add_parser("list", help="list the built-in scenarios and their modes")
@@ -29,7 +32,7 @@ def cmd_run(args):
     from .. import scenario as S
     from ..runner import run
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     for w in scn.warnings:
         print(f"mjbench: warning: {w}", file=sys.stderr)
     mode, backend, t_end = args.mode, args.backend, args.t_end

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
+
 
 def register(sub):
     p = sub.add_parser(
@@ -37,6 +39,7 @@ def register(sub):
     p.add_argument("--scheduler", help="Dask scheduler address tcp://host:port (pip install mjbench[dask])")
     p.add_argument("--metric", help="metric of the summary plots (default chi_window, else chi_last_cycle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_sweep)
 
 
@@ -46,7 +49,7 @@ def cmd_sweep(args):
 
     spec = SweepSpec(scenario=args.scenario, grid=parse_grid(args.grid), samples=args.samples,
                      perturb=parse_perturb(args.perturb), seed=args.seed, mode=args.mode,
-                     t_end=args.t_end, overrides=list(args.overrides), chunk_size=args.chunk,
+                     t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides), chunk_size=args.chunk,
                      backend=args.backend, verify=args.verify)
     if not spec.grid and not spec.samples:
         raise ParameterError("sweep: give at least one --grid KEY=V1,V2 or --samples N --perturb KEY=R%")

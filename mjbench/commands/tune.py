@@ -4,6 +4,8 @@ from __future__ import annotations
 import json
 import os
 
+from . import add_fast_multibody, apply_fast_multibody
+
 
 def register(sub):
     p = sub.add_parser(
@@ -38,6 +40,7 @@ def register(sub):
     p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads (0: all CPUs)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--out", help="write tune.json and a speed comparison plot here")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_tune)
 
 
@@ -81,7 +84,7 @@ def cmd_tune(args):
     from .. import scenario as S
     from ..tune import report, tune
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     res = tune(scn, args.controller, args.objective, limits=parse_limits(args.limit), n_global=args.n_global,
                starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=parse_bounds(args.bounds),
                seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,

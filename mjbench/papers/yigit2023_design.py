@@ -177,17 +177,17 @@ def simulate_designs(designs, backend="reduced", mode="smc", t_end=None, overrid
     return out
 
 
-def dynamic_check(res, backend="reduced", verify=2, mode="smc", t_end=None) -> dict:
+def dynamic_check(res, backend="reduced", verify=2, mode="smc", t_end=None, overrides=()) -> dict:
     """Every candidate design (:func:`candidates`) in closed loop on ``backend``; the first
     ``verify`` + 1 (Table I and the best optima) re-run on the multibody backend when the search
     backend is the reduced model.  Masses, drive and controller: Table I's scenario (the paper
     gives no mass model for other lengths)."""
     cands = candidates(res)
-    figs = simulate_designs([x for _, x in cands], backend, mode, t_end)
+    figs = simulate_designs([x for _, x in cands], backend, mode, t_end, overrides)
     rows = [{"label": lab, "x": x, backend: f} for (lab, x), f in zip(cands, figs)]
     if backend != "multibody" and verify > 0:
         k = min(len(cands), 1 + verify)
-        mb = simulate_designs([x for _, x in cands[:k]], "multibody", mode, t_end)
+        mb = simulate_designs([x for _, x in cands[:k]], "multibody", mode, t_end, overrides)
         for r, f in zip(rows, mb):
             r["multibody"] = f
     return {"backend": backend, "mode": mode, "rows": rows,
