@@ -69,6 +69,20 @@ def test_batch_equals_single_runs():
     np.testing.assert_array_equal(few.data, res.data[:3])
 
 
+def test_numpy_and_compiled_steps_give_the_same_bits(monkeypatch):
+    """The optional numba step (mjbench[fast]) and the pure-NumPy step: same operations, same bits."""
+    from mjbench.backends import _jit
+
+    if not _jit.AVAILABLE:
+        pytest.skip("numba not installed (pip install mjbench[fast])")
+    machines = [_machine(o) for o in VARIANTS]
+    res_jit = reduced_batch.simulate(machines, 0.05, single_fast_path=False)
+    monkeypatch.setenv("MJBENCH_JIT", "0")
+    res_np = reduced_batch.simulate(machines, 0.05, single_fast_path=False)
+    assert res_jit.meta.get("jit") == "numba" and "jit" not in res_np.meta
+    np.testing.assert_array_equal(res_jit.data, res_np.data)
+
+
 def test_batch_quickreturn_smc_and_platform():
     """Untabulated external torque (cutting force) per mechanism group; internal coordinates."""
     for name, mode, ovs in (("yigit2023", "smc", [(), ("mechanism.m4=0.5", "modes.smc.lam=80"), ("mechanism.r3=0.3",)]),

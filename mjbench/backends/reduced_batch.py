@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import kernel
 from ..errors import ParameterError, SimulationDiverged
+from . import _jit
 from . import table as _table
 from .batch import BatchResult, stack_drives, stack_objects
 from .multibody import _extra_names
@@ -106,6 +107,15 @@ class BatchReducedPlant:
                 off += t.n
         mech = self.groups[0][0]
         self._ext = mech.has_external_torque() and not self.viscous
+        self._jit = None
+        if _jit.enabled() and not self._ext:  # the compiled step: same operations, same bits
+            self._jit = (np.ascontiguousarray(self._C.T),
+                         np.zeros(N, dtype=np.int64) if self._base is None else self._base.astype(np.int64),
+                         np.broadcast_to(np.asarray(self._n, dtype=np.int64), (N,)).copy(),
+                         np.broadcast_to(np.asarray(self._k, dtype=float), (N,)).copy(),
+                         np.broadcast_to(np.asarray(self._Ja, dtype=float), (N,)).copy(),
+                         np.broadcast_to(np.asarray(self._c, dtype=float), (N,)).copy())
+            self.meta["jit"] = "numba"
         # preallocated buffers
         self._u, self._fl = np.empty(N), np.empty(N)
         self._F = np.empty((m, N))
@@ -169,6 +179,11 @@ class BatchReducedPlant:
         np.divide(t1, t2, out)
 
     def _advance_table(self, tau, t):
+        if self._jit is not None:
+            CT, base, nn, kk, Ja, c = self._jit
+            tau = np.broadcast_to(np.asarray(tau, dtype=float), self.q.shape)
+            _jit.rk4_table(self.q, self.qd, tau, CT, base, nn, kk, Ja, c, self.h, self.m, self.viscous)
+            return
         h = self.h
         h2, h6 = 0.5 * h, h / 6.0
         q, v = self.q, self.qd
