@@ -8,17 +8,19 @@ difference of two run lengths (set-up — model compilation, tables, stacking �
 * single: bare ``mj_step`` loop (RK4), multibody co-simulation, reduced model with the tabulated
   J/J'/E_p' (default) and with the closed forms;
 * batch: ``mujoco.batch`` co-simulation at N = 256 (the reference of the issue's 1/10 … 1/30
-  target), the batched reduced model at N = 16 … 4096;
+  target), the batched reduced model at N = 16 … 4096 (with numba when installed, and its
+  pure-NumPy step at N = 256);
 * growth with t_end: whole-call cost (set-up included) of the reduced batch at N = 256 for
   t_end = 0.05, 0.2, 0.8 s, per run-step;
 * the fast multibody mode: Euler / implicitfast vs RK4 co-simulation cost (accuracy: docs/performance.md).
 """
+import os
 import time
 
 import mujoco
 
 from mjbench import scenario as S
-from mjbench.backends import batch, multibody, reduced, reduced_batch
+from mjbench.backends import _jit, batch, multibody, reduced, reduced_batch
 
 H = 1e-4
 NS = (16, 64, 256, 1024, 4096)
@@ -109,6 +111,16 @@ def run(args):
                      f"batched reduced model, N = {nsim}: CPU µs per run-step"))
     rows.append(("reduced_batch_over_multibody_batch_N256", red_us[256] / mb256,
                  "reduced batch / multibody batch per run-step at N = 256 (goal ≤ 1/10, stretch 1/30)"))
+    if _jit.AVAILABLE:  # the pure-NumPy step, for comparison (the default when numba is absent)
+        os.environ["MJBENCH_JIT"] = "0"
+        try:
+            np256 = _per_step(red_batch(256), 400, 2000, repeat, 256)
+        finally:
+            os.environ.pop("MJBENCH_JIT", None)
+        rows.append(("reduced_batch_numpy_us_per_run_step_N256", np256,
+                     "batched reduced model without numba (pure NumPy), N = 256: CPU µs per run-step"))
+        rows.append(("reduced_batch_numpy_over_multibody_batch_N256", np256 / mb256,
+                     "pure-NumPy reduced batch / multibody batch per run-step at N = 256"))
     rows.append(("reduced_batch_N256_over_single_reduced", red_us[256] / singles["reduced"],
                  "reduced batch at N = 256 / single reduced run, per run-step"))
 
