@@ -13,6 +13,7 @@ def build_parser():
     p = argparse.ArgumentParser(prog="mjbench", description=(
         "MuJoCo testbed for motor-driven mechanisms under feedback control. "
         "Scenarios are built-in names (see `mjbench list`) or TOML files."))
+    p.add_argument("--version", action="version", version=f"mjbench {version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     from . import commands
@@ -23,9 +24,26 @@ def build_parser():
     return p
 
 
+def version() -> str:
+    """The installed distribution's version (importlib.metadata), else the package's."""
+    from importlib.metadata import PackageNotFoundError, version as _v
+    try:
+        return _v("mjbench")
+    except PackageNotFoundError:
+        from . import __version__
+        return __version__
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    from . import outputs
+    from .render import check_gl_env
+
+    restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
     try:
+        check_gl_env()
+        if not getattr(args, "gl", False):  # render/reproduce/demo choose the OpenGL backend first
+            outputs.route_mujoco_log()
         return int(args.func(args) or 0)
     except MjbenchError as e:
         print(f"mjbench: error: {e}", file=sys.stderr)
@@ -34,9 +52,12 @@ def main(argv=None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except KeyboardInterrupt:
-        print("mjbench: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:
+        signum = getattr(e, "signum", 2)
+        print(f"mjbench: interrupted ({'SIGTERM' if signum == 15 else 'SIGINT'})", file=sys.stderr)
+        return 128 + signum
+    finally:
+        restore()
 
 
 if __name__ == "__main__":

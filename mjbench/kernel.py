@@ -25,7 +25,7 @@ bit-identical to N single runs.
 
 Plant protocol (duck-typed, all arrays preallocated by the plant):
 ``nsim`` (None for a single run), ``h`` [s], ``start()``, ``read() -> (q, q̇)``,
-``advance(tau, t)``, ``speed() -> q̇`` (after a step), ``closure()`` [m], ``unstable()`` (the
+``advance(tau, t) -> q̇`` (one step; returns the speed at its end), ``closure()`` [m], ``unstable()`` (the
 engine's own instability flag, e.g. MuJoCo's bad-qacc warning), ``extra_columns`` (names of
 plant-specific recorded columns) and ``extra(out)`` writing them, ``retire(mask)`` (batch: stop
 stepping diverged runs).
@@ -103,7 +103,7 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
     y = Measurement(z=z)
     torque, cur_mean, cur_step, limit = drive.crank_torque, drive.current_mean, drive.current_step, drive.limit
     k_m = drive.k_m
-    read, advance, speed = plant.read, plant.advance, plant.speed
+    read, advance = plant.read, plant.advance
     closure, unstable, extra = plant.closure, plant.unstable, plant.extra
     hint = getattr(controller, "divergence_hint", None)
     tick = progress.update if progress is not None else None
@@ -176,9 +176,9 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
             if n == nsteps:
                 break
             # ---- drive torque over the step, plant step, current update
-            advance(torque(cur_mean(I, V, z * qd, h), qd, False), t)
+            qd1 = advance(torque(cur_mean(I, V, z * qd, h), qd, False), t)
             qd_prev = qd
-            I = cur_step(I, V, 0.5 * z * (qd + speed()), h)
+            I = cur_step(I, V, 0.5 * z * (qd + qd1), h)
 
     if not batch:
         nrows[0] = k

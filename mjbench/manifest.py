@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import datetime
-import json
 import platform
 import subprocess
 import sys
@@ -10,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .trajectory import atomic_write
+from . import outputs
 
 
 def versions() -> dict:
@@ -56,4 +55,5 @@ def json_default(o):
 
 
 def write_json(path, obj):
-    atomic_write(path, lambda f: json.dump(obj, f, indent=2, default=json_default, allow_nan=True))
+    """Strict JSON (no NaN/Infinity: see mjbench/outputs.py), written atomically."""
+    return outputs.write_json(path, obj)

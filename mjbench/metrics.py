@@ -2,7 +2,7 @@
 
 χ (seed 000 Eq 22) = (φ̇_max − φ̇_min) / φ̇_av, the speed fluctuation over a crank cycle or a time
 window divided by its average.  ``average="mean"`` takes the time mean (trapezoid), ``"midrange"``
-takes (max + min)/2 (the paper does not say which; see SEED-ERRATA).
+takes (max + min)/2 (the paper does not say which; see docs/errata.md).
 """
 from __future__ import annotations
 
@@ -95,9 +95,11 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
     (default: half the run) for the mean speed and the per-cycle χ statistics.
     """
     t, om = traj.t, traj.omega
-    steady_from = t[-1] / 2 if steady_from is None else steady_from
+    if steady_from is None or steady_from >= t[-1] - 1e-12:  # default, or a run too short for it
+        steady_from = t[-1] / 2
     out = {
         "t_end_s": float(t[-1]),
+        "steady_from_s": float(steady_from),
         "mean_motor_speed_rad_s": time_mean(t[t >= steady_from], om[t >= steady_from]),
         "mean_crank_speed_rad_s": time_mean(t[t >= steady_from], traj.qd[t >= steady_from]),
         "peak_voltage_V": float(np.max(np.abs(traj.voltage))),

@@ -31,7 +31,12 @@ def fig4(runs: dict, path, setpoint=None, title=None, chi=None):
 
 def _fig4(runs, path, setpoint, title, chi):
     modes = list(runs)
-    fig, axes = plt.subplots(4, len(modes), figsize=(5.2 * len(modes), 10.5), sharex="col", squeeze=False)
+    # machines with internal (elastic) coordinates get one more row per coordinate
+    first = next(iter(next(iter(runs.values())).values()))
+    extra = [c for c in first.columns[11:] if c.endswith("_rad") and not c.endswith("_rate_rad")]
+    nrow = 4 + len(extra)
+    fig, axes = plt.subplots(nrow, len(modes), figsize=(5.2 * len(modes), 10.5 + 2.4 * len(extra)), sharex="col",
+                             squeeze=False)
     letters = "abcdefgh"
     for j, mode in enumerate(modes):
         col = axes[:, j]
@@ -44,6 +49,9 @@ def _fig4(runs, path, setpoint, title, chi):
             pe = dict(st, label=f"electrical V·I ({backend})", color="tab:red" if backend == "multibody" else "tab:pink")
             col[3].plot(tr.t, tr.p_mech, **pm)
             col[3].plot(tr.t, tr.p_elec, **pe)
+            for i, c in enumerate(extra):
+                if tr.has(c):
+                    col[4 + i].plot(tr.t, 1e3 * tr[c], **st)
         if setpoint is not None:
             col[0].axhline(setpoint, **SETPOINT, label=f"set-point ω₀ = {setpoint:g} rad/s")
         col[0].set_title(MODE_TITLE.get(mode, mode))
@@ -51,10 +59,11 @@ def _fig4(runs, path, setpoint, title, chi):
             col[0].text(0.98, 0.04, chi[mode], transform=col[0].transAxes, ha="right", va="bottom",
                         fontsize=9, bbox=dict(boxstyle="round", fc="white", ec="0.7"))
         labels = ["motor speed φ̇ [rad/s]", "armature voltage V_a [V]", "armature current I [A]", "power [W]"]
+        labels += [f"{c[:-4].replace('_', ' ')} [mrad]" for c in extra]
         for i, ax in enumerate(col):
             ax.set_ylabel(labels[i])
             ax.grid(True, alpha=0.3)
-            if len(modes) == 2:  # the paper's panel letters: a, c, e, g left; b, d, f, h right
+            if len(modes) == 2 and i < 4:  # the paper's panel letters: a, c, e, g left; b, d, f, h right
                 ax.text(0.01, 0.97, f"{letters[2 * i + j]})", transform=ax.transAxes, va="top", fontsize=9)
         col[0].legend(fontsize=8, loc="lower right" if not chi else "upper right")
         col[3].legend(fontsize=7, loc="upper right")

@@ -20,8 +20,9 @@ Pipeline (``render_scenario``):
 6. frames stream to ``imageio-ffmpeg``'s bundled ffmpeg (H.264, yuv420p) or, for ``*.gif``,
    to Pillow's GIF writer; the file is written under a temporary name and renamed at the end.
 
-OpenGL: ``MUJOCO_GL`` defaults to ``egl`` (Mesa's llvmpipe on a CPU-only machine).  EGL is probed
-in a subprocess once; if it fails the renderer falls back to OSMesa and says why.
+OpenGL: ``MUJOCO_GL`` defaults to ``egl`` (Mesa's llvmpipe on a CPU-only machine).  The chosen
+backend is probed in a subprocess once; if it fails the renderer falls back to EGL, then OSMesa,
+and says why; if none works, the error says what to install (``gl_setup``).
 """
 from __future__ import annotations
 
@@ -72,29 +73,56 @@ def _probe(backend: str, timeout: float = 60.0):
     return False, tail[-1] if tail else f"exit code {p.returncode}"
 
 
+#: MUJOCO_GL values MuJoCo accepts on Linux (anything else makes ``import mujoco`` fail)
+MUJOCO_GL_VALUES = ("egl", "osmesa", "glfw", "glx", "", "enable", "enabled", "on", "true", "1",
+                    "disable", "disabled", "off", "false", "0")
+_GL_ERROR = None  # cached RenderError of a failed gl_setup()
+INSTALL_HINT = ("On Debian/Ubuntu install EGL (sudo apt-get install libegl1 libgl1-mesa-dri) or OSMesa "
+                "(sudo apt-get install libosmesa6); scripts/ci_system_deps.sh installs them")
+
+
+def check_gl_env(verbose: bool = True):
+    """Called by the CLI before MuJoCo is imported: a MUJOCO_GL value MuJoCo rejects at import
+    (a typo) is replaced by ``egl`` with a warning, so that no command dies on it."""
+    v = os.environ.get("MUJOCO_GL")
+    if v is None or v.strip().lower() in MUJOCO_GL_VALUES or "mujoco" in sys.modules:
+        return
+    if verbose:
+        print(f"mjbench: warning: MUJOCO_GL={v!r} is not a MuJoCo OpenGL backend (egl, osmesa, glfw); "
+              f"using egl", file=sys.stderr)
+    os.environ["MUJOCO_GL"] = "egl"
+
+
 def gl_setup(verbose: bool = True) -> str:
     """Choose the offscreen OpenGL backend before MuJoCo's renderer is created.
 
-    ``MUJOCO_GL`` (default ``egl``) is honoured; ``egl`` is probed in a subprocess and, if it
-    fails, OSMesa is used instead with a message on stderr.  Returns the backend name."""
-    global _GL_CHOICE
+    ``MUJOCO_GL`` (default ``egl``; ``osmesa`` and ``glfw`` are honoured too) is probed in a subprocess; if
+    it fails, EGL then OSMesa are tried, with a message on stderr naming the fallback.  If none
+    works, :class:`RenderError` says what to install.  Returns the backend name."""
+    global _GL_CHOICE, _GL_ERROR
     if _GL_CHOICE is not None:
         return _GL_CHOICE
-    want = os.environ.get("MUJOCO_GL", "egl").lower() or "egl"
-    choice = want
-    if want == "egl":
-        ok, msg = _probe("egl")
-        if not ok:
-            ok2, msg2 = _probe("osmesa")
-            if not ok2:
-                raise RenderError(
-                    f"no offscreen OpenGL: EGL failed ({msg}) and OSMesa failed ({msg2}). On Debian/"
-                    f"Ubuntu install libegl1 libgl1-mesa-dri (EGL) or libosmesa6 (OSMesa), e.g. "
-                    f"scripts/ci_system_deps.sh")
-            if verbose:
-                print(f"mjbench render: EGL is not available ({msg}); falling back to OSMesa "
-                      f"(software, slower). Install libegl1 + libgl1-mesa-dri for EGL.", file=sys.stderr)
-            choice = "osmesa"
+    if _GL_ERROR is not None:
+        raise _GL_ERROR
+    want = os.environ.get("MUJOCO_GL", "egl").strip().lower()
+    if want not in ("egl", "osmesa", "glfw"):
+        want = "egl"
+    failed = []
+    for backend in [want] + [b for b in ("egl", "osmesa") if b != want]:
+        ok, msg = _probe(backend)
+        if ok:
+            break
+        failed.append(f"{backend}: {msg}")
+    else:
+        _GL_ERROR = RenderError(f"no offscreen OpenGL ({'; '.join(failed)}). {INSTALL_HINT}.")
+        if "mujoco" not in sys.modules:
+            os.environ["MUJOCO_GL"] = "disable"  # simulations still run; only videos are impossible
+        raise _GL_ERROR
+    choice = backend
+    if choice != want and verbose:
+        print(f"mjbench render: MUJOCO_GL={want} is not available ({failed[0].split(': ', 1)[1]}); "
+              f"falling back to {choice}" + (" (software, slower; install libegl1 libgl1-mesa-dri for EGL)"
+                                             if choice == "osmesa" else ""), file=sys.stderr)
     os.environ["MUJOCO_GL"] = choice
     if "mujoco" in sys.modules:
         # MuJoCo was imported before us: make its Renderer use the chosen context class
@@ -505,10 +533,10 @@ class VideoWriter:
                     raise RenderError("no frame to write")
                 imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
                              duration=int(round(1000 / self.fps)), loop=0, optimize=False)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(self.tmp, 0o666 & ~umask)  # mkstemp creates 0600
+            from .outputs import FILE_MODE, _test_hook
+            os.chmod(self.tmp, FILE_MODE)  # mkstemp creates 0600
             os.replace(self.tmp, self.path)
+            _test_hook(os.path.basename(self.path))
         except BaseException:
             self.abort()
             raise

@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import outputs
 from . import scenario as S
-from .errors import ScenarioError
+from .errors import MjbenchError, ScenarioError
 from .trajectory import atomic_write
 from .manifest import json_default as _json_default
 
@@ -102,10 +103,13 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
                                                title=f"{case.name}, mode {mode}: multibody vs reduced"))
         res["figures"] += [os.path.relpath(os.fspath(p), out) for p in figs or []]
     res["sim_figures_s"] = time.perf_counter() - t0
-    if video and case.video and case.kind == "run":
-        res["video"] = _video(ctx, quick, progress, width, height)
-    elif video and case.video and case.kind == "optimize-law":
-        res["video"] = _platform_video(ctx, quick, progress, width, height)
+    try:  # a video that cannot be made (no OpenGL, encoder) is recorded; the report goes on
+        if video and case.video and case.kind == "run":
+            res["video"] = _video(ctx, quick, progress, width, height)
+        elif video and case.video and case.kind == "optimize-law":
+            res["video"] = _platform_video(ctx, quick, progress, width, height)
+    except MjbenchError as e:
+        res["video_error"] = str(e)
     res["runtime_s"] = time.perf_counter() - t0
     _write_json(out / "metrics.json", res)
     return res
@@ -364,6 +368,8 @@ def _case_md(r):
         md += [f'<video src="{case}/{v["file"]}" controls muted loop width="{v["width"]}"></video>', "",
                f"Video: [`{case}/{v['file']}`]({case}/{v['file']}) — mode {v['mode']}, {v['frames']} frames "
                f"{v['width']}×{v['height']} at 30 fps (real time, {v['duration_s']:.2f} s).", ""]
+    elif r.get("video_error"):
+        md += [f"No video: {r['video_error']}", ""]
     elif r["kind"] == "optimize-law":
         md += ["No video: a motion-law case (`mjbench optimize-law`), evaluated on the platform model.", ""]
     if v and v.get("needle_gain"):
@@ -446,6 +452,8 @@ def _html(results, total_s):
                          f'{v["width"]}×{v["height"]} at 30 fps (real time, {v["duration_s"]:.2f} s)'
                          + (f'; grey needle: rigid angle ρ·φ, magenta: ρ·φ + {v["needle_gain"]:g}·ψ (deflection '
                             f'magnified ×{v["needle_gain"]:g})' if v.get("needle_gain") else "") + "</p></div>")
+        elif r.get("video_error"):
+            parts.append(f'<p class="meta">No video: {e(r["video_error"])}</p>')
         elif r["kind"] == "optimize-law":
             parts.append('<p class="meta">No video: a motion-law case (<code>mjbench optimize-law</code>), '
                          "evaluated on the platform model.</p>")
@@ -455,23 +463,12 @@ def _html(results, total_s):
 
 # ============================================================================ driver
 def _clean(o):
-    """JSON-safe copy (NaN/inf → None so that the file is strict JSON)."""
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (np.floating, float)):
-        v = float(o)
-        return v if math.isfinite(v) else None
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.ndarray):
-        return _clean(o.tolist())
-    return o
+    """JSON-safe copy (NaN/inf → None so that the file is strict JSON; mjbench/outputs.py)."""
+    return outputs.clean(o)
 
 
 def _write_json(path, obj):
-    atomic_write(path, lambda f: json.dump(_clean(obj), f, indent=2, ensure_ascii=False, default=_json_default))
+    outputs.write_json(path, obj)
 
 
 def reproduce(which="all", out_dir="results", quick=False, video=True, progress=True, width=None,
@@ -491,5 +488,5 @@ def reproduce(which="all", out_dir="results", quick=False, video=True, progress=
     total = time.perf_counter() - t0
     md, htm = write_report(results, out, total)
     _write_json(out / "summary.json", {"cases": [r["case"] for r in results], "total_runtime_s": total})
-    log(f"report: {md} and {htm} ({total:.0f} s)")
+    log(f"report: {md.name} and {htm.name} ({total:.0f} s)")
     return results

@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import metrics as M
+from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import manifest, write_json
@@ -50,8 +51,20 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
                                                    steady_from=mt.steady_start)
                                       for b, tr in trajs.items()}}
+    if scn.law is not None and S.make_mechanism(scn).internal:
+        # a motion law run by a real motor + servo (seeds 001/003 machines): residual vibration
+        from .vibration import residual_from_trajectory
+
+        mech, law = S.make_mechanism(scn), scn.law.build()
+        after = max(0.0, float(next(iter(trajs.values())).t[-1]) - law.T)
+        for b, tr in trajs.items():
+            if after > 0:
+                r = residual_from_trajectory(tr, mech.oscillator(), law.T, after)
+                r["max_tracking_error_rad"] = float(abs(law.position(tr.t) - tr.q).max())
+                res["backends"][b]["residual_vibration"] = r
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 

@@ -529,15 +529,12 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
         for alias, target in scn.aliases.items():
             if not _path_exists(raw, target, scn):
                 problems.append(f"aliases.{alias}: target {target!r} is not a key of this scenario")
-        if mech is not None and drive is not None:
-            for name, mp in modes.items():
-                chk = getattr(mp, "check_against", None)
-                if chk is not None:
-                    problems += [f"modes.{name}.{m}" for m in chk(scn)]
     if problems:
         where = f" ({source})" if source else ""
         name = (raw.get("scenario") or {}).get("name", "?") if isinstance(raw.get("scenario"), dict) else "?"
-        raise ScenarioError(f"scenario {name!r}{where} has {len(problems)} problem{'s' if len(problems) > 1 else ''}:\n  "
+        if len(problems) == 1:
+            raise ScenarioError(f"scenario {name!r}{where}: {problems[0]}", problems=problems)
+        raise ScenarioError(f"scenario {name!r}{where} has {len(problems)} problems:\n  "
                             + "\n  ".join(problems), problems=problems)
     scn.mechanism, scn.drive = mech, drive
     scn.source, scn.overrides, scn.raw = source, list(overrides), raw

@@ -37,6 +37,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import metrics as M
+from . import outputs
 from . import scenario as S
 from .errors import MjbenchError, ParameterError, ScenarioError
 from .trajectory import atomic_write
@@ -204,6 +205,7 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
     from .backends import MB_SINGLES_BELOW, _merge, batch, simulate_many
 
     backend = st.get("backend", "multibody")
+    outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT
     out = {r["row"]: dict(r) for r in rows}
     machines, ok_rows, models, sts, sigs, cache = [], [], [], [], [], {}
     for r in rows:
@@ -349,7 +351,7 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     os.makedirs(out_dir, exist_ok=True)
     spec_path = os.path.join(out_dir, SPEC)
     table = os.path.join(out_dir, RESULTS)
-    spec_json = json.dumps(spec.to_json(), sort_keys=True, indent=1, default=str)
+    spec_json = outputs.dumps(spec.to_json(), sort_keys=True, indent=1)
     done = {}
     if os.path.exists(spec_path):
         with open(spec_path) as f:
@@ -385,7 +387,7 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
         chunks = [pending[i:i + size] for i in range(0, len(pending), size)]
         if client is not None and chunks:
             from dask.distributed import as_completed
-            scn_f = client.scatter(scn, broadcast=True)
+            scn_f = scatter_scenario(client, scn)
             futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False) for ch in chunks]
             for fut in as_completed(futs):
                 collect(fut.result())
@@ -405,6 +407,20 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     if plots:
         out["plots"] = summary_plots(spec, read_table(table), out_dir, metric=metric)
     return out
+
+
+def scatter_scenario(client, scn):
+    """Ship the scenario to the cluster as ONE object under a key of its own:
+    ``mjbench-scenario-<content hash>-<random>``.  (``client.scatter(dict)`` would make one future
+    per top-level key — "drive", "modes", ... — which another client on the same scheduler
+    scattering its own scenario replaces: its tasks then read the other machine, or lose their
+    inputs when it is released.)  The random part keeps two clients from sharing a key."""
+    import hashlib
+    import uuid
+
+    digest = hashlib.sha256(outputs.dumps(scn.resolved(), sort_keys=True, indent=None).encode()).hexdigest()[:16]
+    key = f"mjbench-scenario-{digest}-{uuid.uuid4().hex[:12]}"
+    return client.scatter({key: scn}, broadcast=True)[key]
 
 
 # ======================================================================== plots

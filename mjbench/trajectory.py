@@ -1,10 +1,9 @@
 """Simulation results: preallocated columns, SI units in the names, written atomically."""
 from __future__ import annotations
 
-import os
-import tempfile
-
 import numpy as np
+
+from .outputs import atomic_write  # noqa: F401 - the one atomic writer (0644, UTF-8), re-exported
 
 #: columns every backend records, in CSV order (name, meaning)
 COLUMNS = (
@@ -99,21 +98,3 @@ class Trajectory:
         tr.data[:] = arr
         tr.n = len(arr)
         return tr
-
-
-def atomic_write(path, writer, mode="w"):
-    """Call writer(file) on a temporary file in the target folder, then rename it into place."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=os.path.basename(path))
-    try:
-        with os.fdopen(fd, mode) as f:
-            writer(f)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise

@@ -491,9 +491,12 @@ def study(scn, progress=None, multibody=None) -> dict:
     from .schema import CheckParams, OptimizeParams
     from .scenario import make_mechanism
 
+    from .mechanisms.platform import Platform
+
     plat = make_mechanism(scn)
-    if not hasattr(plat, "oscillator"):
-        raise ParameterError("optimize-law needs a platform mechanism ([mechanism] type = \"platform\")")
+    if not isinstance(plat, Platform):
+        raise ParameterError(f"optimize-law needs a platform mechanism ([mechanism] type = \"platform\"), "
+                             f"scenario {scn.name!r} has {scn.mechanism.type!r}")
     if scn.law is None:
         raise ParameterError(f"optimize-law: scenario {scn.name!r} has no [law] table")
     osc = plat.oscillator()
@@ -501,7 +504,7 @@ def study(scn, progress=None, multibody=None) -> dict:
     opt = scn.optimize or OptimizeParams()
     chk = scn.check or CheckParams()
     paper = dict(scn.paper)
-    J_motor = float(getattr(plat, "J_motor", 0.0))
+    J_motor = float(plat.J_motor)
     cons = Constraints(_limit(opt.max_speed), _limit(opt.max_accel), _limit(opt.max_torque), J_motor=J_motor)
     do_mb = chk.multibody if multibody is None else bool(multibody)
     tick = (lambda: progress.update(1)) if progress is not None else (lambda: None)

@@ -4,6 +4,7 @@ import pytest
 from mjbench import cli
 from mjbench import identify as ID
 from mjbench.errors import ParameterError
+from mjbench.outputs import read_json
 
 TRUTH = {"R": 2.0, "L": 9e-3, "K": 0.48, "J": 1.398e-3, "b": 0.08, "T_c": 0.05}  # seed-000 motor + Coulomb
 
@@ -40,7 +41,8 @@ def test_cli_writes_json_and_plot(record, tmp_path, capsys):
     assert cli.main(["identify", "--data", str(path), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "k_m = 0.4" in out and "± 95 % CI" in out
-    assert (tmp_path / "out" / "identify.json").exists()
+    doc = read_json(tmp_path / "out" / "identify.json")  # strict JSON
+    assert doc["drive"] and doc["params"]["R"]["value"] > 0
     assert (tmp_path / "out" / "identify_fit.png").stat().st_size > 1000
     bad = tmp_path / "bad.csv"
     bad.write_text("a,b\n1,2\n")

@@ -56,7 +56,7 @@ def test_paper_eq13_and_eq18_agree_with_derivation(mech):
 
 
 def test_paper_eq19_as_printed_is_wrong(mech):
-    """SEED-ERRATA 004: Eq 19 (g2') as printed disagrees with finite differences; ours agrees."""
+    """Errata (Yiğit & Şen 2023, docs/errata.md): Eq 19 (g2') as printed disagrees with finite differences; ours agrees."""
     k = mech.kin(Q)
     q, p1, p2 = Q, k["th3"], k["th4"]
     r2, r3, r4, a = mech.r2, mech.r3, mech.r4, mech.a

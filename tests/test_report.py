@@ -1,7 +1,6 @@
 """Reproduction report (issue 6): generated, tables = metrics.json numbers, opens in headless
 Chromium without errors (images load, video decodes, screenshot not empty)."""
 import html
-import json
 import os
 import re
 import shutil
@@ -14,6 +13,7 @@ import pytest
 
 from mjbench import papers
 from mjbench import reproduce as R
+from mjbench.outputs import read_json
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -50,7 +50,7 @@ def test_files_written(report):
 
 def test_tables_hold_metrics_json_numbers(report):
     out, _, md, htm = report
-    m = json.loads((out / "incerti2012-short" / "metrics.json").read_text())
+    m = read_json(out / "incerti2012-short" / "metrics.json")  # strict JSON (no NaN/Infinity)
     md_text, html_text = md.read_text(), htm.read_text()
     assert len(m["rows"]) == 2  # the two χ figures of seed 000 (open loop, PID window)
     for row in m["rows"]:

@@ -125,3 +125,42 @@ def test_dask_reduced_batch_chunks_identical(tmp_path):
     rows = read_table(local["table"])
     assert len(rows) == 40 and all(r["status"] == "ok" for r in rows)
     assert open(local["table"]).read() == open(remote["table"]).read()
+@pytest.mark.parametrize("backend", ["multibody", "reduced"])
+def test_dask_two_clients_two_sweeps_at_once(tmp_path, backend):
+    """Two different sweeps (incerti2012 and incerti2012-calibrated) submitted at the same time by
+    two clients of one scheduler: each table equals its own local run (the scenarios are scattered
+    under keys of their own, never one future per top-level key that the other client replaces)."""
+    import threading
+
+    distributed = pytest.importorskip("dask.distributed")
+    grid = {"modes.pid.kp": [60.0, 100.0], "modes.pid.ki": [16.0, 32.0]}
+    specs = {name: SweepSpec(scenario=name, grid=grid, t_end=T_END, chunk_size=1, backend=backend, verify=0)
+             for name in ("incerti2012", "incerti2012-calibrated")}
+    local = {name: read_table(run_sweep(sp, tmp_path / f"local-{name}", progress=False, plots=False)["table"])
+             for name, sp in specs.items()}
+    speeds = {name: [r["mean_motor_speed_rad_s"] for r in rows] for name, rows in local.items()}
+    assert all(a != b for a, b in zip(*speeds.values()))  # the two machines really differ
+    remote, errors = {}, []
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        barrier = threading.Barrier(len(specs))
+
+        def one(name):
+            try:
+                with distributed.Client(cluster.scheduler_address) as client:
+                    barrier.wait(timeout=60)
+                    res = run_sweep(specs[name], tmp_path / f"dask-{name}", client=client, progress=False,
+                                    plots=False)
+                remote[name] = read_table(res["table"])
+            except BaseException as e:  # noqa: BLE001 - reported by the main thread
+                errors.append((name, e))
+
+        threads = [threading.Thread(target=one, args=(name,)) for name in specs]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=300)
+    assert not errors, errors
+    for name in specs:
+        assert [r["status"] for r in remote[name]] == ["ok"] * 4, name
+        assert remote[name] == local[name], name

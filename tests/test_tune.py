@@ -5,6 +5,7 @@ import pytest
 
 from mjbench import cli, scenario
 from mjbench.errors import ParameterError
+from mjbench.outputs import read_json
 from mjbench.tune import Problem, tune
 
 
@@ -30,7 +31,7 @@ def test_tune_cli_limits_and_errors(tmp_path, capsys):
                    "--maxfev", "4", "--t-end", "0.2", "--limit", "voltage=40,current=25", "--out", str(tmp_path)])
     assert rc == 0
     out = capsys.readouterr().out
-    assert "improvement of ise" in out and (tmp_path / "tune.json").exists()
+    assert "improvement of ise" in out and read_json(tmp_path / "tune.json")["objective"] == "ise"  # strict JSON
     assert (tmp_path / "tune_speed.png").stat().st_size > 1000
     with pytest.raises(ParameterError, match="objective"):
         Problem(scenario.load("incerti2012"), "pid", "nope")

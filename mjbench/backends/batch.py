@@ -239,6 +239,7 @@ class BatchMultibodyPlant:
         if self._load is not None:
             self._load(self._qpos, self._qvel, self._qfrc, t, self._alive)
         self.b.step(self._ids)
+        return self._qvel[:, self._va]
 
     def closure(self):
         if not self._pairs:
@@ -334,19 +335,14 @@ class _RowsView:
 
 def _load_function(mechs, models):
     """Vectorised external loads (``Mechanism.multibody_load``), in order of preference:
-    ``mechanism.multibody_load_batch(models, qpos, qvel, qfrc, t)`` if the class provides it; the
-    single-run ``multibody_load`` called once on the (nv, nsim) columns of the state rows
+    the single-run ``multibody_load`` called once on the (nv, nsim) columns of the state rows
     (:class:`_RowsView`) when every simulation has the same mechanism and the load is written with
     elementwise arithmetic (probed on the first step); else ``multibody_load`` per simulation on a
     scratch MjData holding qpos, qvel, qfrc_applied and time (a load that reads other, derived,
     fields is not supported by the batch)."""
     mech = mechs[0]
-    if type(mech).multibody_load is Mechanism.multibody_load:
+    if not mech.has_multibody_load():
         return None
-    if hasattr(mech, "multibody_load_batch"):
-        def f(qpos, qvel, qfrc, t, alive):
-            mech.multibody_load_batch(models, qpos, qvel, qfrc, t)
-        return f
     scratch = [mujoco.MjData(m) for m in models]
 
     def per_sim(qpos, qvel, qfrc, t, alive):

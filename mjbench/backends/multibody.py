@@ -109,18 +109,26 @@ class MultibodyPlant:
         d.qpos[:] = mc.mechanism.initial_qpos(m, mc.q0, mc.x0)
         d.qvel[:] = mc.mechanism.initial_qvel(m, mc.q0, mc.qd0, mc.x0, mc.xd0)
         mujoco.mj_forward(m, d)
+        # hot-path functions with everything bound as locals (no attribute lookups per step)
+        qpos, qvel, qfrc, qa, va = self._qpos, self._qvel, self._qfrc, self._qa, self._va
+        load, step = self._load, mujoco.mj_step
 
-    def read(self):
-        return float(self._qpos[self._qa]), float(self._qvel[self._va])
+        def read():
+            return float(qpos[qa]), float(qvel[va])
 
-    def speed(self):
-        return float(self._qvel[self._va])
+        if load is None:
+            def advance(tau, t):
+                qfrc[va] = tau
+                step(m, d)
+                return float(qvel[va])
+        else:
+            def advance(tau, t):
+                qfrc[va] = tau
+                load(m, d, t)
+                step(m, d)
+                return float(qvel[va])
 
-    def advance(self, tau, t):
-        self._qfrc[self._va] = tau
-        if self._load is not None:
-            self._load(self.model, self.data, t)
-        mujoco.mj_step(self.model, self.data)
+        self.read, self.advance = read, advance
 
     def closure(self):
         return self._closure(self.model, self.data)

@@ -92,9 +92,6 @@ class ReducedPlant:
     def read(self):
         return self.q, self.qd
 
-    def speed(self):
-        return self.qd
-
     def closure(self):
         return 0.0
 
@@ -127,10 +124,10 @@ class ReducedPlant:
                 a4 = f(t + h, q + h * v3, v4, tau)
             except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged
                 self.q = self.qd = math.nan
-                return
+                return self.qd
             self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
             self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-            return
+            return self.qd
         acc = self._mech.reduced_accel
         Ja, c = self._Ja, self._c
         x, xd = self.x, self.xd
@@ -145,6 +142,7 @@ class ReducedPlant:
         self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         self.x = tuple(p + h6 * (u + 2.0 * s2 + 2.0 * s3 + s4) for p, u, s2, s3, s4 in zip(x, xd, w2, w3, w4))
         self.xd = tuple(u + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4) for u, c1, c2, c3, c4 in zip(xd, b1, b2, b3, b4))
+        return self.qd
 
     def _advance_ivp(self, tau, t):
         nx = self._nx
@@ -164,6 +162,7 @@ class ReducedPlant:
         self.q, self.qd = float(u[0]), float(u[1])
         self.x = tuple(float(v) for v in u[2:2 + nx])
         self.xd = tuple(float(v) for v in u[2 + nx:])
+        return self.qd
 
 
 def _table_accel(tab, Ja, c, ext):

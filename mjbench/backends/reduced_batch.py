@@ -275,9 +275,6 @@ class BatchReducedPlant:
     def read(self):
         return self.q.copy(), self.qd.copy()
 
-    def speed(self):
-        return self.qd
-
     def advance(self, tau, t):
         if self._table:
             self._advance_table(tau, t)
@@ -288,6 +285,7 @@ class BatchReducedPlant:
             self.qd[self._dead] = 0.0
             for a in getattr(self, "x", ()) + getattr(self, "xd", ()):
                 a[self._dead] = 0.0
+        return self.qd
 
     def closure(self):
         return self._zeros

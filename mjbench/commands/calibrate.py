@@ -8,6 +8,8 @@ import re
 import sys
 
 from . import add_fast_multibody, apply_fast_multibody
+from ..preflight import check_machine
+from ..outputs import add_force_option, maybe_staged_dir
 
 
 def register(sub):
@@ -42,6 +44,7 @@ def register(sub):
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", help="write calibrate.json and calibrated.toml here")
+    add_force_option(p)
     add_fast_multibody(p)
     p.set_defaults(func=cmd_calibrate)
 
@@ -49,20 +52,31 @@ def register(sub):
 def cmd_calibrate(args):
     from ..papers import incerti2012_calibration as C
     from .. import scenario as S
+
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
+    check_machine(scn)  # bad --set values: one message before any simulation
+    names = args.params.split(",") if args.params else list(C.MISSING)
+    C.check_params(names, scn)
+    with maybe_staged_dir(args.out, force=args.force) as out:
+        _calibrate(args, scn, names, out)
+    if args.out:
+        print(f"results written to {args.out} (calibrate.json, calibrated.toml)")
+    return 0
+
+
+def _calibrate(args, scn, names, out):
+    from ..papers import incerti2012_calibration as C
+    from .. import scenario as S
     from ..manifest import write_json
     from ..trajectory import atomic_write
 
-    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
-    names = args.params.split(",") if args.params else list(C.MISSING)
-    C.check_params(names, scn)
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,
                       n_screen=args.screen, polish=args.polish_nfev > 0, polish_nfev=max(args.polish_nfev, 1),
                       jobs=args.jobs, progress=not args.no_progress, select=args.select, backend=args.backend)
     res["command"] = "mjbench " + " ".join(sys.argv[1:]) if sys.argv and "mjbench" in sys.argv[0] else None
     print(C.table(res))
-    if args.out:
-        os.makedirs(args.out, exist_ok=True)
-        write_json(os.path.join(args.out, "calibrate.json"), res)
+    if out is not None:
+        write_json(os.path.join(out, "calibrate.json"), res)
         src = scn.source
         if src.startswith("builtin:"):
             import importlib.resources
@@ -71,9 +85,7 @@ def cmd_calibrate(args):
             with open(src, encoding="utf-8") as f:
                 text = f.read()
         toml = calibrated_toml(text, res)
-        atomic_write(os.path.join(args.out, "calibrated.toml"), lambda f: f.write(toml))
-        print(f"results written to {args.out} (calibrate.json, calibrated.toml)")
-    return 0
+        atomic_write(os.path.join(out, "calibrated.toml"), lambda f: f.write(toml))
 
 
 def calibrated_toml(text: str, res: dict) -> str:

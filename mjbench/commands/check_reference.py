@@ -3,7 +3,7 @@ speed, acceleration, torque, current, voltage) and whether the motor can deliver
 simulating (mjbench/gains.py)."""
 from __future__ import annotations
 
-import json
+from ..outputs import dumps
 
 
 def register(sub):
@@ -35,5 +35,5 @@ def run(args):
             print(f"{scn.name}: desired coupler speed V_C = {vcv} m/s")
             print(gains.format_report(r))
     if args.json:
-        print(json.dumps(results if len(results) > 1 else results[0], indent=1))
+        print(dumps(results if len(results) > 1 else results[0], indent=1))  # strict JSON (outputs.py)
     return 1 if any(r.get("voltage_saturated") for r in results) else 0

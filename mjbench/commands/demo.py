@@ -13,7 +13,7 @@ def register(sub):
     p = sub.add_parser("demo", help="run every paper case (short videos) and write DIR/report.html",
                        description=__doc__)
     add_common(p)
-    p.set_defaults(func=run, quick=True)
+    p.set_defaults(func=run, quick=True, gl=True)
 
 
 def run(args) -> int:
@@ -21,14 +21,15 @@ def run(args) -> int:
     import time
 
     from .. import reproduce as R
+    from ..outputs import staged_dir
+    from .reproduce import with_gl
 
     t0 = time.perf_counter()
-    if not args.no_video:
-        from .. import render
-        render.gl_setup()
+    with_gl(args)
     progress = not args.no_progress and sys.stderr.isatty()
-    R.reproduce("all", args.out, quick=True, video=not args.no_video, progress=progress,
-                width=args.width, height=args.height)
+    with staged_dir(args.out, force=args.force) as tmp:
+        R.reproduce("all", tmp, quick=True, video=not args.no_video, progress=progress,
+                    width=args.width, height=args.height)
     out = os.path.abspath(args.out)
     print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
           f"(or read {os.path.join(out, 'report.md')})")

@@ -2,10 +2,10 @@
 design of the seed-004 quick-return mechanism (mjbench/design.py), compared with Table I."""
 from __future__ import annotations
 
-import json
 import os
 
 from ..errors import ParameterError
+from ..outputs import add_force_option, maybe_staged_dir, write_json
 from . import add_fast_multibody, apply_fast_multibody
 
 MECHANISMS = ("quickreturn",)
@@ -26,6 +26,7 @@ def register(sub):
                    help="optimum designs re-run on the multibody backend besides Table I (default 1)")
     p.add_argument("--t-end", type=float, help="simulated time of the closed-loop check [s] (default: the scenario's)")
     p.add_argument("--out", help="folder for design.json")
+    add_force_option(p)
     add_fast_multibody(p)
     p.set_defaults(func=run)
 
@@ -38,7 +39,21 @@ def run(args) -> int:
     lo, hi = args.bounds
     if not (0 < lo < hi):
         raise ParameterError(f"--bounds = {lo} {hi}: need 0 < LO < HI [mm]")
-    res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5)
+    with maybe_staged_dir(args.out, force=args.force) as out:
+        res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5)
+        _print(res)
+        if args.backend != "none":
+            res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end,
+                                                   overrides=apply_fast_multibody(args, []))
+            print(design.dynamic_table(res["dynamics"]))
+        if out is not None:
+            write_json(os.path.join(out, "design.json"), res)
+    if args.out:
+        print(f"wrote {os.path.join(args.out, 'design.json')}")
+    return 0 if "best" in res else 1
+
+
+def _print(res):
     tab = res["table_I"]
     print(f"{'':10s} {'r2':>8s} {'r3':>8s} {'r4':>8s} {'a':>8s} {'b':>8s} {'sum':>8s} {'TR':>6s} "
           f"{'stroke':>8s} {'mu_min':>7s}")
@@ -54,13 +69,3 @@ def run(args) -> int:
         print("no feasible design found; try more --starts or wider --bounds")
     nfeas = sum(r["feasible"] for r in res["runs"])
     print(f"{nfeas}/{len(res['runs'])} starts ended feasible; Table I violates: {tab['violated'] or 'nothing'}")
-    if args.backend != "none":
-        res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end,
-                                               overrides=apply_fast_multibody(args, []))
-        print(design.dynamic_table(res["dynamics"]))
-    if args.out:
-        from ..trajectory import atomic_write
-        path = os.path.join(args.out, "design.json")
-        atomic_write(path, lambda f: json.dump(res, f, indent=2))
-        print(f"wrote {path}")
-    return 0 if "best" in res else 1

@@ -1,8 +1,9 @@
 """``mjbench identify``: fit the DC-motor parameters to a logged voltage/speed(/current) record."""
 from __future__ import annotations
 
-import json
 import os
+
+from ..outputs import add_force_option, maybe_staged_dir, write_json
 
 
 def register(sub):
@@ -23,6 +24,7 @@ def register(sub):
     p.add_argument("--synthetic", action="store_true",
                    help="first write a synthetic noisy record of the seed-000 motor to --data (demo/check)")
     p.add_argument("--out", help="write identify.json and identify_fit.png here")
+    add_force_option(p)
     p.set_defaults(func=cmd_identify)
 
 
@@ -46,8 +48,10 @@ def _kv(items, what):
 
 def cmd_identify(args):
     from .. import identify as ID
-    from ..trajectory import atomic_write
+    from ..outputs import check_out_dir
 
+    if args.out:
+        check_out_dir(args.out, force=args.force)  # before the fit
     truth = None
     if args.synthetic:
         truth = SEED000_MOTOR
@@ -59,11 +63,11 @@ def cmd_identify(args):
                  omega_s=args.omega_s)
     print(ID.report(res, truth))
     if args.out:
-        os.makedirs(args.out, exist_ok=True)
-        doc = {k: v for k, v in res.items() if k not in ("omega_fit", "I_fit")}
-        doc["data"] = os.path.abspath(args.data)
-        doc["drive"] = ID.drive_table(res)
-        atomic_write(os.path.join(args.out, "identify.json"), lambda f: json.dump(doc, f, indent=1))
-        ID.plot({**rec, "I": I}, res, os.path.join(args.out, "identify_fit.png"))
+        with maybe_staged_dir(args.out, force=args.force) as out:
+            doc = {k: v for k, v in res.items() if k not in ("omega_fit", "I_fit")}
+            doc["data"] = os.path.abspath(args.data)
+            doc["drive"] = ID.drive_table(res)
+            write_json(os.path.join(out, "identify.json"), doc, indent=1)
+            ID.plot({**rec, "I": I}, res, os.path.join(out, "identify_fit.png"))
         print(f"results written to {args.out}")
     return 0

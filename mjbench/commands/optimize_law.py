@@ -3,13 +3,11 @@ over the shape parameters of its motion law (seeds 001, 003); before/after figur
 ω_n sensitivity.  Writes ``<out>/optimize_law.json`` and PNG plots (atomic writes)."""
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 
-from ..trajectory import atomic_write
-from ..manifest import json_default as _json_default
+from ..outputs import add_force_option, staged_dir, write_json
 
 
 def register(sub):
@@ -21,6 +19,7 @@ def register(sub):
                    help="override a scenario value, e.g. --set law.gammas=[3,4,6] (repeatable)")
     p.add_argument("--no-multibody", action="store_true", help="skip the MuJoCo E(T) check")
     p.add_argument("--no-plots", action="store_true", help="write the JSON only")
+    add_force_option(p)
     p.set_defaults(func=main)
 
 
@@ -35,8 +34,15 @@ def main(args) -> int:
 
     scn = scenario.load(args.scenario, args.overrides)
     name = scn.name
-    out = args.out or os.path.join("results", f"{name}-optimize-law")
+    final = args.out or os.path.join("results", f"{name}-optimize-law")
     mb = False if args.no_multibody else None
+    with staged_dir(final, force=args.force) as out:
+        _study(args, scn, name, final, out, mb, vibration, tqdm)
+    print(f"  results written to {final}")
+    return 0
+
+
+def _study(args, scn, name, final, out, mb, vibration, tqdm):
     with tqdm(total=6, desc="optimize-law", leave=False) as bar:
         res = vibration.study(scn, progress=bar, multibody=mb)
     rep, obj = res["report"], res["objects"]
@@ -86,7 +92,6 @@ def main(args) -> int:
                   f"{v['residual_peak_after_T_rad']:.3e} rad, "
                   f"max tracking error = {v['max_tracking_error_rad']:.2e} rad, peak current = {v['peak_current_A']:.1f} A, "
                   f"peak voltage = {v['peak_voltage_V']:.0f} V")
-    os.makedirs(out, exist_ok=True)
     files = {}
     if not args.no_plots:
         from ..papers import incerti_platforms_plots as pv
@@ -111,13 +116,11 @@ def main(args) -> int:
             files["servo"] = pv.fig_servo(laws, obj["servo_runs"], osc, os.path.join(out, "servo_vs_ideal.png"), ta,
                                           title=f"{name}: ideal vs real servo (transmission deflection)")
         files["laws"] = pv.fig_laws({**laws, **obj["shaped"]}, os.path.join(out, "laws.png"), title=f"{name}: motor laws")
-    rep["files"] = {k: os.path.abspath(v) for k, v in files.items()}
+    rep["files"] = {k: os.path.join(os.path.abspath(final), os.path.basename(v)) for k, v in files.items()}
     rep["scenario_source"] = scn.source
     rep["overrides"] = list(scn.overrides)
-    path = os.path.join(out, "optimize_law.json")
-    atomic_write(path, lambda f: json.dump(rep, f, indent=2, default=_json_default))
-    print(f"  wrote {path}" + (f" and {len(files)} plots" if files else ""))
-    return 0
+    write_json(os.path.join(out, "optimize_law.json"), rep)
+    print("  optimize_law.json" + (f" and {len(files)} plots" if files else ""))
 
 
 def paper_check(osc, pap) -> dict:

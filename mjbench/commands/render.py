@@ -23,17 +23,23 @@ def register(sub):
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value (repeatable), e.g. --set drive.R=2.5")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, gl=True)
 
 
 def run(args) -> int:
-    from .. import render, scenario
+    from .. import outputs, render, scenario
+    from ..preflight import check_machine, simulation_errors
 
+    outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     render.gl_setup()
+    outputs.route_mujoco_log()
     scn = scenario.load(args.scenario, args.set)
-    info = render.render_scenario(scn, args.out, mode=args.mode, fps=args.fps, width=args.width,
-                                  height=args.height, t_end=args.t_end, progress=not args.no_progress,
-                                  crf=args.crf)
+    if scn.get("modes"):
+        check_machine(scn, args.mode)
+    with outputs.output_file(args.out, suffixes=(".mp4", ".gif")) as out, simulation_errors(scn):
+        info = render.render_scenario(scn, out, mode=args.mode, fps=args.fps, width=args.width,
+                                      height=args.height, t_end=args.t_end, progress=not args.no_progress,
+                                      crf=args.crf)
     print(f"wrote {info['path']}: {info['frames']} frames {info['width']}x{info['height']} at {info['fps']:g} fps "
           f"({info['duration_s']:.2f} s video); simulation {info['sim_s']:.2f} s, rendering+encoding "
           f"{info['wall_s']:.1f} s ({info['frames_per_s']:.1f} frames/s, OpenGL: {info['gl']})")

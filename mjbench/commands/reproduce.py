@@ -6,6 +6,8 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
+from ..outputs import staged_dir  # noqa: E402
+
 
 def add_common(p, out_required=True):
     p.add_argument("--out", required=out_required, default=None, help="output folder (report.md, report.html, one folder per case)")
@@ -15,6 +17,8 @@ def add_common(p, out_required=True):
     p.add_argument("--width", type=int, default=None, help="video width [px] (default 960, --quick 640)")
     p.add_argument("--height", type=int, default=None, help="video height [px] (default 540, --quick 360)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--force", action="store_true",
+                   help="replace a non-empty --out folder (the old one is kept until the new report is complete)")
 
 
 def register(sub):
@@ -24,7 +28,7 @@ def register(sub):
                    help="case name, scenario name (all its cases) or 'all' (default); see --list")
     p.add_argument("--list", action="store_true", help="list the registered cases and exit")
     add_common(p, out_required=False)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, gl=True)
 
 
 def list_cases():
@@ -46,10 +50,26 @@ def run(args) -> int:
     if not args.out:
         from ..errors import ParameterError
         raise ParameterError("mjbench reproduce: --out DIR is required (the report folder)")
-    if not args.no_video:
-        from .. import render
-        render.gl_setup()
+    R.select(R.load_cases(), args.case)  # an unknown case name: an error before anything is written
+    with_gl(args)
     progress = not args.no_progress and sys.stderr.isatty()
-    R.reproduce(args.case, args.out, quick=args.quick, video=not args.no_video, progress=progress,
-                width=args.width, height=args.height)
+    with staged_dir(args.out, force=args.force) as tmp:
+        R.reproduce(args.case, tmp, quick=args.quick, video=not args.no_video, progress=progress,
+                    width=args.width, height=args.height)
+    print(f"results written to {args.out}")
     return 0
+
+
+def with_gl(args):
+    """Choose the OpenGL backend for the videos; without one, the cases run and the report says
+    why each video is missing (the simulations need no OpenGL)."""
+    import sys
+
+    from .. import outputs, render
+
+    if not args.no_video:
+        try:
+            render.gl_setup()
+        except render.RenderError as e:
+            print(f"mjbench: warning: {e} The report is written without videos.", file=sys.stderr)
+    outputs.route_mujoco_log()

@@ -4,6 +4,7 @@ from __future__ import annotations
 import sys
 
 from . import add_fast_multibody, apply_fast_multibody
+from ..outputs import add_force_option
 
 
 def register(sub):
@@ -18,7 +19,8 @@ def register(sub):
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value, e.g. --set drive.R=2.5 --set modes.pid.kp=100")
     p.add_argument("--t-end", type=float, help="simulated time [s] (default: the scenario's)")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True, help="output directory (written whole or not at all: docs/outputs.md)")
+    add_force_option(p)
     p.add_argument("--no-figure", action="store_true", help="skip the PNG")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     add_fast_multibody(p)
@@ -30,6 +32,9 @@ def register(sub):
 
 def cmd_run(args):
     from .. import scenario as S
+    from ..outputs import staged_dir
+    from ..plausibility import warnings_of
+    from ..preflight import check_machine, simulation_errors
     from ..runner import run
 
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
@@ -42,11 +47,15 @@ def cmd_run(args):
         backend = backend or man.get("backend")
         t_end = t_end if t_end is not None else man.get("t_end_s")
     backend = backend or scn.simulation.backend
-    res = run(scn, args.out, mode=mode, backend=backend, t_end=t_end,
-              progress=not args.quiet and sys.stderr.isatty(), argv=sys.argv, figure=not args.no_figure)
+    check_machine(scn, mode)  # bad values: one message before simulating
+    with staged_dir(args.out, force=args.force) as tmp, simulation_errors(scn):
+        res = run(scn, tmp, mode=mode, backend=backend, t_end=t_end,
+                  progress=not args.quiet and sys.stderr.isatty(), argv=sys.argv, figure=not args.no_figure)
     if not args.quiet:
         print(_summary_text(res))
         print(f"results written to {args.out}")
+    for w in warnings_of(res):
+        print(f"mjbench: warning: {w}", file=sys.stderr)
     return 0
 
 

@@ -45,7 +45,10 @@ def register(sub):
 
 def cmd_sweep(args):
     from ..errors import ParameterError
+    from ..outputs import check_out_dir
     from ..sweep import SweepSpec, parse_grid, parse_perturb, run_sweep
+
+    check_out_dir(args.out, must_be_empty=False)  # resumable: an existing sweep folder is fine
 
     spec = SweepSpec(scenario=args.scenario, grid=parse_grid(args.grid), samples=args.samples,
                      perturb=parse_perturb(args.perturb), seed=args.seed, mode=args.mode,

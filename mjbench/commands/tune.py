@@ -1,10 +1,11 @@
 """``mjbench tune``: autotune controller gains (batched global search + Nelder–Mead + validation)."""
 from __future__ import annotations
 
-import json
 import os
 
 from . import add_fast_multibody, apply_fast_multibody
+from ..preflight import check_machine
+from ..outputs import add_force_option, maybe_staged_dir, write_json
 
 
 def register(sub):
@@ -13,9 +14,9 @@ def register(sub):
         description="Search the gains of the scenario's controller minimising --objective: a global stage "
                     "(Sobol candidates simulated together on the --backend's batch), local Nelder-Mead "
                     "refinement, then the --verify best candidates re-run on the multibody backend "
-                    "(mujoco.batch) and the winner and the scenario's own gains on the single-run multibody "
-                    "backend; the report states both backends' figures. Peaks of |voltage| and |current| "
-                    "above --limit are penalised (default limits: the peaks of the scenario's gains).")
+                    "and the scenario's own gains on the single-run multibody backend; the report states both "
+                    "backends' figures. Peaks of |voltage| and |current| above --limit are penalised "
+                    "(default limits: the peaks of the scenario's gains).")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--controller", required=True, choices=["pid", "pid-tv", "smc"],
                    help="pid: constant K_p; pid-tv: K_p·t (seed 000 Eq 15); smc: sliding mode (λ, K)")
@@ -40,6 +41,7 @@ def register(sub):
     p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads (0: all CPUs)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--out", help="write tune.json and a speed comparison plot here")
+    add_force_option(p)
     add_fast_multibody(p)
     p.set_defaults(func=cmd_tune)
 
@@ -85,21 +87,23 @@ def cmd_tune(args):
     from ..tune import report, tune
 
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
-    res = tune(scn, args.controller, args.objective, limits=parse_limits(args.limit), n_global=args.n_global,
-               starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=parse_bounds(args.bounds),
-               seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
-               verify=args.verify)
-    print(report(res))
+    check_machine(scn)  # bad --set values: one message before any simulation
+    limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds)
+    with maybe_staged_dir(args.out, force=args.force) as out:
+        res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
+                   starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=bounds,
+                   seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
+                   verify=args.verify)
+        print(report(res))
+        if out is not None:
+            doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
+                   "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
+                   "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
+                   "search_backend": res.backend, "search": res.search, "verified": res.verified,
+                   "history": res.history}
+            write_json(os.path.join(out, "tune.json"), doc, indent=1)
+            _plot(scn, res, os.path.join(out, "tune_speed.png"))
     if args.out:
-        from ..trajectory import atomic_write
-        os.makedirs(args.out, exist_ok=True)
-        doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
-               "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
-               "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
-               "search_backend": res.backend, "search": res.search, "verified": res.verified,
-               "history": res.history}
-        atomic_write(os.path.join(args.out, "tune.json"), lambda f: json.dump(doc, f, indent=1, default=float))
-        _plot(scn, res, os.path.join(args.out, "tune_speed.png"))
         print(f"results written to {args.out}")
     return 0
 

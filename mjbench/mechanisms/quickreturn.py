@@ -17,7 +17,7 @@ TR = (π + 2δ)/(π − 2δ), δ = asin(r₂/a), and the slider stroke is ≈ 2�
 Assembly mode k = ±1 picks cos θ₄ = k·√(1 − sin²θ₄) (k = +1: slider to the right of the lever tip).
 
 Influence coefficients (own derivation; Eqs 13 and 18 agree with it, Eqs 19-20 are misprinted,
-see SEED-ERRATA 004):  with s² = r₂² + a² + 2ar₂ sin q,
+see docs/errata.md):  with s² = r₂² + a² + 2ar₂ sin q,
     g₁ = dθ₃/dq = (r₂² + a r₂ sin q)/s²,              g₁' = a r₂ (a² − r₂²) cos q / s⁴
     g₂ = dθ₄/dq = −r₃ cos θ₃ g₁ /(r₄ cos θ₄)
     g₂' = (r₃ sin θ₃ g₁² + r₄ sin θ₄ g₂² − r₃ cos θ₃ g₁')/(r₄ cos θ₄)

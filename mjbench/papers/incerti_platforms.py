@@ -43,7 +43,7 @@ def rows(ctx) -> list:
         for i, (gp, go) in enumerate(zip(pap["gammas_optimum"], g_opt)):
             rows.append({"name": f"optimum exponent γ{i + 1} (§V)", "unit": "1", "paper": gp, "ours": {"ours": go},
                          "reason": "the optimum is not unique: zero-residual-energy solutions form a curve; the "
-                                   "quasi-Newton search lands on another point of it (SEED-ERRATA 001)"})
+                                   "quasi-Newton search lands on another point of it (docs/errata.md)"})
     if "table_II_polynomial" in pap:
         c0 = laws["initial"]["law"].get("C")
         if c0 is not None:

@@ -15,7 +15,7 @@ minimise x₁ + x₂ + x₃ + x₄ + x₅.  Constraints (Eq 2) in our reading (d
 Closed forms (mechanisms/quickreturn.py): the lever swings over θ₃ ∈ [90° − δ, 90° + δ]; the rod
 angle φ obeys r₄ sin φ = a + b − r₃ sin θ₃, so sin φ_max = max(|a+b−r₃|, |a+b−r₃ cos δ|)/r₄.
 Strict inequalities are enforced with a margin ``eps`` (mm or degrees).  The bounds are not given
-in the paper (SEED-ERRATA 004): default 10 … 500 mm for every variable (without a lower bound
+in the paper (docs/errata.md): default 10 … 500 mm for every variable (without a lower bound
 the objective decreases without limit as r₂, a → 0 with r₂/a fixed).
 """
 from __future__ import annotations
