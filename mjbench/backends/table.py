@@ -15,7 +15,7 @@ four-bar evaluation in Python).  They depend on the input coordinate only and ar
   the closed forms at 3 interior points of every cell (f = ¼, ½, ¾, where a cubic spline's error
   peaks), relative to the quantity's largest magnitude over the period, is ≤ ``tol`` (default
   1e-9); the table records that error (``max_rel_error``) and its node count.  A spline's error
-  falls as h⁴: the seed-000 four-bar needs 1024 nodes for ≈ 4e-10 (docs/performance.md).
+  falls as h⁴ (×16 per doubling): the seed-000 four-bar needs 2048 nodes (7e-11; docs/performance.md).
 * the mechanism's viscous external torque −D(q)·q̇ (``Mechanism.reduced_viscous``, e.g. the
   four-bar's hinge friction) is tabulated as a fourth quantity; any other external torque
   (the quick-return's cutting force, discontinuous) is evaluated by the mechanism at each stage.
@@ -35,7 +35,7 @@ import numpy as np
 
 from ..errors import ParameterError
 
-N0 = 512          #: first grid size tried (doubled until the tolerance is met)
+N0 = 1024         #: first grid size tried (doubled until the tolerance is met)
 NMAX = 1 << 16    #: largest grid tried
 TOL = 1e-9        #: default relative interpolation tolerance
 _CACHE: OrderedDict = OrderedDict()
