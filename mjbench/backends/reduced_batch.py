@@ -52,7 +52,7 @@ def _groups(mechs):
 class BatchReducedPlant:
     """N reduced models; see the kernel's plant protocol (arrays of shape (nsim,))."""
 
-    def __init__(self, machines, dt: float = 1e-4, model: str = "table", tol: float = _table.TOL):
+    def __init__(self, machines, dt: float = 1e-4, model: str = "table", tol: float = _table.TOL, jit: bool = False):
         if model not in ("table", "closed"):
             raise ParameterError(f"reduced.model = {model!r}: choose 'table' or 'closed'")
         self.machines = list(machines)
@@ -73,6 +73,7 @@ class BatchReducedPlant:
         self._zeros = np.zeros(N)
         self._false = np.zeros(N, dtype=bool)
         self._dead = None
+        self._use_jit = bool(jit) and _jit.AVAILABLE
         self._table = model == "table" and _table.supports(m0)
         if self._table:
             self._setup_tables(tol)
@@ -108,7 +109,7 @@ class BatchReducedPlant:
         mech = self.groups[0][0]
         self._ext = mech.has_external_torque() and not self.viscous
         self._jit = None
-        if _jit.enabled() and not self._ext:  # the compiled step: same operations, same bits
+        if self._use_jit and not self._ext:  # the compiled step: same operations, same bits
             self._jit = (np.ascontiguousarray(self._C.T),
                          np.zeros(N, dtype=np.int64) if self._base is None else self._base.astype(np.int64),
                          np.broadcast_to(np.asarray(self._n, dtype=np.int64), (N,)).copy(),
@@ -334,7 +335,8 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
     ctrl = stack_objects([mc.controller for mc in machines])
     if ctrl is machines[0].controller:
         ctrl = copy.copy(ctrl)  # same object in every machine: one vectorised copy
-    plant = BatchReducedPlant(machines, h, model)
+    jit = _jit.wanted(len(machines) * t_end / h)  # the compiled step pays off on large batches only
+    plant = BatchReducedPlant(machines, h, model, jit=jit)
     I0 = np.array([float(mc.I0) for mc in machines])
     rec = kernel.run(plant, drive, ctrl, t_end, record_dt, I0, progress, backend="reduced")
     return BatchResult(rec)
