@@ -43,8 +43,10 @@ loop.  Saturation (v_limit, anti-windup) is assumed inactive.
 
 Loop (:func:`loop`): broken at the plant input V — L = −C·P, S = 1/(1 + L), T = L/(1 + L) built
 with ``control.feedback``, the closed loop (set-points and an input disturbance ``d`` → q, q̇, I,
-V) with ``control.interconnect``; :func:`margins`: gain/phase margins (``control.stability_margins``),
-peak |S|, the −3 dB bandwidth of the set-point response q̇/q̇_set, closed-loop poles.
+V) with ``control.interconnect``; :func:`margins`: gain/phase margins and peak |S| from the
+exact response of L on a dense grid with every crossing refined (:func:`loop_margins`; equal to
+``control.stability_margins(method="poly")`` where that is reliable, see the tests), the −3 dB
+bandwidth of the set-point response q̇/q̇_set, closed-loop poles.
 
 Angle dependence (:func:`frozen_angle_family`): the loop at frozen angles q over one turn at the
 running speed, worst-case margins and where they occur, and the frozen-angle validity number
@@ -879,41 +881,62 @@ def bandwidth(sys, output="qd", input="qd_set", dbdrop=-3.0) -> float:
     return float(brentq(f, omega[i - 1], omega[i], xtol=1e-9, rtol=1e-9))
 
 
-def margins(lp: Loop, with_bandwidth: bool = True) -> Margins:
-    """Margins (``control.stability_margins``, every crossing), peak |S|, bandwidth and
-    closed-loop poles of a :class:`Loop`.  The gain margin is the factor by which the loop gain
-    may grow; when the loop is only conditionally stable (an open-loop-unstable frozen plant),
-    ``lower_gain_margin_dB`` (negative) is how far it may drop."""
-    import warnings
+def loop_margins(L, n: int = 3000) -> dict:
+    """Gain margins (upper and lower), phase margin and peak sensitivity of a SISO loop L from its
+    frequency response on a dense log grid up to 0.999 × Nyquist, every crossing refined by
+    Brent's method.  (python-control's ``stability_margins`` falls back, for loops sampled this
+    finely, to a spline search whose minimum |1 + L| is unreliable — spurious values measured on
+    the platform servo — so the crossings are found here on the python-control object's exact
+    response.)"""
+    from scipy.optimize import brentq, minimize_scalar
 
-    ct = _ct()
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # 'best' falls back to the FRD method for fine sampling: expected
-        GM, PM, SM, WPC, WGC, WMS = (np.atleast_1d(np.asarray(v, dtype=float)) for v in
-                                     ct.stability_margins(lp.L, returnall=True))
-    up = GM > 1.0
-    lo = (GM < 1.0) & (GM > 0.0)
-    gm = float(GM[up].min()) if up.any() else math.inf
-    wpc = float(WPC[up][np.argmin(GM[up])]) if up.any() else float("nan")
-    gml = float(GM[lo].max()) if lo.any() else float("nan")
-    if len(PM):
-        k = int(np.argmin(np.abs(PM)))
-        pm, wgc = float(PM[k]), float(WGC[k])
-    else:
-        pm, wgc = math.inf, float("nan")
-    if len(SM):
-        k = int(np.argmin(SM))
-        sm, wms = float(SM[k]), float(WMS[k])
-    else:
-        sm, wms = float("nan"), float("nan")
+    dt = float(L.dt) if L.dt else None
+    hi = 0.999 * math.pi / dt if dt else 1e5
+    w = np.logspace(-3, math.log10(hi), int(n))
+    G = response(L, w)
+    f = lambda x: complex(response(L, [x])[0])  # noqa: E731
+    gms_up, gms_lo = [], []
+    im = G.imag
+    for k in np.flatnonzero(np.sign(im[:-1]) != np.sign(im[1:])):
+        wc = brentq(lambda x: f(x).imag, w[k], w[k + 1], xtol=1e-12, rtol=1e-10)
+        g = f(wc)
+        if g.real < 0:
+            gm = 1.0 / abs(g)
+            (gms_up if gm > 1 else gms_lo).append((gm, wc))
+    pms = []
+    mag = np.abs(G) - 1.0
+    for k in np.flatnonzero(np.sign(mag[:-1]) != np.sign(mag[1:])):
+        wc = brentq(lambda x: abs(f(x)) - 1.0, w[k], w[k + 1], xtol=1e-12, rtol=1e-10)
+        pm = math.degrees(cmath.phase(f(wc))) + 180.0
+        pm = (pm + 180.0) % 360.0 - 180.0
+        pms.append((pm, wc))
+    d = np.abs(1.0 + G)
+    k = int(np.argmin(d))
+    lo_w, hi_w = w[max(k - 1, 0)], w[min(k + 1, len(w) - 1)]
+    r = minimize_scalar(lambda x: abs(1.0 + f(x)), bounds=(lo_w, hi_w), method="bounded",
+                        options={"xatol": 1e-9 * hi_w})
+    sm, wms = (float(r.fun), float(r.x)) if r.fun < d[k] else (float(d[k]), float(w[k]))
+    gm, wpc = min(gms_up) if gms_up else (math.inf, float("nan"))
+    gml = max(gms_lo)[0] if gms_lo else float("nan")
+    pm, wgc = min(pms, key=lambda p: abs(p[0])) if pms else (math.inf, float("nan"))
+    return {"gm": gm, "wpc": wpc, "gm_lower": gml, "pm": pm, "wgc": wgc, "sm": sm, "wms": wms}
+
+
+def margins(lp: Loop, with_bandwidth: bool = True) -> Margins:
+    """Margins (:func:`loop_margins`), peak |S|, bandwidth and closed-loop poles of a
+    :class:`Loop`.  The gain margin is the factor by which the loop gain may grow; when the loop
+    is only conditionally stable (an open-loop-unstable frozen plant), ``lower_gain_margin_dB``
+    (negative) is how far it may drop."""
+    mm = loop_margins(lp.L)
     poles_z = np.asarray(lp.feedback.poles(), dtype=complex)
     rho = float(np.max(np.abs(poles_z))) if len(poles_z) else 0.0
     stable = rho < 1.0
     sp = lp.speed if lp.speed is not None else lp
-    sp_stable = sp is lp and stable or (sp is not lp and float(np.max(np.abs(sp.feedback.poles()))) < 1.0)
+    sp_stable = stable if sp is lp else float(np.max(np.abs(sp.feedback.poles()))) < 1.0
     bw = bandwidth(sp.closed) if (sp_stable and with_bandwidth) else float("nan")
-    Ms = 1.0 / sm if sm > 0 else math.inf
-    return Margins(_db(gm), pm, wpc, wgc, Ms, wms, bw, stable, rho, list(s_poles(lp.feedback)), _db(gml))
+    Ms = 1.0 / mm["sm"] if mm["sm"] > 0 else math.inf
+    return Margins(_db(mm["gm"]), mm["pm"], mm["wpc"], mm["wgc"], Ms, mm["wms"], bw, stable, rho,
+                   list(s_poles(lp.feedback)), _db(mm["gm_lower"]))
 
 
 def analyse(machine, op: OperatingPoint, h: float, plant_kind="reduced", options=None, angle=None):
