@@ -1044,6 +1044,75 @@ def frozen_validity(machine, qs, speeds, ms) -> dict:
             "rotation_to_bandwidth": float(np.max(np.abs(speeds)) / bw) if math.isfinite(bw) else float("nan")}
 
 
+# ============================================================================ margins for design
+MARGIN_KEYS = {"pm": ("phase_margin_deg", ">=", "phase margin [deg]"),
+               "gm": ("gain_margin_dB", ">=", "gain margin [dB]"),
+               "ms": ("peak_sensitivity", "<=", "peak |S|"),
+               "bw": ("bandwidth_rad_s", ">=", "closed-loop bandwidth [rad/s]")}
+
+
+def parse_margin(text: str) -> tuple:
+    """``"pm>=45"`` → ("pm", ">=", 45.0); keys pm [deg], gm [dB], ms (peak |S|), bw [rad/s]."""
+    import re
+
+    m = re.fullmatch(r"\s*(pm|gm|ms|bw)\s*(>=|<=)\s*([-+0-9.eE]+)\s*", str(text))
+    if not m:
+        raise ParameterError(f"--margin {text!r}: expected pm>=DEG, gm>=DB, ms<=VALUE or bw>=RAD_S "
+                             f"(e.g. --margin pm>=45 --margin ms<=2)")
+    key, op, val = m.group(1), m.group(2), float(m.group(3))
+    if op != MARGIN_KEYS[key][1]:
+        raise ParameterError(f"--margin {text!r}: {key} is a {'lower' if MARGIN_KEYS[key][1] == '>=' else 'upper'} "
+                             f"bound, write {key}{MARGIN_KEYS[key][1]}{val:g}")
+    if not math.isfinite(val) or (key in ("ms", "bw", "pm") and val <= 0):
+        raise ParameterError(f"--margin {text!r}: the bound must be finite and > 0")
+    return key, op, val
+
+
+def plant_family(machine, h: float, n_angles: int = 12, t: float = 0.0, speed=None) -> list:
+    """(angle, operating point, plant at the controller period) at ``n_angles`` frozen angles:
+    the part of the loop analysis that does not depend on the controller gains."""
+    from .kernel import control_every
+
+    N = control_every(machine.controller, h)
+    out = []
+    for q in np.linspace(0.0, 2 * np.pi, int(n_angles), endpoint=False):
+        w = running_speed(machine, q) if speed is None else float(speed)
+        op = operating_point(machine, q, w, t=t)
+        out.append((float(q), op, sample(reduced_plant(machine, op, h, angle=_angle_mode(None, op)), N)))
+    return out
+
+
+def family_margins(machine, plants, h: float, with_bandwidth: bool = False) -> dict:
+    """Worst-case margins of ``machine``'s controller over a :func:`plant_family` (frozen loops):
+    {"phase_margin_deg", "gain_margin_dB", "peak_sensitivity", "bandwidth_rad_s", "all_stable"}."""
+    ms = []
+    for q, op, P in plants:
+        lp = loop(P, controller_counterpart(machine, op, h))
+        if reference_gain(machine.controller, op.q) != 0.0:
+            lp.speed = loop(P, controller_counterpart(machine, op, h, reference_feedback=False))
+        ms.append(margins(lp, with_bandwidth))
+    w = worst_case(np.array([p[0] for p in plants]), ms)
+    return {"phase_margin_deg": w["phase_margin_deg"]["value"], "gain_margin_dB": w["gain_margin_dB"]["value"],
+            "peak_sensitivity": w["peak_sensitivity"]["value"], "bandwidth_rad_s": w["bandwidth_rad_s"]["value"],
+            "all_stable": w["all_stable"]}
+
+
+def margin_violation(worst: dict, constraints) -> float:
+    """Sum over ``constraints`` [(key, op, value)] of the relative violation by the worst-case
+    margins, each capped at 1 (0: all met); an unstable frozen loop, or a margin that cannot be
+    computed, violates every constraint fully."""
+    total = 0.0
+    for key, _, val in constraints:
+        v = worst.get(MARGIN_KEYS[key][0])
+        if not worst.get("all_stable", True) or v is None or (isinstance(v, float) and math.isnan(v)):
+            total += 1.0
+        elif key == "ms":
+            total += min(1.0, max(0.0, v / val - 1.0))
+        elif v != math.inf:
+            total += min(1.0, max(0.0, (val - v) / abs(val)))
+    return float(total)
+
+
 # ============================================================================ responses
 def step_response(lp: Loop, t, q_set=0.0, qd_set=0.0, t_step=0.0, d=0.0) -> dict:
     """Linear prediction of the closed loop's response to steps of the set-points (and of a
@@ -1180,17 +1249,8 @@ def kp_ramp_limit(machine, h: float, n_angles: int = 24, t_max: float = 1e4, spe
     ctrl = machine.controller
     if not getattr(ctrl, "kp_ramp", False):
         raise ParameterError("kp_ramp_limit: the controller has no K_p·t ramp (kp_ramp = false)")
-    from .kernel import control_every
-
     ct = _ct()
-    N = control_every(ctrl, h)
-    qs = np.linspace(0.0, 2 * np.pi, int(n_angles), endpoint=False)
-    cases = []
-    for q in qs:
-        w = running_speed(machine, q) if speed is None else float(speed)
-        op = operating_point(machine, q, w, t=0.0)
-        P = sample(reduced_plant(machine, op, h, angle=_angle_mode(None, op)), N)
-        cases.append((q, op, P[list(MEAS), ["V"]]))
+    cases = [(q, op, P[list(MEAS), ["V"]]) for q, op, P in plant_family(machine, h, n_angles, 0.0, speed)]
 
     def rho(t):
         worst, at = 0.0, None
