@@ -163,6 +163,16 @@ class Mechanics:
     embedding: np.ndarray | None = None
 
 
+def rigid_mechanics(J: float, c: float) -> Mechanics:
+    """A constant inertia J [kg·m²] (drive included) with viscous friction c [N·m·s/rad] on the
+    input: J·q̈ = τ − c·q̇ — the textbook DC-motor load, e.g. a linkage at its lap-mean inertia."""
+    if not (J > 0 and math.isfinite(J)) or not (c >= 0 and math.isfinite(c)):
+        raise ParameterError(f"rigid_mechanics: J = {J!r} must be > 0, c = {c!r} >= 0")
+    A = np.array([[0.0, 1.0], [0.0, -c / J]])
+    B = np.array([[0.0], [1.0 / J]])
+    return Mechanics(A, B, ["q", "qd"], {"q": np.array([1.0, 0.0]), "qd": np.array([0.0, 1.0])}, "input")
+
+
 def _input_names(mech):
     xs = list(mech.internal)
     return ["q", *xs, "qd", *[f"{n}_rate" for n in xs]]
@@ -650,15 +660,32 @@ def _reference_counterpart(ctrl, machine, op, T, h, feedback=True):
     return ct.ss(A, B, C, D, T, inputs=ins, outputs=outs, states=["qref_int"], name="reference")
 
 
-def _law_pid(ctrl, machine, op, T, h):
-    """Eq 16: V = K_p(t*)·z·(q̇_ref − q̇) + K_i·z·(q_ref − q) + K_d·z·(q̈_ref − (q̇ − qd_prev)/h)."""
+def pid_law(kp, ki, kd, z, T, h):
+    """Eq 16 as a DT system at period T: V = K_p·z·(q̇_ref − q̇) + K_i·z·(q_ref − q) +
+    K_d·z·(q̈_ref − (q̇ − qd_prev)/h) (gains on motor-shaft errors; crank-side gains: z = 1)."""
     ct = _ct()
-    z = float(machine.drive.z)
-    kp, ki, kd = float(np.asarray(ctrl.gain_p(op.t))), float(ctrl.ki), float(ctrl.kd)
-    # inputs: q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I
-    D = z * np.array([[ki, kp, kd, -ki, -kp - kd / h, kd / h, 0.0]])
+    D = float(z) * np.array([[ki, kp, kd, -ki, -kp - kd / h, kd / h, 0.0]], dtype=float)
     return ct.ss(np.zeros((0, 0)), np.zeros((0, 7)), np.zeros((1, 0)), D, T,
                  inputs=["q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I"], outputs=["V"], name="pid")
+
+
+def pid_controller(kp, ki, kd, z, T, h):
+    """The PID of :func:`pid_law` with a constant-speed reference: a full controller counterpart
+    (inputs q_set, qd_set, q, qd, qd_prev, I)."""
+    ct = _ct()
+
+    class _C:  # a constant-speed reference (no angle dependence)
+        reference = None
+
+    ref = _reference_counterpart(_C(), None, None, T, h)
+    return ct.interconnect([ref, pid_law(kp, ki, kd, z, T, h)], inplist=["q_set", "qd_set", "q", "qd", "qd_prev", "I"],
+                           outlist=["V"], inputs=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outputs=["V"],
+                           name="controller", check_unused=False)
+
+
+def _law_pid(ctrl, machine, op, T, h):
+    """Eq 16 with K_p(t*) frozen: :func:`pid_law`."""
+    return pid_law(float(np.asarray(ctrl.gain_p(op.t))), float(ctrl.ki), float(ctrl.kd), float(machine.drive.z), T, h)
 
 
 def _law_servo(ctrl, machine, op, T, h):

@@ -314,3 +314,21 @@ def test_linearize_cli(tmp_path, capsys):
     assert "boundary" in js["loop_note"] and js["plant"]["reduced"]["inputs"] == ["V"]
     assert main(["linearize", "incerti2012", "--at", "q=abc", "--out", str(tmp_path / "z")]) == 2
     assert "--at" in capsys.readouterr().err
+
+
+def test_demand_error_loop_is_the_closed_form():
+    """hulako2025_demand's loop (python-control objects, sampled PID) against the closed form of a
+    DC motor driving J̄ with c̄ under the continuous PID C = K_p + K_i/s + K_d·s (seed 002 Eq 21):
+    q̇/d = 1 / (C + P⁻¹), P⁻¹ = (R + L·s)(J̄·s + c̄)/(z·k_m) + z·k_m; the relative difference is
+    ω·h/2 (the sampled loop's half-step delay): measured 0.05 % at 10 rad/s, 0.48 % at 100 rad/s."""
+    from mjbench.papers import hulako2025_demand as G
+
+    scn, m = machine("hulako2025-model1")
+    d = m.drive
+    J, c, kp, ki, kd = 0.0032, 0.0045, 3.7, 7.0, 2.0
+    lp = G.error_loop(d, J, c, kp, ki, kd)
+    w = np.logspace(-1, 2, 30)
+    s = 1j * w
+    ref = 1.0 / (kp + ki / s + kd * s + (d.R + d.L * s) * (J * s + c) / (d.z * d.k_m) + d.z * d.k_m)
+    G = LN.response(lp.closed, w, "qd", "d")
+    assert np.all(np.abs(G - ref) / np.abs(ref) < 0.6 * w * 1e-4 + 1e-6)
