@@ -1169,22 +1169,23 @@ def matrices(sys) -> dict:
             "states": list(sys.state_labels), "inputs": list(sys.input_labels), "outputs": list(sys.output_labels)}
 
 
-def finite(o):
-    """A JSON-safe copy: non-finite floats → None, complex → [re, im], NumPy → Python."""
+def plain(o):
+    """Plain Python data: complex → [re, im], NumPy → Python numbers and lists (non-finite floats
+    kept: :func:`mjbench.outputs.write_json` writes them as null and lists them in ``_nonfinite``)."""
     if isinstance(o, dict):
-        return {str(k): finite(v) for k, v in o.items()}
+        return {str(k): plain(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):
-        return [finite(v) for v in o]
+        return [plain(v) for v in o]
     if isinstance(o, np.ndarray):
-        return finite(o.tolist())
+        return plain(o.tolist())
     if isinstance(o, (complex, np.complexfloating)):
-        return [finite(float(o.real)), finite(float(o.imag))]
+        return [float(o.real), float(o.imag)]
     if isinstance(o, (bool, np.bool_)):
         return bool(o)
     if isinstance(o, (int, np.integer)):
         return int(o)
     if isinstance(o, (float, np.floating)):
-        return float(o) if math.isfinite(float(o)) else None
+        return float(o)
     return o
 
 
@@ -1336,7 +1337,8 @@ def agree_above(a, b, omega, tol=0.01, output="qd", input="V"):
 def study(scn, mode=None, q=None, qd=None, I=None, t=None, n_angles=36, multibody=True) -> dict:
     """What ``mjbench linearize`` computes for a scenario: the plant (reduced and multibody) at
     the operating point and their agreement, modes, the loop and its margins, the frozen-angle
-    family, the K_p·t stability limit.  Returns {"json": strict-JSON-ready dict, "objects": ...}.
+    family, the K_p·t stability limit.  Returns {"json": plain data for ``outputs.write_json``,
+    "objects": the python-control objects, for the figures}.
     Defaults: q = the scenario's initial angle, q̇ = the running speed there, I = the current
     holding q̈ = 0, t = simulation.t_end for a K_p·t PID (the largest gain of the run), else 0."""
     from . import scenario as S
@@ -1426,4 +1428,4 @@ def study(scn, mode=None, q=None, qd=None, I=None, t=None, n_angles=36, multibod
         qs = np.linspace(0.0, 2 * np.pi, int(n_angles), endpoint=False)
         objs["plant_family"] = (qs, [reduced_plant(mach, operating_point(mach, qq, running_speed(mach, qq), t=t),
                                                    angle=angle) for qq in qs])
-    return {"json": finite(js), "objects": objs}
+    return {"json": plain(js), "objects": objs}

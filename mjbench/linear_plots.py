@@ -150,7 +150,7 @@ def poles(groups, path, title=""):
         ax.set_xlim(-2.0 * max(1.0, float(np.max(-p.real, initial=0.0))), 2.0 * max(1.0, float(np.max(p.real, initial=0.0))))
     ax.set_xlabel(ps.label("Re s", "1/s"))
     ax.set_ylabel(ps.label("Im s", "rad/s"))
-    ax.legend(loc="upper left", fontsize=7.5)
+    ax.legend(loc="lower right", fontsize=7.5)
     ps.finish(fig, title)
     return save(fig, path)
 

@@ -3,9 +3,9 @@ model (reduced and multibody), its loop, margins, poles and the frozen-angle fam
 (:mod:`mjbench.linear`).  Writes bode.png, nyquist.png, poles.png, plant.png and linear.json."""
 from __future__ import annotations
 
-import json
 import os
-import sys
+
+from ..outputs import add_force_option, staged_dir, write_json
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -26,7 +26,8 @@ def register(sub):
     p.add_argument("--angles", type=int, default=36, help="frozen angles over one turn (0: none; default 36)")
     p.add_argument("--no-multibody", action="store_true", help="skip the MuJoCo linearisation")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", required=True, help="output directory (written whole or not at all)")
+    add_force_option(p)
     p.set_defaults(func=cmd_linearize)
 
 
@@ -58,20 +59,20 @@ def cmd_linearize(args):
     from .. import linear_plots as LP
     from .. import plotstyle
     from .. import scenario as S
-    from ..trajectory import atomic_write
+    from ..preflight import check_machine
 
     scn = S.load(args.scenario, args.overrides)
+    check_machine(scn, args.mode)
     at = parse_at(args.at)
     if args.angles < 0:
         from ..errors import ParameterError
         raise ParameterError(f"--angles {args.angles}: must be >= 0")
-    res = LN.study(scn, args.mode, n_angles=args.angles, multibody=not args.no_multibody, **at)
-    js, objs = res["json"], res["objects"]
-    os.makedirs(args.out, exist_ok=True)
-    text = json.dumps(js, indent=1, allow_nan=False)
-    atomic_write(os.path.join(args.out, "linear.json"), lambda f: f.write(text))
-    with plotstyle.context():
-        LP.family_figures(objs, args.out, scn.name)
+    with staged_dir(args.out, force=args.force) as out:
+        res = LN.study(scn, args.mode, n_angles=args.angles, multibody=not args.no_multibody, **at)
+        js, objs = res["json"], res["objects"]
+        write_json(os.path.join(out, "linear.json"), js, indent=1)
+        with plotstyle.context():
+            LP.family_figures(objs, os.fspath(out), scn.name)
     print(summary(js))
     print(f"results written to {args.out}")
     return 0
@@ -80,7 +81,7 @@ def cmd_linearize(args):
 def summary(js) -> str:
     """Text summary of a linear.json."""
     def f(v, fmt="{:.4g}"):
-        return "—" if v is None else fmt.format(v)
+        return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}): q* = {f(op['q_rad'])} rad, "
@@ -122,6 +123,3 @@ def summary(js) -> str:
                      f"t = {f(lim['t_s'])} s (K_p·t = {f(lim['kp_eff'])}, q = {f(lim['at_q_rad'])} rad)")
     return "\n".join(lines)
 
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(0)

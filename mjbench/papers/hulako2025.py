@@ -161,13 +161,15 @@ def figures(ctx) -> list:
     PC.crank_speed(ctx.runs[mode], mach.mechanism, ref, p1, title=f"{ctx.case.name}: crank speed (cf. Figs 9-12)")
     PC.coupler_speed(ctx.runs[mode], mach.mechanism, ref, p2, title=f"{ctx.case.name}: coupler-point speed (cf. Figs 18-21)",
                      paper_dev=ctx.scn.get("paper", {}).get("max_deviation_sim"))
-    from mjbench import linear_plots
+    from mjbench import linear, linear_plots
 
     lin = _linear(ctx)
     fam, i = lin["family"], lin["i"]
+    sp = fam.loops[i].speed or fam.loops[i]
     p3 = linear_plots.bode([(lp.speed or lp).L for lp in fam.loops], ctx.out / "linear_bode.png", fam.angles,
-                           (fam.loops[i].speed or fam.loops[i]).L, margins=fam.margins[i],
-                           title=f"{ctx.case.name}: speed loop L (Eq 21) at frozen crank angles")
+                           sp.L, margins=linear.margins(sp),
+                           title=f"{ctx.case.name}: speed loop L (Eq 21, reference as a given profile) at frozen "
+                                 f"crank angles; black: q = {fam.angles[i]:.2f} rad")
     return [p1, p2, p3]
 
 
