@@ -705,7 +705,7 @@ def _law_servo(ctrl, machine, op, T, h):
                  states=["servo_integral"], name="servo")
 
 
-def _law_smc(ctrl, machine, op, T, h):
+def _law_smc(ctrl, machine, op, T, h, frozen=False):
     """SMC (seed 004, our reading of Eq 37) inside its boundary layer, |s| < φ: the computed-torque
     part linearised at the point plus the linear switching term −(K/φ)·s, s = λ·e₁ + e₂,
     e₂ = (q̇ − qd_prev)/h − ω̇_d.  With ``boundary = 0`` (sign) there is no linear counterpart."""
@@ -738,6 +738,8 @@ def _law_smc(ctrl, machine, op, T, h):
         dtq += dJ * (-lam * e1) + 0.5 * ddJ * w * w - Q0q
         dtw += -J * lam + dJ * w - Q0w
         dtd += J * lam
+    if frozen:  # the angle is a parameter of the model-based terms
+        dtq = 0.0
     c = R / (n * km)
     ks = K / phi
     # inputs: q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I — ω_d ↔ qd_ref (a set-point offset)
@@ -754,11 +756,16 @@ def _law_smc(ctrl, machine, op, T, h):
 LAWS = {"pid": _law_pid, "servo": _law_servo, "smc": _law_smc}
 
 
-def controller_counterpart(machine, op: OperatingPoint, h: float, reference_feedback: bool = True):
+def controller_counterpart(machine, op: OperatingPoint, h: float, reference_feedback: bool = True,
+                           angle: str = "state"):
     """The machine's controller as a discrete-time ``control.StateSpace`` at its period T
     (inputs q_set, qd_set, q, qd, qd_prev, I; output V), or None for an open-loop controller.
     ``reference_feedback=False`` treats an angle-dependent reference (seed 002) as an exogenous
     speed profile (its dependence on the measured angle left out): the *speed loop*.
+    ``angle="frozen"``: the frozen-angle picture for the controller too — the angle is a
+    parameter of the reference and of a model-based law (SMC's ℑ(q), C(q), Q0(q)), as it is of the
+    plant (:func:`freeze_angle`); the measured angle still enters where it is a state (the PID's
+    integral, the servo's position loop).
     A controller class may provide its own ``linear_counterpart(machine, op, T, h)`` returning
     the law with inputs q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I."""
     from .kernel import control_every
@@ -769,8 +776,14 @@ def controller_counterpart(machine, op: OperatingPoint, h: float, reference_feed
     T = N * h
     tn = getattr(ctrl, "type_name", "")
     own = getattr(ctrl, "linear_counterpart", None)
+    if angle not in ("state", "frozen"):
+        raise ParameterError(f"angle = {angle!r}: choose 'state' or 'frozen'")
+    if angle == "frozen":
+        reference_feedback = False
     if own is not None:
         law = own(machine, op, T, h)
+    elif tn == "smc":
+        law = _law_smc(ctrl, machine, op, T, h, frozen=(angle == "frozen"))
     elif tn in LAWS:
         law = LAWS[tn](ctrl, machine, op, T, h)
     elif tn == "open":
@@ -812,7 +825,13 @@ def loop(plant_T, controller) -> Loop:
     if abs(float(plant_T.dt) - float(controller.dt)) > 1e-12 * float(plant_T.dt):
         raise ParameterError(f"plant period {plant_T.dt} s != controller period {controller.dt} s")
     Cfb = _reachable(controller[["V"], list(MEAS)])
-    Pfb = plant_T[list(MEAS), ["V"]]
+    # measurements the controller does not use are left out, then plant states no used output
+    # sees (e.g. the angle of a frozen plant under a pure speed law: a free integrator, z = 1)
+    used = [k for k, nm in enumerate(MEAS) if np.any(np.asarray(Cfb.D)[:, k] != 0)
+            or (Cfb.nstates and np.any(np.asarray(Cfb.B)[:, k] != 0))]
+    meas = [MEAS[k] for k in used] or ["qd"]
+    Cfb = _reachable(controller[["V"], meas])
+    Pfb = _observable(plant_T[meas, ["V"]])
     L = -(Cfb * Pfb)
     L.name = "L"
     S = ct.feedback(ct.ss([], [], [], [[1.0]], dt=plant_T.dt), L)
@@ -849,6 +868,27 @@ def _reachable(sys):
         return sys
     k = np.flatnonzero(reach)
     return ct.ss(A[np.ix_(k, k)], B[k], np.asarray(sys.C)[:, k], sys.D, sys.dt, inputs=list(sys.input_labels),
+                 outputs=list(sys.output_labels), states=[sys.state_labels[i] for i in k], name=sys.name)
+
+
+def _observable(sys):
+    """``sys`` without the states no output sees (structurally: zero C columns, not coupled into
+    observed states through A)."""
+    ct = _ct()
+    A, C = np.asarray(sys.A), np.asarray(sys.C)
+    n = A.shape[0]
+    if n == 0:
+        return sys
+    obs = np.any(C != 0, axis=0)
+    while True:
+        new = obs | np.any((A != 0) & obs[:, None], axis=0)
+        if (new == obs).all():
+            break
+        obs = new
+    if obs.all():
+        return sys
+    k = np.flatnonzero(obs)
+    return ct.ss(A[np.ix_(k, k)], np.asarray(sys.B)[k], C[:, k], sys.D, sys.dt, inputs=list(sys.input_labels),
                  outputs=list(sys.output_labels), states=[sys.state_labels[i] for i in k], name=sys.name)
 
 
@@ -980,10 +1020,11 @@ def analyse(machine, op: OperatingPoint, h: float, plant_kind="reduced", options
     else:
         raise ParameterError(f"plant = {plant_kind!r}: choose 'reduced' or 'multibody'")
     P = sample(p_h, N)
-    C = controller_counterpart(machine, op, h)
+    ang = _angle_mode(angle, op)
+    C = controller_counterpart(machine, op, h, angle=ang)
     lp = loop(P, C)
     lp.op = op
-    if reference_gain(machine.controller, op.q) != 0.0:
+    if ang == "state" and reference_gain(machine.controller, op.q) != 0.0:
         lp.speed = loop(P, controller_counterpart(machine, op, h, reference_feedback=False))
         lp.speed.op = op
     return lp, margins(lp)
@@ -1009,9 +1050,10 @@ FAILS_ABOVE = 1.0  #: ... and above which it fails
 
 
 def frozen_angle_family(machine, h: float, n_angles: int = 36, speed=None, t: float = 0.0,
-                        plant_kind="reduced", options=None, keep_loops=True) -> Family:
+                        plant_kind="reduced", options=None, keep_loops=True, angle=None) -> Family:
     """The loop at ``n_angles`` frozen input angles over [0, 2π) at the running speed (or
-    ``speed``: a number or a function of q) at time ``t`` (K_p·t)."""
+    ``speed``: a number or a function of q) at time ``t`` (K_p·t); ``angle`` as in
+    :func:`analyse` (None: frozen when running)."""
     qs = np.linspace(0.0, 2 * np.pi, int(n_angles), endpoint=False)
     if speed is None:
         speeds = np.array([running_speed(machine, q) for q in qs])
@@ -1022,7 +1064,7 @@ def frozen_angle_family(machine, h: float, n_angles: int = 36, speed=None, t: fl
     ms, lps = [], []
     for q, w in zip(qs, speeds):
         op = operating_point(machine, q, w, t=t)
-        lp, m = analyse(machine, op, h, plant_kind, options)
+        lp, m = analyse(machine, op, h, plant_kind, options, angle)
         ms.append(m)
         lps.append(lp if keep_loops else None)
     worst = worst_case(qs, ms)
@@ -1114,8 +1156,9 @@ def family_margins(machine, plants, h: float, with_bandwidth: bool = False) -> d
     {"phase_margin_deg", "gain_margin_dB", "peak_sensitivity", "bandwidth_rad_s", "all_stable"}."""
     ms = []
     for q, op, P in plants:
-        lp = loop(P, controller_counterpart(machine, op, h))
-        if reference_gain(machine.controller, op.q) != 0.0:
+        ang = _angle_mode(None, op)
+        lp = loop(P, controller_counterpart(machine, op, h, angle=ang))
+        if ang == "state" and reference_gain(machine.controller, op.q) != 0.0:
             lp.speed = loop(P, controller_counterpart(machine, op, h, reference_feedback=False))
         ms.append(margins(lp, with_bandwidth))
     w = worst_case(np.array([p[0] for p in plants]), ms)
@@ -1283,7 +1326,8 @@ def kp_ramp_limit(machine, h: float, n_angles: int = 24, t_max: float = 1e4, spe
     def rho(t):
         worst, at = 0.0, None
         for q, op, Pfb in cases:
-            C = _reachable(controller_counterpart(machine, dataclasses.replace(op, t=t), h)[["V"], list(MEAS)])
+            C = _reachable(controller_counterpart(machine, dataclasses.replace(op, t=t), h,
+                                                  angle=_angle_mode(None, op))[["V"], list(MEAS)])
             r = float(np.max(np.abs(ct.feedback(Pfb, C, sign=1).poles())))
             if r > worst:
                 worst, at = r, q
@@ -1394,7 +1438,7 @@ def study(scn, mode=None, q=None, qd=None, I=None, t=None, n_angles=36, multibod
         tm = transmission_modes(mach, op)
         js["transmission_modes"] = {k: [m.as_dict() for m in v] for k, v in tm.items()}
     try:
-        C = controller_counterpart(mach, op, h)
+        C = controller_counterpart(mach, op, h, angle=angle)
     except ParameterError as e:  # e.g. SMC without a boundary layer: plant only
         C = None
         js["loop_note"] = str(e)

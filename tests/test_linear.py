@@ -282,15 +282,23 @@ def test_frozen_angle_family_seed_002_speed_loop():
     """Seed 002 (Eq 21, side = crank): the speed loop's frozen poles are −1.0 ± 1.6j (Model-1),
     −0.7 and −4.3 1/s (Model-2) at every angle — K_d·z·k_m/R dominates the inertia — and the
     reference's angle dependence (∂q̇_trj/∂q up to 3.6 1/s) is as fast as the loop: the
-    frozen-angle picture is marginal/fails there."""
+    frozen-angle picture is marginal/fails there.  Kept in the loop (full Jacobian, angle as a
+    state) the reference's feedback g·δq gives a real pole ≈ g where q̇_trj rises with q."""
     for name, want in (("hulako2025-model1", [complex(-1.0, 1.6)]), ("hulako2025-model2", [-0.7, -4.3])):
         scn, m = machine(name)
         fam = LN.frozen_angle_family(m, H, 6)
         for lp in fam.loops:
-            p = [x for x in LN.s_poles(lp.speed.feedback) if abs(x) < 100 and x.imag >= 0]
+            p = [x for x in LN.s_poles((lp.speed or lp).feedback) if abs(x) < 100 and x.imag >= 0]
             for w in want:
                 assert min(abs(x - w) for x in p) < 0.15
         assert fam.validity["ratio"] > 0.5 and fam.validity["verdict"] in ("marginal", "fails")
+        assert fam.worst["all_stable"]
+    scn, m = machine("hulako2025-model1")
+    q = 4.2
+    g = LN.reference_gain(m.controller, q)
+    lp, mg = LN.analyse(m, LN.operating_point(m, q, LN.running_speed(m, q)), H, angle="state")
+    assert g > 1.0 and not mg.stable
+    assert min(abs(p - g) for p in LN.s_poles(lp.feedback)) < 0.3 * g
 
 
 def test_linearize_cli(tmp_path, capsys):
@@ -332,3 +340,24 @@ def test_demand_error_loop_is_the_closed_form():
     ref = 1.0 / (kp + ki / s + kd * s + (d.R + d.L * s) * (J * s + c) / (d.z * d.k_m) + d.z * d.k_m)
     G = LN.response(lp.closed, w, "qd", "d")
     assert np.all(np.abs(G - ref) / np.abs(ref) < 0.6 * w * 1e-4 + 1e-6)
+
+
+def test_seed_002_model2_sampled_derivative_is_near_its_limit():
+    """Model-2's K_d = 10 (Eq 21), differentiated over the 0.1 ms step: the frozen loops keep only
+    ≈ 0.25 dB of gain margin (at ≈ 15.8 krad/s, low-inertia angles); 6 % more K_d makes some
+    frozen angles unstable — and the co-simulation (12 V clip off, so nothing masks it) then
+    bursts into a sampling-rate zigzag of the voltage while the crank passes them (q ≈ 3.9-4.4 rad,
+    t ≈ 1.5-2 s at 0.1 m/s), decaying elsewhere; with K_d = 10 it does not (measured 1e-6 V vs
+    360 V)."""
+    out = {}
+    for kd in (10.0, 10.6):
+        scn, m = machine("hulako2025-model2", "vlimit=none", "vmax=inf", f"kd={kd}")
+        fam = LN.frozen_angle_family(m, H, 24, keep_loops=False)
+        tr = reduced.simulate(m, 2.0, dt=H, record_dt=H)
+        V = tr.voltage
+        alt = np.abs(V[1:-1] - 0.5 * (V[:-2] + V[2:]))[tr.t[1:-1] > 1.0].max()  # sample-to-sample zigzag
+        out[kd] = (fam, alt)
+    fam, alt = out[10.0]
+    assert fam.worst["all_stable"] and 0 < fam.worst["gain_margin_dB"]["value"] < 1.0 and alt < 1e-3
+    fam, alt = out[10.6]
+    assert not fam.worst["all_stable"] and alt > 10.0
