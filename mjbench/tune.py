@@ -25,6 +25,14 @@ paper's); a diverged run scores 1e3.  Metrics: ``chi`` (χ, Eq 22, on the scenar
 ``metrics.chi_window``), ``chi_cycle`` (χ of the last complete crank cycle), ``ise``/``iae``/``itae``
 (∫e², ∫|e|, ∫t|e| of the crank-speed error to the set-point over the run, [rad²/s], [rad], [rad·s]).
 
+Margin constraints (``--margin pm>=45 --margin ms<=2``; keys pm [deg], gm [dB], ms = peak |S|,
+bw [rad/s]): evaluated on the linear model (:mod:`mjbench.linear`) — the candidate's controller
+counterpart closed around the reduced plant at ``margin_angles`` frozen angles over one turn at
+the running speed, worst case over the angles, K_p·t frozen at the end of the run (the largest
+gain).  ``margin_mode = "penalty"`` (default): the objective gets PENALTY × Σ relative violation
+(each capped at 1), like the peak limits; ``"constraint"``: a violating candidate is not simulated
+and scores DIVERGED × (1 + violation) — a hard constraint that also saves its simulation.
+
 Controllers: ``pid`` (constant K_p), ``pid-tv`` (K_p·t, Eq 15; the paper's), ``smc`` (sliding mode,
 controllers/smc.py, seed 004: λ and K).  Run length: the end of the χ window (0.5 s for seed 000),
 else the scenario's ``simulation.t_end``.
@@ -66,6 +74,7 @@ class TuneResult:
     backend: str = "multibody"       # search backend
     search: dict = field(default_factory=dict)   # {"tuned": metrics, "baseline": metrics} on the search backend
     verified: list = field(default_factory=list)  # best candidates: gains, search and multibody scores
+    margins: list = field(default_factory=list)  # [(key, op, value)] constraints
 
     @property
     def improvement(self):
@@ -86,7 +95,7 @@ class Problem:
     """Evaluates gain sets (arrays in the parameter order) on the batch."""
 
     def __init__(self, scn, controller, objective="chi", limits=None, t_end=None, nthread=0, batch_size=64,
-                 backend="multibody"):
+                 backend="multibody", margins=(), margin_mode="penalty", margin_angles=12):
         from .backends import SEARCH_BACKENDS
 
         if backend not in SEARCH_BACKENDS:
@@ -128,6 +137,17 @@ class Problem:
         self.limits = dict(limits or {})
         self.nfev = 0
         self._plant = None
+        if margin_mode not in ("penalty", "constraint"):
+            raise ParameterError(f"--margin-mode {margin_mode!r}: choose penalty or constraint")
+        self.margins = [c if isinstance(c, tuple) else _parse_margin(c) for c in margins]
+        self.margin_mode = margin_mode
+        self._plants = None
+        if self.margins:
+            from . import linear
+            m0 = self.machine(self.x0)
+            self._plants = linear.plant_family(m0, float(scn.simulation.dt), margin_angles, t=self.t_end)
+            self._with_bw = any(k == "bw" for k, _, _ in self.margins)
+            self.linear_margins(self.x0)  # fails early (e.g. SMC without boundary layer)
 
     # ------------------------------------------------------------------ evaluation
     def machine(self, x, params=None):
@@ -164,10 +184,23 @@ class Problem:
             out["itae"] = float(np.trapezoid(t * np.abs(e), t))
         return out
 
+    def linear_margins(self, x=None, params=None) -> dict:
+        """Worst-case frozen-angle margins of gains x (linear model) and their violation."""
+        from . import linear
+
+        if not self.margins:
+            return {}
+        mach = self.machine(x, params)
+        w = linear.family_margins(mach, self._plants, float(self.scn.simulation.dt), self._with_bw)
+        w["violation"] = linear.margin_violation(w, self.margins)
+        return w
+
     def score(self, m):
         if m is None or self.objective not in m or not np.isfinite(m[self.objective]):
             return DIVERGED
         pen = 0.0
+        if self.margins and "margins" in m:
+            pen += m["margins"]["violation"]
         for key, lim in (("peak_voltage_V", self.limits.get("voltage")), ("peak_current_A", self.limits.get("current"))):
             if lim is not None:
                 pen += max(0.0, m[key] / lim - 1.0)
@@ -183,6 +216,15 @@ class Problem:
         scores, mets = np.full(len(X), DIVERGED), [None] * len(X)
         if len(X) == 1:  # one simulation: the single-run loop (same numbers, less overhead)
             from .errors import SimulationDiverged
+            if self.margins and self.margin_mode == "constraint":
+                try:
+                    lin = self.linear_margins(X[0])
+                except (MjbenchError, ValueError):
+                    lin = None
+                if lin is None or lin["violation"] > 0:
+                    self.nfev += 1
+                    scores[0] = DIVERGED * (1.0 + (lin["violation"] if lin else 1.0))
+                    return scores, [{"margins": lin} if lin else None]
             try:
                 m, _ = self.run(X[0], backend=backend)
                 mets[0] = m
@@ -192,10 +234,21 @@ class Problem:
             self.nfev += 1
             return scores, mets
         opts = self.options if backend == self.backend else self.mb_options
+        lin = [None] * len(X)
+        if self.margins:
+            for i in range(len(X)):
+                try:
+                    lin[i] = self.linear_margins(X[i])
+                except (MjbenchError, ValueError):
+                    lin[i] = None
         for s in range(0, len(X), self.batch_size):
             idx = range(s, min(len(X), s + self.batch_size))
             machines, ok = [], []
             for i in idx:
+                if self.margins and self.margin_mode == "constraint" and (lin[i] is None or lin[i]["violation"] > 0):
+                    scores[i] = DIVERGED * (1.0 + (lin[i]["violation"] if lin[i] else 1.0))
+                    mets[i] = {"margins": lin[i]} if lin[i] else None
+                    continue
                 try:
                     machines.append(self.machine(X[i]))
                     ok.append(i)
@@ -212,6 +265,8 @@ class Problem:
                         mets[i]["objective"] = mets[i].get(self.objective, float("nan"))
                     except MjbenchError:
                         mets[i] = None
+                if mets[i] is not None and lin[i] is not None:
+                    mets[i]["margins"] = lin[i]
                 scores[i] = self.score(mets[i])
                 if mets[i] is not None:
                     mets[i]["score"] = scores[i]
@@ -226,8 +281,13 @@ class Problem:
         backend = backend or self.backend
         opts = self.options if backend == self.backend else self.mb_options
         machine = self.machine(None, self.base_params) if baseline else self.machine(x)
+        lin = None
+        if self.margins:
+            lin = self.linear_margins(None, self.base_params) if baseline else self.linear_margins(x)
         tr = simulate(machine, backend, self.t_end, record_dt=self.record_dt, options=dict(opts))
         m = self.metrics(tr)
+        if lin is not None:
+            m["margins"] = lin
         m["objective"] = m.get(self.objective, float("nan"))
         m["score"] = self.score(m)
         return m, tr
@@ -237,15 +297,21 @@ class Problem:
         return self.run(x, baseline, backend="multibody")
 
 
+def _parse_margin(text):
+    from .linear import parse_margin
+    return parse_margin(text)
+
+
 def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, starts=1, maxfev=80,
          span=10.0, bounds=None, seed=0, t_end=None, nthread=0, batch_size=64, log=print,
-         backend="reduced", verify=3) -> TuneResult:
+         backend="reduced", verify=3, margins=(), margin_mode="penalty", margin_angles=12) -> TuneResult:
     """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains on ``backend``,
     then the ``verify`` best candidates on MuJoCo; see the module doc."""
     from scipy.optimize import minimize
     from scipy.stats import qmc
 
-    prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend)
+    prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
+                   margin_mode=margin_mode, margin_angles=margin_angles)
     t0 = time.perf_counter()
     base_m, _ = prob.run(prob.x0, baseline=True)
     lim = dict(limits or {})
@@ -338,7 +404,8 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     hist["seconds"] = time.perf_counter() - t0
     return TuneResult(controller, objective, prob.mode, list(prob.params),
                       dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
-                      {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend, search, verified)
+                      {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
+                      verified=verified, margins=list(prob.margins))
 
 
 def report(res: TuneResult) -> str:
@@ -353,6 +420,13 @@ def report(res: TuneResult) -> str:
     for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A")):
         if k in v["baseline"] or k in v["tuned"]:
             lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
+    from .linear import MARGIN_KEYS
+    for key, op, val in res.margins:
+        name = MARGIN_KEYS[key][0]
+        b = v["baseline"].get("margins", {}).get(name)
+        tv = v["tuned"].get("margins", {}).get(name)
+        lines.append(f"  {('worst ' + key + ' ' + op + ' ' + format(val, 'g')):<22s} "
+                     f"{(b if b is not None else float('nan')):>16.6g} {(tv if tv is not None else float('nan')):>16.6g}")
     lines.append(f"  limits: {', '.join(f'{k} {x:.4g}' for k, x in res.limits.items())} "
                  f"(penalty {PENALTY:g} × relative excess)")
     lines.append(f"  improvement of {res.objective} over the scenario's gains (multibody validation): "

@@ -52,19 +52,25 @@ def test_tables_hold_metrics_json_numbers(report):
     out, _, md, htm = report
     m = read_json(out / "incerti2012-short" / "metrics.json")  # strict JSON (no NaN/Infinity)
     md_text, html_text = md.read_text(), htm.read_text()
-    assert len(m["rows"]) == 2  # the two χ figures of seed 000 (open loop, PID window)
-    for row in m["rows"]:
+    chi_rows = [r for r in m["rows"] if "metric" in r]
+    assert len(chi_rows) == 2  # the two χ figures of seed 000 (open loop, PID window)
+    assert any("linear" in r["ours"] for r in m["rows"])  # + the linear analysis of the PID loop
+    for row in chi_rows:
         # the row's numbers are the metrics of the run ...
         for b, v in row["ours"].items():
             assert v == pytest.approx(m["modes"][row["mode"]]["backends"][b][row["metric"]], rel=1e-12)
         assert row["difference"] == pytest.approx(row["ours"]["multibody"] - row["paper"], rel=1e-12)
         # ... and the report's table line prints exactly them
-        line = next(l for l in md_text.splitlines() if l.startswith(f"| {row['name']} |"))
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[2] == R.fmt(row["paper"])
-        assert cells[3] == R.fmt(row["ours"]["multibody"]) and cells[4] == R.fmt(row["ours"]["reduced"])
-        assert cells[5] == R.fmt(row["difference"])
-        assert row["reason"] and cells[7] == row["reason"]
+        lines = md_text.splitlines()
+        k = next(i for i, l in enumerate(lines) if l.startswith(f"| {row['name']} |"))
+        head = next(lines[i] for i in range(k, -1, -1) if lines[i].startswith("| quantity |"))
+        col = {c.strip(): i for i, c in enumerate(head.strip("|").split("|"))}
+        cells = [c.strip() for c in lines[k].strip("|").split("|")]
+        assert cells[col["paper"]] == R.fmt(row["paper"])
+        assert cells[col["ours: multibody"]] == R.fmt(row["ours"]["multibody"])
+        assert cells[col["ours: reduced"]] == R.fmt(row["ours"]["reduced"])
+        assert cells[col["difference"]] == R.fmt(row["difference"])
+        assert row["reason"] and cells[col["reason"]] == row["reason"]
         hrow = re.search(r"<tr[^>]*><td>" + re.escape(html.escape(row["name"])) + r"</td>(.*?)</tr>", html_text)
         assert hrow, row["name"]
         for v in (row["paper"], row["ours"]["multibody"], row["ours"]["reduced"], row["difference"]):
@@ -90,7 +96,7 @@ def test_html_opens_in_headless_chromium(report, tmp_path):
     m = re.search(r'data-check="images (\d+)/(\d+) video-errors (\d+)/(\d+)"', p.stdout)
     assert m, "the report's load check did not run:\n" + p.stdout[:500] + p.stderr[-1500:]
     ok, n_img, verr, n_vid = map(int, m.groups())
-    assert n_img == len(res["figures"]) == 3 and ok == n_img, "an embedded figure did not load"
+    assert n_img == len(res["figures"]) == 4 and ok == n_img, "an embedded figure did not load"
     assert n_vid == 1 and verr == 0, "the embedded video reports a media error"
     assert "Uncaught" not in p.stderr and "SyntaxError" not in p.stderr
     shot = tmp_path / "shot.png"

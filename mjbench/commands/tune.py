@@ -25,6 +25,13 @@ def register(sub):
                         "ise/iae/itae: crank-speed error to the set-point")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
+    p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
+                   help="robustness constraint on the linear model (worst frozen angle): pm>=DEG, gm>=DB, "
+                        "ms<=PEAK_S, bw>=RAD_S (repeatable; docs/linear.md)")
+    p.add_argument("--margin-mode", choices=["penalty", "constraint"], default="penalty",
+                   help="penalty: objective + 10 × relative violation (default); constraint: violating "
+                        "candidates are not simulated")
+    p.add_argument("--margin-angles", type=int, default=12, help="frozen angles for the margins (default 12)")
     p.add_argument("--bounds", action="append", default=[], metavar="GAIN=LO:HI",
                    help="search interval of a gain (default: scenario value ×/÷ --span)")
     p.add_argument("--span", type=float, default=10.0, help="default search factor around the scenario's gains")
@@ -93,12 +100,14 @@ def cmd_tune(args):
         res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
                    starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=bounds,
                    seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
-                   verify=args.verify)
+                   verify=args.verify, margins=args.margin, margin_mode=args.margin_mode,
+                   margin_angles=args.margin_angles)
         print(report(res))
         if out is not None:
             doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
                    "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
-                   "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
+                   "limits": res.limits, "margins": [f"{k}{op}{v:g}" for k, op, v in res.margins],
+                   "validation": res.validation, "improvement": res.improvement,
                    "search_backend": res.backend, "search": res.search, "verified": res.verified,
                    "history": res.history}
             write_json(os.path.join(out, "tune.json"), doc, indent=1)
@@ -115,7 +124,7 @@ def _plot(scn, res, path):
     from ..tune import Problem
     import matplotlib.pyplot as plt
 
-    prob = Problem(scn, res.controller, res.objective, res.limits)
+    prob = Problem(scn, res.controller, res.objective, res.limits)  # (no margins: only the runs are drawn)
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
     for label, gains, st in (("scenario controller", res.baseline, dict(color="tab:gray")),
                              (f"tuned {res.controller}", res.best, dict(color="tab:blue"))):
