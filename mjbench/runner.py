@@ -20,7 +20,7 @@ def backend_options(scn, backend: str) -> dict:
     if backend == "multibody":
         return scn.multibody_options()
     r = scn.reduced
-    return {"timestep": scn.simulation.dt, "method": r.method, "rtol": r.rtol, "atol": r.atol}
+    return {"timestep": scn.simulation.dt, "method": r.method, "rtol": r.rtol, "atol": r.atol, "model": r.model}
 
 
 def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:

@@ -162,6 +162,8 @@ class ReducedOptions(Strict):
     """``[reduced]``: integrator of the reduced model over one co-simulation step."""
 
     method: Literal["rk4", "solve_ivp"] = "rk4"
+    model: Literal["table", "closed"] = Field(
+        "table", description="rigid mechanisms: tabulated J, J', E_p' (error ≤ 1e-9, fast) or the closed forms")
     rtol: float = Field(1e-10, gt=0.0)
     atol: float = Field(1e-12, gt=0.0)
 
@@ -458,8 +460,6 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     if not isinstance(raw, dict):
         raise ScenarioError(f"scenario {source}: not a table")
     raw = dict(raw)
-    if "scenario" not in raw or not isinstance(raw.get("scenario"), dict) or "name" not in raw["scenario"]:
-        pass  # reported by the top-level validation below
     # sub-tables validated through their registries
     mech, drive, modes = None, None, {}
     mraw = raw.get("mechanism")
@@ -516,10 +516,7 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     if scn is not None:
         scn.modes = modes
         # cross-field checks
-        if scn.simulation.mode is not None and modes and scn.simulation.mode not in modes and \
-                scn.simulation.mode in mraw_all:
-            pass
-        elif scn.simulation.mode is not None and scn.simulation.mode not in mraw_all:
+        if scn.simulation.mode is not None and scn.simulation.mode not in mraw_all:
             problems.append(f"simulation.mode: {scn.simulation.mode!r} is not one of the [modes.*] tables "
                             f"({', '.join(sorted(mraw_all)) or 'none defined'})")
         if scn.simulation.record_dt < scn.simulation.dt * (1 - 1e-9):

@@ -1,22 +1,37 @@
-"""Controller autotuning on the batched multibody backend (seed 000 §IV: "minimise χ over K_p, K_i, K_d").
+"""Controller autotuning: search on the cheap model, verify on MuJoCo (seed 000 §IV: "minimise χ over K_p, K_i, K_d").
 
 Stages
 1. **Global**: ``n_global`` candidate gain sets — a scrambled Sobol sequence over the log-scaled
    box (default: each gain within ×/÷ ``span`` = 10 of the scenario's gains) plus the scenario's
-   own gains — simulated together in one ``mujoco.batch`` (chunks of ``batch_size``).
+   own gains — simulated together on the search backend's batch (chunks of ``batch_size``).
 2. **Local**: Nelder–Mead (``scipy.optimize.minimize``) in the log-gains from the best global
-   candidates (``starts``), each evaluation one simulation through the same batched backend;
-   bounded by ``maxfev`` evaluations per start.  Nelder–Mead because χ is a max−min of a sampled
-   signal: piecewise smooth, no useful gradient.
-3. **Validation**: the winner and the scenario's gains re-simulated by the single-run
-   ``multibody.simulate`` (not the batch) and compared.
+   candidates (``starts``), each evaluation one single run on the search backend; bounded by
+   ``maxfev`` evaluations per start.  Nelder–Mead because χ is a max−min of a sampled signal:
+   piecewise smooth, no useful gradient.
+3. **Verification**: the ``verify`` best distinct candidates (local winners first, then the best
+   global ones) re-simulated together on the multibody backend (``mujoco.batch``); the winner is
+   the best *verified* candidate, and it and the scenario's gains are then run by the single-run
+   ``multibody.simulate``.  The report states the search figure, the MuJoCo figure and their
+   difference.
+
+Search backend (``backend``): ``reduced`` (default; the batched reduced model,
+:mod:`mjbench.backends.reduced_batch`, ≈ 15× cheaper per run-step than ``mujoco.batch``) or
+``multibody`` (search on MuJoCo itself; the verification then repeats the search's numbers).
 
 Objective (minimised, penalised): the metric plus 10 × the relative excess of the peak |voltage|
 and peak |current| over their limits (``--limit voltage=V,current=A``; default: the peaks of the
-scenario's own gains, so a tuned controller may not draw more than the paper's); a diverged run
-scores 1e3.  Metrics: ``chi`` (χ, Eq 22, on the scenario's ``metrics.chi_window``), ``chi_cycle``
-(χ of the last complete crank cycle), ``ise``/``iae``/``itae`` (∫e², ∫|e|, ∫t|e| of the crank-speed
-error to the set-point over the run, [rad²/s], [rad], [rad·s]).
+scenario's own gains on the search backend, so a tuned controller may not draw more than the
+paper's); a diverged run scores 1e3.  Metrics: ``chi`` (χ, Eq 22, on the scenario's
+``metrics.chi_window``), ``chi_cycle`` (χ of the last complete crank cycle), ``ise``/``iae``/``itae``
+(∫e², ∫|e|, ∫t|e| of the crank-speed error to the set-point over the run, [rad²/s], [rad], [rad·s]).
+
+Margin constraints (``--margin pm>=45 --margin ms<=2``; keys pm [deg], gm [dB], ms = peak |S|,
+bw [rad/s]): evaluated on the linear model (:mod:`mjbench.linear`) — the candidate's controller
+counterpart closed around the reduced plant at ``margin_angles`` frozen angles over one turn at
+the running speed, worst case over the angles, K_p·t frozen at the end of the run (the largest
+gain).  ``margin_mode = "penalty"`` (default): the objective gets PENALTY × Σ relative violation
+(each capped at 1), like the peak limits; ``"constraint"``: a violating candidate is not simulated
+and scores DIVERGED × (1 + violation) — a hard constraint that also saves its simulation.
 
 Controllers: ``pid`` (constant K_p), ``pid-tv`` (K_p·t, Eq 15; the paper's), ``smc`` (sliding mode,
 controllers/smc.py, seed 004: λ and K).  Run length: the end of the χ window (0.5 s for seed 000),
@@ -56,6 +71,10 @@ class TuneResult:
     validation: dict                 # {"tuned": metrics, "baseline": metrics} (single multibody runs)
     limits: dict
     history: dict = field(default_factory=dict)
+    backend: str = "multibody"       # search backend
+    search: dict = field(default_factory=dict)   # {"tuned": metrics, "baseline": metrics} on the search backend
+    verified: list = field(default_factory=list)  # best candidates: gains, search and multibody scores
+    margins: list = field(default_factory=list)  # [(key, op, value)] constraints
 
     @property
     def improvement(self):
@@ -75,7 +94,12 @@ def find_mode(scn, ctype):
 class Problem:
     """Evaluates gain sets (arrays in the parameter order) on the batch."""
 
-    def __init__(self, scn, controller, objective="chi", limits=None, t_end=None, nthread=0, batch_size=64):
+    def __init__(self, scn, controller, objective="chi", limits=None, t_end=None, nthread=0, batch_size=64,
+                 backend="multibody", margins=(), margin_mode="penalty", margin_angles=12):
+        from .backends import SEARCH_BACKENDS
+
+        if backend not in SEARCH_BACKENDS:
+            raise ParameterError(f"--backend {backend!r}: choose one of {list(SEARCH_BACKENDS)}")
         if controller not in CONTROLLERS:
             raise ParameterError(f"--controller {controller!r}: choose one of {sorted(CONTROLLERS)}")
         if objective not in OBJECTIVES:
@@ -96,7 +120,11 @@ class Problem:
         self.t_end = float(t_end)
         self.record_dt = min(scn.simulation.record_dt, 5e-4)
         from .runner import backend_options
-        self.options = backend_options(self.scn, "multibody")
+        self.backend = backend
+        self.mb_options = backend_options(self.scn, "multibody")
+        self.options = backend_options(self.scn, backend)
+        if backend == "reduced":
+            self.options["method"] = "rk4"  # the batched reduced model's integrator
         self.nthread, self.batch_size = nthread, batch_size
         drive = S.make_drive(scn)
         table = self.base_params
@@ -108,6 +136,18 @@ class Problem:
             self.setpoint = None
         self.limits = dict(limits or {})
         self.nfev = 0
+        self._plant = None
+        if margin_mode not in ("penalty", "constraint"):
+            raise ParameterError(f"--margin-mode {margin_mode!r}: choose penalty or constraint")
+        self.margins = [c if isinstance(c, tuple) else _parse_margin(c) for c in margins]
+        self.margin_mode = margin_mode
+        self._plants = None
+        if self.margins:
+            from . import linear
+            m0 = self.machine(self.x0)
+            self._plants = linear.plant_family(m0, float(scn.simulation.dt), margin_angles, t=self.t_end)
+            self._with_bw = any(k == "bw" for k, _, _ in self.margins)
+            self.linear_margins(self.x0)  # fails early (e.g. SMC without boundary layer)
 
     # ------------------------------------------------------------------ evaluation
     def machine(self, x, params=None):
@@ -122,7 +162,9 @@ class Problem:
                 if not (math.isfinite(float(v)) and float(v) >= 0):
                     raise ParameterError(f"tune: {p} = {v!r} is not a valid gain")
         scn = self.scn
-        mech, drive = S.make_mechanism(scn), S.make_drive(scn)
+        if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
+            self._plant = S.make_mechanism(scn), S.make_drive(scn)
+        mech, drive = self._plant
         ctrl = controllers.build(params, drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
@@ -142,35 +184,71 @@ class Problem:
             out["itae"] = float(np.trapezoid(t * np.abs(e), t))
         return out
 
+    def linear_margins(self, x=None, params=None) -> dict:
+        """Worst-case frozen-angle margins of gains x (linear model) and their violation."""
+        from . import linear
+
+        if not self.margins:
+            return {}
+        mach = self.machine(x, params)
+        w = linear.family_margins(mach, self._plants, float(self.scn.simulation.dt), self._with_bw)
+        w["violation"] = linear.margin_violation(w, self.margins)
+        return w
+
     def score(self, m):
         if m is None or self.objective not in m or not np.isfinite(m[self.objective]):
             return DIVERGED
         pen = 0.0
+        if self.margins and "margins" in m:
+            pen += m["margins"]["violation"]
         for key, lim in (("peak_voltage_V", self.limits.get("voltage")), ("peak_current_A", self.limits.get("current"))):
             if lim is not None:
                 pen += max(0.0, m[key] / lim - 1.0)
         return float(m[self.objective] + PENALTY * pen)
 
-    def evaluate(self, X):
-        """Objective of every gain set in X (n, nparam) → (scores, metrics list), batched."""
-        from .backends import batch
+    def evaluate(self, X, backend=None):
+        """Objective of every gain set in X (n, nparam) → (scores, metrics list), batched on the
+        search backend (or ``backend``)."""
+        from .backends import simulate_many
 
+        backend = backend or self.backend
         X = np.atleast_2d(X)
         scores, mets = np.full(len(X), DIVERGED), [None] * len(X)
         if len(X) == 1:  # one simulation: the single-run loop (same numbers, less overhead)
             from .errors import SimulationDiverged
+            if self.margins and self.margin_mode == "constraint":
+                try:
+                    lin = self.linear_margins(X[0])
+                except (MjbenchError, ValueError):
+                    lin = None
+                if lin is None or lin["violation"] > 0:
+                    self.nfev += 1
+                    scores[0] = DIVERGED * (1.0 + (lin["violation"] if lin else 1.0))
+                    return scores, [{"margins": lin} if lin else None]
             try:
-                m, _ = self.validate(X[0])
+                m, _ = self.run(X[0], backend=backend)
                 mets[0] = m
                 scores[0] = m["score"]
             except (SimulationDiverged, MjbenchError, ValueError):
                 pass
             self.nfev += 1
             return scores, mets
+        opts = self.options if backend == self.backend else self.mb_options
+        lin = [None] * len(X)
+        if self.margins:
+            for i in range(len(X)):
+                try:
+                    lin[i] = self.linear_margins(X[i])
+                except (MjbenchError, ValueError):
+                    lin[i] = None
         for s in range(0, len(X), self.batch_size):
             idx = range(s, min(len(X), s + self.batch_size))
             machines, ok = [], []
             for i in idx:
+                if self.margins and self.margin_mode == "constraint" and (lin[i] is None or lin[i]["violation"] > 0):
+                    scores[i] = DIVERGED * (1.0 + (lin[i]["violation"] if lin[i] else 1.0))
+                    mets[i] = {"margins": lin[i]} if lin[i] else None
+                    continue
                 try:
                     machines.append(self.machine(X[i]))
                     ok.append(i)
@@ -178,40 +256,64 @@ class Problem:
                     pass
             if not machines:
                 continue
-            res = batch.simulate(machines, self.t_end, record_dt=self.record_dt, options=self.options,
-                                 nthread=self.nthread)
+            res = simulate_many(machines, backend, self.t_end, record_dt=self.record_dt, options=opts,
+                                nthread=self.nthread)
             for j, i in enumerate(ok):
                 if not res.diverged[j]:
                     try:
                         mets[i] = self.metrics(res.trajectory(j))
+                        mets[i]["objective"] = mets[i].get(self.objective, float("nan"))
                     except MjbenchError:
                         mets[i] = None
+                if mets[i] is not None and lin[i] is not None:
+                    mets[i]["margins"] = lin[i]
                 scores[i] = self.score(mets[i])
+                if mets[i] is not None:
+                    mets[i]["score"] = scores[i]
         self.nfev += len(X)
         return scores, mets
 
-    def validate(self, x, baseline=False):
-        """Single-run multibody simulation of gains x (``baseline``: the scenario's controller as
-        written, e.g. K_p·t when tuning a constant-K_p PID) → metrics + objective."""
-        from .backends import multibody
+    def run(self, x, baseline=False, backend=None):
+        """Single run of gains x (``baseline``: the scenario's controller as written, e.g. K_p·t
+        when tuning a constant-K_p PID) on the search backend (or ``backend``) → metrics + objective."""
+        from .backends import simulate
 
+        backend = backend or self.backend
+        opts = self.options if backend == self.backend else self.mb_options
         machine = self.machine(None, self.base_params) if baseline else self.machine(x)
-        tr = multibody.simulate(machine, self.t_end, record_dt=self.record_dt, options=self.options)
+        lin = None
+        if self.margins:
+            lin = self.linear_margins(None, self.base_params) if baseline else self.linear_margins(x)
+        tr = simulate(machine, backend, self.t_end, record_dt=self.record_dt, options=dict(opts))
         m = self.metrics(tr)
+        if lin is not None:
+            m["margins"] = lin
         m["objective"] = m.get(self.objective, float("nan"))
         m["score"] = self.score(m)
         return m, tr
 
+    def validate(self, x, baseline=False):
+        """Single-run multibody simulation of gains x (the verification) → metrics + objective."""
+        return self.run(x, baseline, backend="multibody")
+
+
+def _parse_margin(text):
+    from .linear import parse_margin
+    return parse_margin(text)
+
 
 def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, starts=1, maxfev=80,
-         span=10.0, bounds=None, seed=0, t_end=None, nthread=0, batch_size=64, log=print) -> TuneResult:
-    """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains; see module doc."""
+         span=10.0, bounds=None, seed=0, t_end=None, nthread=0, batch_size=64, log=print,
+         backend="reduced", verify=3, margins=(), margin_mode="penalty", margin_angles=12) -> TuneResult:
+    """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains on ``backend``,
+    then the ``verify`` best candidates on MuJoCo; see the module doc."""
     from scipy.optimize import minimize
     from scipy.stats import qmc
 
-    prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size)
+    prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
+                   margin_mode=margin_mode, margin_angles=margin_angles)
     t0 = time.perf_counter()
-    base_m, _ = prob.validate(prob.x0, baseline=True)
+    base_m, _ = prob.run(prob.x0, baseline=True)
     lim = dict(limits or {})
     lim.setdefault("voltage", base_m["peak_voltage_V"])
     lim.setdefault("current", base_m["peak_current_A"])
@@ -246,6 +348,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
         s, _ = prob.evaluate(np.exp(z)[None, :])
         return float(s[0])
 
+    cands = []  # (search score, gains) of the local winners, then the best global candidates
     for r in range(max(0, starts)):
         z0 = np.log(X[order[r]])
         step = 0.1 * (hi - lo)
@@ -256,24 +359,60 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
         hist["local"].append({"start": X[order[r]].tolist(), "x": x.tolist(), "score": float(opt.fun),
                               "nfev": int(opt.nfev)})
         log(f"local stage from start {r + 1}: score {opt.fun:.5g} after {opt.nfev} evaluations")
+        cands.append((float(opt.fun), x))
         if opt.fun < best_s:
             best_x, best_s = x, float(opt.fun)
-    tuned_m, _ = prob.validate(best_x)
+    t_search = time.perf_counter() - t0
+    # ---- verification of the best distinct candidates on MuJoCo
+    verified, tuned_m = [], None
+    if backend != "multibody" and verify > 0:
+        cands.sort(key=lambda c: c[0])
+        cands += [(float(scores[i]), X[i]) for i in order]
+        pick = []
+        for sc, x in cands:
+            if sc < DIVERGED and all(np.max(np.abs(np.log(x) - np.log(y))) > 1e-6 for _, y in pick):
+                pick.append((sc, x))
+            if len(pick) == verify:
+                break
+        Xv = np.array([x for _, x in pick])
+        sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
+        for k, (sc, x) in enumerate(pick):
+            verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
+                             "score_multibody": float(sv[k]),
+                             "objective_multibody": (mv[k] or {}).get("objective", float("nan"))})
+        kbest = int(np.argmin(sv[:len(pick)]))
+        if kbest != 0:
+            log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
+        best_x = pick[kbest][1]
+        log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
+        tuned_m = mv[kbest]
+    if not verified or tuned_m is None:
+        tuned_m, _ = prob.validate(best_x)
+    search = {"baseline": base_m}
+    if backend != "multibody":
+        search["tuned"], _ = prob.run(best_x)
+        base_mb, _ = prob.validate(prob.x0, baseline=True)
+        base_mb["score"] = prob.score(base_mb)
+    else:
+        search["tuned"], base_mb = tuned_m, base_m
     zb = np.log(best_x)
     hist["at_bound"] = [p for k, p in enumerate(prob.params)
                         if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
     hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
     hist["evaluations"] = prob.nfev
+    hist["seconds_search"] = t_search
     hist["seconds"] = time.perf_counter() - t0
     return TuneResult(controller, objective, prob.mode, list(prob.params),
                       dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
-                      {"tuned": tuned_m, "baseline": base_m}, lim, hist)
+                      {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
+                      verified=verified, margins=list(prob.margins))
 
 
 def report(res: TuneResult) -> str:
     v = res.validation
-    lines = [f"controller {res.controller} (mode {res.mode}), objective {res.objective}; "
-             f"{res.history.get('evaluations', '?')} simulations in {res.history.get('seconds', 0):.1f} s",
+    lines = [f"controller {res.controller} (mode {res.mode}), objective {res.objective}, search on the "
+             f"{res.backend} backend; {res.history.get('evaluations', '?')} simulations in "
+             f"{res.history.get('seconds', 0):.1f} s (search {res.history.get('seconds_search', 0):.1f} s)",
              f"  {'':<22s} {'scenario ctrl':>16s} {'tuned':>16s}"]
     for p in res.params:
         at = "  (at a search bound)" if p in res.history.get("at_bound", []) else ""
@@ -281,8 +420,39 @@ def report(res: TuneResult) -> str:
     for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A")):
         if k in v["baseline"] or k in v["tuned"]:
             lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
+    from .linear import MARGIN_KEYS
+    for key, op, val in res.margins:
+        name = MARGIN_KEYS[key][0]
+        b = v["baseline"].get("margins", {}).get(name)
+        tv = v["tuned"].get("margins", {}).get(name)
+        lines.append(f"  {('worst ' + key + ' ' + op + ' ' + format(val, 'g')):<22s} "
+                     f"{(b if b is not None else float('nan')):>16.6g} {(tv if tv is not None else float('nan')):>16.6g}")
     lines.append(f"  limits: {', '.join(f'{k} {x:.4g}' for k, x in res.limits.items())} "
                  f"(penalty {PENALTY:g} × relative excess)")
     lines.append(f"  improvement of {res.objective} over the scenario's gains (multibody validation): "
                  f"{100 * res.improvement:.1f} %")
+    if res.backend != "multibody" and res.search.get("tuned"):
+        lines.append(f"  {res.objective} of the winner: {res.backend} {_f(res.search['tuned'].get('objective'))}, "
+                     f"multibody {_f(v['tuned'].get('objective'))}, difference "
+                     f"{_rel(res.search['tuned'].get('objective'), v['tuned'].get('objective'))}")
+        lines.append(f"  {res.objective} of the scenario's gains: {res.backend} "
+                     f"{_f(res.search['baseline'].get('objective'))}, multibody {_f(v['baseline'].get('objective'))}, "
+                     f"difference {_rel(res.search['baseline'].get('objective'), v['baseline'].get('objective'))}")
+    if res.verified:
+        lines.append(f"  verified candidates (score = objective + penalties): {res.backend} → multibody")
+        for k, c in enumerate(res.verified):
+            g = ", ".join(f"{p} {c['gains'][p]:.4g}" for p in res.params)
+            lines.append(f"    {k + 1}. {g}: {c['score_search']:.6g} → {c['score_multibody']:.6g} "
+                         f"({_rel(c['score_search'], c['score_multibody'])})")
     return "\n".join(lines)
+
+
+def _f(x):
+    return "nan" if x is None else f"{x:.6g}"
+
+
+def _rel(a, b):
+    """Difference b − a, absolute and relative to |b|, as text."""
+    if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)):
+        return "n/a"
+    return f"{b - a:+.3g} ({100 * (b - a) / abs(b) if b else float('nan'):+.3g} %)"

@@ -103,3 +103,48 @@ def test_zero_inductance_algebraic_current():
     tr2 = reduced.simulate(S.make_machine(scn, "open"), 0.05)
     np.testing.assert_allclose(tr2.current[1:], (25.0 - 0.48 * tr2.omega[1:]) / 2.0, rtol=0, atol=0.05)
     np.testing.assert_allclose(tr2.qd, tr.qd, rtol=0, atol=1e-4 * np.max(np.abs(tr.qd)))
+
+
+def test_servo_accepts_arrays_and_matches_single_runs():
+    """A batch runs one servo with (nsim,) gains (issue: CascadeServo cast gains to float)."""
+    from controllers.reference import ConstantSpeed
+    from controllers.servo import CascadeServo
+
+    kvp = np.array([1.0, 2.0, 4.0])
+    c = CascadeServo(ConstantSpeed(10.0), kpp=50.0, kvp=kvp, kvi=20.0, kffv=0.5, v_limit=12.0)
+    c.reset()
+    y = Measurement(z=1.0)
+    outs = [c(t, y.set(t, np.full(3, 0.5 * t), np.full(3, 4.0), np.zeros(3), np.zeros(3))) for t in (0.0, 1e-3, 2e-3)]
+    for k in range(3):
+        s = CascadeServo(ConstantSpeed(10.0), kpp=50.0, kvp=float(kvp[k]), kvi=20.0, kffv=0.5, v_limit=12.0)
+        s.reset()
+        ref = [s(t, _y(t, 0.5 * t, 4.0, 0.0)) for t in (0.0, 1e-3, 2e-3)]
+        assert [o[k] for o in outs] == pytest.approx(ref, rel=1e-15)
+    assert set(c.state()) == {"integ", "t_prev"}
+
+
+def test_current_limit_applies_in_every_integrator_option():
+    """The amplifier limit is the kernel's (one current update for every backend and method)."""
+    from mjbench import scenario as S
+    from mjbench.backends import multibody, reduced
+
+    scn = S.load("incerti2012", ["drive.i_max=10", "drive.v_max=inf", "modes.pid.v_limit=none"])
+    runs = [reduced.simulate(S.make_machine(scn, "pid"), 0.05, record_dt=1e-4, method=m) for m in ("rk4", "solve_ivp")]
+    runs.append(multibody.simulate(S.make_machine(scn, "pid"), 0.05, record_dt=1e-4))
+    for tr in runs:
+        assert np.max(np.abs(tr.current)) == pytest.approx(10.0, abs=1e-12)
+    assert np.max(np.abs(runs[0].qd - runs[1].qd)) < 1e-8 * np.max(np.abs(runs[0].qd))
+
+
+def test_controller_errors_are_product_errors():
+    import controllers
+    from mjbench.errors import ParameterError, ScenarioError
+
+    with pytest.raises(ScenarioError, match="modes.pid.kpp: unknown key"):
+        controllers.from_dict({"type": "pid", "kp": 1.0, "ki": 1.0, "kd": 0.0, "omega0": 1.0, "kpp": 2})
+    with pytest.raises(ScenarioError, match="needs omega0"):
+        controllers.from_dict({"type": "pid", "kp": 1.0, "ki": 1.0, "kd": 0.0})
+    with pytest.raises(ParameterError, match="kp"):
+        PID(float("nan"), 1.0, 0.0, omega0=1.0)
+    with pytest.raises(ScenarioError, match="type = 'pidd'"):
+        controllers.from_dict({"type": "pidd"})

@@ -316,7 +316,10 @@ def test_backends_disagreeing_is_flagged_and_warned(tmp_path, capsys):
     err = capsys.readouterr().err
     p = read_json(out / "metrics.json")["plausibility"]
     assert p["backends_agree"] is False and p["tolerance"] == BACKENDS_TOLERANCE == 1e-3
-    assert p["max_rel_diff"] > 0.05  # measured 0.092 at 0.3 s (1.8 over the scenario's 2 s)
+    # K_d = 1e3 makes the sampled loop chaotic: a round-off-level change of either model moves this
+    # figure (measured 0.092 with the closed-form reduced model, 0.027 with the tabulated one, which
+    # differ from each other by 0.09 here); what matters is that it is far outside the tolerance
+    assert p["max_rel_diff"] > 10 * BACKENDS_TOLERANCE
     assert "mjbench: warning: multibody and reduced crank speeds differ by" in err and "not plausible" in err
 
 

@@ -388,3 +388,21 @@ def test_asset_mjcf_loads():
     model = mujoco.MjModel.from_xml_path(str(p))
     assert model.nv == 5 and model.neq == 2
     assert model.opt.jacobian == mujoco.mjtJacobian.mjJAC_DENSE
+
+
+def test_design_closed_loop_check_reduced_then_multibody(capsys):
+    """mjbench design: the designs' SMC runs on the reduced batch, Table I and the optimum re-run on
+    MuJoCo, both figures printed; the two models agree on them."""
+    from mjbench import cli
+
+    rc = cli.main(["design", "quickreturn", "--starts", "2", "--t-end", "0.6"])
+    out = capsys.readouterr().out
+    assert rc == 0 and "reduced backend → multibody (verification)" in out
+    from mjbench.papers import yigit2023_design as D
+
+    res = D.optimise(starts=2)
+    dyn = D.dynamic_check(res, verify=1, t_end=0.6)
+    assert [r["label"] for r in dyn["rows"]] == ["Table I", "optimum"]
+    for r in dyn["rows"]:
+        for key, _, _ in D.DYN_FIGURES:
+            assert r["multibody"][key] == pytest.approx(r["reduced"][key], rel=1e-3, abs=1e-6)

@@ -61,19 +61,25 @@ def test_tables_hold_metrics_json_numbers(report):
     md_text, html_text = md.read_text(), htm.read_text()
     figs = [r for r in m["rows"] if r.get("metric")]
     assert len(figs) == 2  # the two χ figures of Incerti 2012 (open loop, PID window), in percent
+    assert any("linear" in r["ours"] for r in m["rows"])  # + the linear analysis of the PID loop
     for row in figs:
         # the row's numbers are the metrics of the run (χ, a fraction, printed in percent) ...
         assert row["unit"] == "%"
         for b, v in row["ours"].items():
             assert v == pytest.approx(100 * m["modes"][row["mode"]]["backends"][b][row["metric"]], rel=1e-12)
         assert row["difference"] == pytest.approx(row["ours"]["multibody"] - row["paper"], rel=1e-12)
+    lines = md_text.splitlines()
     for row in m["rows"]:
         # ... and the report's table line prints exactly them, with the verdict and the reason
+        k = next(i for i, l in enumerate(lines) if l.startswith(f"| {row['name'].replace('|', chr(92) + '|')} |"))
+        head = next(lines[i] for i in range(k, -1, -1) if lines[i].startswith("| quantity |"))
+        col = {c.strip(): i for i, c in enumerate(head.strip().strip("|").split(" | "))}
         cells = _md_cells(md_text, row["name"])
-        assert cells[1] == row["unit"] and cells[2] == row["paper_text"]
-        assert cells[3] == R.fmt(row["ours"].get("multibody")) and cells[4] == R.fmt(row["ours"].get("reduced"))
-        assert cells[5] == row["verdict"]["text"]
-        assert cells[6] == (row["reason"] or "—")
+        assert cells[col["unit"]] == row["unit"] and cells[col["paper"]] == row["paper_text"]
+        for b, v in row["ours"].items():
+            assert cells[col[f"ours: {b}"]] == R.fmt(v)
+        assert cells[col["verdict"]] == row["verdict"]["text"]
+        assert cells[col["reason"]] == (row["reason"] or "—")
         hrow = re.search(r"<tr[^>]*><td>" + re.escape(html.escape(row["name"])) + r"</td>(.*?)</tr>", html_text)
         assert hrow, row["name"]
         for v in (row["ours"].get("multibody"), row["ours"].get("reduced")):
@@ -157,7 +163,7 @@ def test_html_opens_in_headless_chromium(report, tmp_path):
     m = re.search(r'data-check="images (\d+)/(\d+) video-errors (\d+)/(\d+)"', p.stdout)
     assert m, "the report's load check did not run:\n" + p.stdout[:500] + p.stderr[-1500:]
     ok, n_img, verr, n_vid = map(int, m.groups())
-    assert n_img == len(res["figures"]) == 3 and ok == n_img, "an embedded figure did not load"
+    assert n_img == len(res["figures"]) == 4 and ok == n_img, "an embedded figure did not load"
     assert n_vid == 1 and verr == 0, "the embedded video reports a media error"
     assert "Uncaught" not in p.stderr and "SyntaxError" not in p.stderr
     shot = tmp_path / "shot.png"

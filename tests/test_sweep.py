@@ -5,16 +5,16 @@ import numpy as np
 import pytest
 
 from mjbench import cli, scenario
-from mjbench.backends import multibody
+from mjbench.backends import multibody, reduced
 from mjbench.errors import ScenarioError
-from mjbench.sweep import SweepSpec, make_rows, parse_grid, parse_perturb, read_table, run_sweep
+from mjbench.sweep import SweepSpec, auto_chunk, make_rows, parse_grid, parse_perturb, read_table, run_sweep
 
 T_END = 0.06  # s: short runs, the point is the bookkeeping (metrics on the whole record)
 
 
 def _spec(**kw):
     base = dict(scenario="incerti2012", grid={"modes.pid.kp": [60.0, 100.0], "drive.R": [1.8, 2.2]},
-                t_end=T_END, chunk_size=3)
+                t_end=T_END, chunk_size=3, backend="multibody")
     base.update(kw)
     return SweepSpec(**base)
 
@@ -61,6 +61,30 @@ def test_sweep_table_matches_single_runs_and_resumes(tmp_path):
         run_sweep(_spec(t_end=0.05), out, progress=False)
 
 
+def test_reduced_sweep_verifies_best_rows_on_multibody(tmp_path, capsys):
+    """Default backend: the batched reduced model; the best rows re-run on MuJoCo (verify.csv)."""
+    rc = cli.main(["sweep", "incerti2012", "--grid", "modes.pid.kp=60.0,100.0", "--grid", "drive.R=1.8,2.2",
+                   "--t-end", str(T_END), "--out", str(tmp_path), "--quiet", "--metric", "peak_current_A",
+                   "--verify", "2"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "reduced → multibody (verify.csv)" in out
+    rows = read_table(tmp_path / "results.csv")
+    scn = scenario.load("incerti2012", ["modes.pid.kp=100.0", "drive.R=2.2"])
+    tr = reduced.simulate(scenario.make_machine(scn, "pid"), T_END, record_dt=scenario.get(scn, "simulation.record_dt"))
+    assert rows[3]["peak_current_A"] == pytest.approx(float(np.max(np.abs(tr.current))), rel=1e-12)
+    ver = read_table(tmp_path / "verify.csv")
+    best = sorted(rows, key=lambda r: r["peak_current_A"])[:2]
+    assert [v["row"] for v in ver] == [r["row"] for r in best]
+    for v, r in zip(ver, best):
+        s = scenario.load("incerti2012", [f"modes.pid.kp={r['modes.pid.kp']}", f"drive.R={r['drive.R']}"])
+        mb = multibody.simulate(scenario.make_machine(s, "pid"), T_END, record_dt=scenario.get(s, "simulation.record_dt"))
+        assert v["multibody"] == pytest.approx(float(np.max(np.abs(mb.current))), rel=1e-12)
+        assert abs(v["relative"]) < 1e-3  # the two models agree (stated accuracy ≈ 1e-5)
+    assert auto_chunk(256, "multibody") == 256 and auto_chunk(5000, "multibody") == 256
+    assert auto_chunk(5000, "reduced") == 1024 and auto_chunk(100, "reduced", workers=2) == 25
+
+
 def test_monte_carlo_cli_and_plot(tmp_path):
     out = tmp_path / "mc"
     rc = cli.main(["sweep", "incerti2012", "--samples", "6", "--perturb", "drive.R=5%", "--perturb",
@@ -81,14 +105,28 @@ def test_dask_local_cluster_identical(tmp_path):
         # the CLI route: a scheduler address (the sweep opens and closes its own Client)
         rc = cli.main(["sweep", "incerti2012", "--grid", "modes.pid.kp=60.0,100.0", "--grid", "drive.R=1.8,2.2",
                        "--t-end", str(T_END), "--chunk", "3", "--out", str(tmp_path / "addr"), "--quiet",
-                       "--scheduler", cluster.scheduler_address])
+                       "--scheduler", cluster.scheduler_address, "--backend", "multibody"])
         assert rc == 0
     assert read_table(tmp_path / "addr" / "results.csv") == read_table(local["table"])
     assert read_table(local["table"]) == read_table(remote["table"])
     assert open(local["table"]).read() == open(remote["table"]).read()
 
 
-def test_dask_two_clients_two_sweeps_at_once(tmp_path):
+def test_dask_reduced_batch_chunks_identical(tmp_path):
+    """The reduced batch on Dask: chunks of 20 scenarios per task (the batched route), per-row
+    geometry and drive; the table equals the local one byte for byte."""
+    distributed = pytest.importorskip("dask.distributed")
+    spec = dict(scenario="incerti2012", grid={}, samples=40, perturb={"mechanism.a": 0.05, "drive.R": 0.05},
+                t_end=T_END, chunk_size=20, backend="reduced", verify=0)
+    local = run_sweep(SweepSpec(**spec), tmp_path / "local", progress=False, plots=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        remote = run_sweep(SweepSpec(**spec), tmp_path / "dask", client=client, progress=False, plots=False)
+    rows = read_table(local["table"])
+    assert len(rows) == 40 and all(r["status"] == "ok" for r in rows)
+    assert open(local["table"]).read() == open(remote["table"]).read()
+@pytest.mark.parametrize("backend", ["multibody", "reduced"])
+def test_dask_two_clients_two_sweeps_at_once(tmp_path, backend):
     """Two different sweeps (incerti2012 and incerti2012-calibrated) submitted at the same time by
     two clients of one scheduler: each table equals its own local run (the scenarios are scattered
     under keys of their own, never one future per top-level key that the other client replaces)."""
@@ -96,7 +134,7 @@ def test_dask_two_clients_two_sweeps_at_once(tmp_path):
 
     distributed = pytest.importorskip("dask.distributed")
     grid = {"modes.pid.kp": [60.0, 100.0], "modes.pid.ki": [16.0, 32.0]}
-    specs = {name: SweepSpec(scenario=name, grid=grid, t_end=T_END, chunk_size=1)
+    specs = {name: SweepSpec(scenario=name, grid=grid, t_end=T_END, chunk_size=1, backend=backend, verify=0)
              for name in ("incerti2012", "incerti2012-calibrated")}
     local = {name: read_table(run_sweep(sp, tmp_path / f"local-{name}", progress=False, plots=False)["table"])
              for name, sp in specs.items()}

@@ -132,8 +132,8 @@ def test_batched_and_swept(scn, tmp_path):
 
     path = tmp_path / "toy.toml"
     path.write_text(_toml(RAW))
-    out = run_sweep(SweepSpec(scenario=str(path), grid={"modes.pid.kp": [0.3, 0.8]}, t_end=0.3), tmp_path / "sw",
-                    progress=False, plots=False)
+    out = run_sweep(SweepSpec(scenario=str(path), grid={"modes.pid.kp": [0.3, 0.8]}, t_end=0.3, backend="multibody"),
+                    tmp_path / "sw", progress=False, plots=False)
     rows = read_table(out["table"])
     assert [r["status"] for r in rows] == ["ok", "ok"]
     single = M.summary(res.trajectory(2))

@@ -35,3 +35,44 @@ def test_tune_cli_limits_and_errors(tmp_path, capsys):
     assert (tmp_path / "tune_speed.png").stat().st_size > 1000
     with pytest.raises(ParameterError, match="objective"):
         Problem(scenario.load("incerti2012"), "pid", "nope")
+
+
+def test_reduced_search_finds_the_multibody_optimum():
+    """Search on the reduced model, verify on MuJoCo: same winner as a search on MuJoCo itself."""
+    scn = scenario.load("incerti2012")
+    kw = dict(n_global=8, maxfev=10, t_end=0.5, log=lambda *a: None)
+    red = tune(scn, "pid-tv", "chi", backend="reduced", verify=2, **kw)
+    mb = tune(scn, "pid-tv", "chi", backend="multibody", **kw)
+    assert red.backend == "reduced" and len(red.verified) == 2
+    for p in red.params:
+        assert red.best[p] == pytest.approx(mb.best[p], rel=1e-3)
+    chi_r, chi_m = red.validation["tuned"]["chi"], mb.validation["tuned"]["chi"]
+    assert chi_r == pytest.approx(chi_m, rel=1e-2)
+    # both figures of the winner are stated and agree to the models' accuracy (≈ 1e-5)
+    assert red.search["tuned"]["chi"] == pytest.approx(chi_r, rel=1e-3)
+    assert red.verified[0]["score_multibody"] == pytest.approx(red.verified[0]["score_search"], rel=1e-3)
+
+
+def test_tune_with_margin_constraints(tmp_path, capsys):
+    """--margin on the linear model: the tuned gains meet pm >= 60°, peak |S| <= 1.5 at every
+    frozen angle (the scenario's gains do not: worst PM ≈ 42°, peak |S| ≈ 1.57), checked again on
+    the linear model independently of the tuner's bookkeeping."""
+    from mjbench import linear
+
+    scn = scenario.load("incerti2012")
+    res = tune(scn, "pid", "ise", n_global=8, maxfev=8, t_end=0.3, margins=["pm>=60", "ms<=1.5"],
+               margin_angles=8, log=lambda *a: None)
+    base, tuned = res.validation["baseline"]["margins"], res.validation["tuned"]["margins"]
+    assert base["violation"] > 0 and tuned["violation"] == 0
+    prob = Problem(scn, "pid", "ise", res.limits, t_end=0.3)
+    m = prob.machine(np.array([res.best[p] for p in prob.params]))
+    w = linear.family_margins(m, linear.plant_family(m, 1e-4, 8), 1e-4)
+    assert w["phase_margin_deg"] >= 60 and w["peak_sensitivity"] <= 1.5
+    rc = cli.main(["tune", "incerti2012", "--controller", "pid", "--objective", "ise", "--global", "2",
+                   "--maxfev", "2", "--t-end", "0.1", "--margin", "pm>=45", "--margin-mode", "constraint",
+                   "--margin-angles", "4", "--out", str(tmp_path / "t")])
+    assert rc == 0 and "worst pm >= 45" in capsys.readouterr().out
+    assert cli.main(["tune", "incerti2012", "--controller", "pid", "--margin", "pm<=45"]) == 2
+    assert "lower bound" in capsys.readouterr().err
+    assert cli.main(["tune", "yigit2023", "--controller", "smc", "--objective", "ise", "--margin", "pm>=45"]) == 2
+    assert "boundary" in capsys.readouterr().err

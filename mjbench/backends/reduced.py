@@ -16,14 +16,27 @@ Methods (``[reduced] method``):
 * ``solve_ivp``: adaptive ``scipy.integrate.solve_ivp`` (DOP853, rtol/atol settable) over every
   step with τ held — a reference to check the fixed-step run against.
 The drive's current update and limits are the kernel's, so every method applies the same limits.
+
+Model of a rigid mechanism (``[reduced] model``):
+* ``table`` (default for RK4): J, J'/2, E_p' (and a viscous external D) from the mechanism's
+  periodic cubic-spline table (:mod:`mjbench.backends.table`; relative interpolation error
+  measured ≤ 1e-9, recorded in the trajectory's meta) — plain float arithmetic, no trigonometry,
+  ≈ 10× cheaper per step than the closed forms, and the same operations as the batched reduced
+  plant (:mod:`mjbench.backends.reduced_batch`), which therefore gives the same bits;
+* ``closed``: the mechanism's closed forms at every stage (the reference; 2.8 µs per four-bar
+  evaluation).
+Mechanisms with internal coordinates (the platforms) and ``solve_ivp`` always use the closed forms.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import kernel
 from ..errors import ParameterError, SimulationDiverged
+from . import table as _table
 from ..trajectory import Trajectory
 from .multibody import _extra_names
 
@@ -33,9 +46,12 @@ class ReducedPlant:
 
     nsim = None
 
-    def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12):
+    def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12,
+                 model: str = "table"):
         if method not in ("rk4", "solve_ivp"):
             raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
+        if model not in ("table", "closed"):
+            raise ParameterError(f"reduced.model = {model!r}: choose 'table' or 'closed'")
         self.machine = machine
         self.h = float(dt)
         self.method, self.rtol, self.atol = method, rtol, atol
@@ -45,8 +61,16 @@ class ReducedPlant:
         self._c = float(drive.crank_damping) if np.ndim(drive.crank_damping) == 0 else drive.crank_damping
         self._nx = len(mech.internal)
         self.extra_columns = _extra_names(mech)
-        self.meta = {"method": method}
+        self.meta = {"method": method, "model": "closed"}
         self._accel = self._rigid_accel() if self._nx == 0 else None
+        self._table = None
+        if model == "table" and method == "rk4" and _table.supports(mech):
+            self._table = tab = _table.table_for(mech)
+            self.meta.update(tab.describe())
+            # the step as one generated function (no call per RK4 stage: 28 % cheaper), bound per instance
+            self.advance = _table_advance(self, tab, self._Ja, self._c,
+                                          mech.external_torque if (mech.has_external_torque() and not tab.viscous)
+                                          else None)
 
     def _rigid_accel(self):
         reduced, ext = self._mech.reduced, self._mech.external_torque
@@ -68,9 +92,6 @@ class ReducedPlant:
 
     def read(self):
         return self.q, self.qd
-
-    def speed(self):
-        return self.qd
 
     def closure(self):
         return 0.0
@@ -94,13 +115,17 @@ class ReducedPlant:
         q, qd = self.q, self.qd
         if self._nx == 0:
             f = self._accel
-            a1 = f(t, q, qd, tau)
-            v2 = qd + h2 * a1
-            a2 = f(t + h2, q + h2 * qd, v2, tau)
-            v3 = qd + h2 * a2
-            a3 = f(t + h2, q + h2 * v2, v3, tau)
-            v4 = qd + h * a3
-            a4 = f(t + h, q + h * v3, v4, tau)
+            try:
+                a1 = f(t, q, qd, tau)
+                v2 = qd + h2 * a1
+                a2 = f(t + h2, q + h2 * qd, v2, tau)
+                v3 = qd + h2 * a2
+                a3 = f(t + h2, q + h2 * v2, v3, tau)
+                v4 = qd + h * a3
+                a4 = f(t + h, q + h * v3, v4, tau)
+            except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged
+                self.q = self.qd = math.nan
+                return self.qd
             self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
             self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
             return self.qd
@@ -141,16 +166,55 @@ class ReducedPlant:
         return self.qd
 
 
+def _table_advance(plant, tab, Ja, c, ext):
+    """One RK4 step of the tabulated rigid model on Python floats, as a function ``advance(tau, t)``
+    generated for the table's variant (with or without the viscous D, with the mechanism's
+    untabulated external torque ``ext`` or none): the four stages written out, so a step costs no
+    Python call per stage.  The batched plant performs the same operations in the same order
+    (same bits; tests/test_reduced_batch.py)."""
+    names = ["J", "H", "E"] + (["D"] if tab.viscous else [])
+    unpack = ", ".join(f"{x}{j}" for j in range(4) for x in names)
+
+    def poly(x):
+        return f"((({x}3 * f + {x}2) * f + {x}1) * f + {x}0)"
+
+    def stage(i, q, v, t):
+        if tab.viscous:
+            num = f"tau - (c + {poly('D')}) * {v} - {poly('E')} - {poly('H')} * {v} * {v}"
+        elif ext is not None:
+            num = f"tau - c * {v} + ext(qs, {v}, {t}) - {poly('E')} - {poly('H')} * {v} * {v}"
+        else:
+            num = f"tau - c * {v} - {poly('E')} - {poly('H')} * {v} * {v}"
+        return (f"        qs = {q}\n        u = qs * k\n        fl = floor(u)\n        f = u - fl\n"
+                f"        {unpack} = rows[fl % n]\n        a{i} = ({num}) / (Ja + {poly('J')})\n")
+
+    src = ("def advance(tau, t):\n    q, qd = P.q, P.qd\n    try:\n"
+           + stage(1, "q", "qd", "t") + "        v2 = qd + h2 * a1\n"
+           + stage(2, "q + h2 * qd", "v2", "t + h2") + "        v3 = qd + h2 * a2\n"
+           + stage(3, "q + h2 * v2", "v3", "t + h2") + "        v4 = qd + h * a3\n"
+           + stage(4, "q + h * v3", "v4", "t + h")
+           + "    except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged\n"
+             "        P.q = P.qd = nan\n        return nan\n"
+             "    P.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)\n"
+             "    P.qd = qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)\n    return qd1\n")
+    h = plant.h
+    env = {"P": plant, "rows": tab.rows, "n": tab.n, "k": tab.k, "Ja": Ja, "c": c, "ext": ext, "floor": math.floor,
+           "nan": math.nan, "h": h, "h2": 0.5 * h, "h6": h / 6.0}
+    exec(compile(src, f"<reduced table step {tab.names}>", "exec"), env)  # noqa: S102 - our own template
+    return env["advance"]
+
+
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
              method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12, progress=None,
-             options=None) -> Trajectory:
+             options=None, model: str = "table") -> Trajectory:
     """Run the reduced model of ``machine`` for ``t_end`` s (co-simulation step ``dt``)."""
     if options:
         dt = float(options.get("timestep", dt))
         method = options.get("method", method)
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
-    plant = ReducedPlant(machine, dt, method, rtol, atol)
+        model = options.get("model", model)
+    plant = ReducedPlant(machine, dt, method, rtol, atol, model)
     rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
                      backend="reduced")
     return Trajectory.from_record(rec, "reduced")

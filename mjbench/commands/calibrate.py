@@ -7,6 +7,7 @@ import os
 import re
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir
 
@@ -37,10 +38,14 @@ def register(sub):
     p.add_argument("--select", choices=["closest", "best"], default="closest",
                    help="which converged solution becomes the result: closest to the uncalibrated values "
                         "(default) or lowest cost")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
+                   help="search backend (default reduced: the batched reduced model; the result is then re-measured "
+                        "on the multibody backend and both figures reported)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--out", help="write calibrate.json and calibrated.toml here")
     add_force_option(p)
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_calibrate)
 
 
@@ -48,7 +53,7 @@ def cmd_calibrate(args):
     from ..papers import incerti2012_calibration as C
     from .. import scenario as S
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     check_machine(scn)  # bad --set values: one message before any simulation
     names = args.params.split(",") if args.params else list(C.MISSING)
     C.check_params(names, scn)
@@ -67,7 +72,7 @@ def _calibrate(args, scn, names, out):
 
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,
                       n_screen=args.screen, polish=args.polish_nfev > 0, polish_nfev=max(args.polish_nfev, 1),
-                      jobs=args.jobs, progress=not args.no_progress, select=args.select)
+                      jobs=args.jobs, progress=not args.no_progress, select=args.select, backend=args.backend)
     res["command"] = "mjbench " + " ".join(sys.argv[1:]) if sys.argv and "mjbench" in sys.argv[0] else None
     print(C.table(res))
     if out is not None:

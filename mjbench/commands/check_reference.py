@@ -1,6 +1,6 @@
 """``mjbench demand SCENARIO --set vc=0.3``: what a coupler-speed reference demands (peak crank
 speed, acceleration, torque, current, voltage) and whether the motor can deliver it, before
-simulating (mjbench/gains.py)."""
+simulating (mjbench/papers/hulako2025_demand.py)."""
 from __future__ import annotations
 
 from ..outputs import dumps

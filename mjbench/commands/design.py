@@ -8,6 +8,7 @@ import os
 
 from ..errors import ParameterError
 from ..outputs import add_force_option, maybe_staged_dir, write_json
+from . import add_fast_multibody, apply_fast_multibody
 
 MECHANISMS = ("quickreturn",)
 
@@ -28,8 +29,15 @@ def register(sub):
     p.add_argument("--local-only", action="store_true",
                    help="SLSQP from the starts only, no differential evolution (may miss the optimum: the "
                         "feasible set is not connected)")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody", "none"],
+                   help="closed-loop check of the designs (Yiğit & Şen SMC): reduced (default; the best designs are then "
+                        "re-run on the multibody backend and both figures reported), multibody, or none")
+    p.add_argument("--verify", type=int, default=1,
+                   help="optimum designs re-run on the multibody backend besides Table I (default 1)")
+    p.add_argument("--t-end", type=float, help="simulated time of the closed-loop check [s] (default: the scenario's)")
     p.add_argument("--out", help="folder for design.json")
     add_force_option(p)
+    add_fast_multibody(p)
     p.set_defaults(func=run)
 
 
@@ -47,6 +55,10 @@ def run(args) -> int:
         res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5, c4=args.c4, eps=args.eps,
                               global_search=not args.local_only)
         _print(res)
+        if args.backend != "none":
+            res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end,
+                                                   overrides=apply_fast_multibody(args, []))
+            print(design.dynamic_table(res["dynamics"]))
         if out is not None:
             write_json(os.path.join(out, "design.json"), res)
     if args.out:

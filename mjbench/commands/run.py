@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
 from ..outputs import add_force_option
 
 
@@ -22,6 +23,7 @@ def register(sub):
     add_force_option(p)
     p.add_argument("--no-figure", action="store_true", help="skip the PNG")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_run)
 
     q = sub.add_parser("list", help="list the built-in scenarios and their modes")
@@ -35,7 +37,7 @@ def cmd_run(args):
     from ..preflight import check_machine, simulation_errors
     from ..runner import run
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     for w in scn.warnings:
         print(f"mjbench: warning: {w}", file=sys.stderr)
     mode, backend, t_end = args.mode, args.backend, args.t_end

@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import sys
 
+from . import add_fast_multibody, apply_fast_multibody
+
 
 def register(sub):
     p = sub.add_parser(
-        "sweep", help="grid or Monte Carlo sweep of scenario keys (batched MuJoCo, optional Dask)",
+        "sweep", help="grid or Monte Carlo sweep of scenario keys (batched reduced model or MuJoCo, optional Dask)",
         description="Simulate SCENARIO for every combination of --grid values (and/or --samples Monte "
-                    "Carlo draws of the --perturb keys) on the batched multibody backend. Writes "
+                    "Carlo draws of the --perturb keys) on the batched --backend. Writes "
                     "results.csv (one row per simulation: parameters, status, metrics), sweep.json and "
                     "summary plots into --out. Rerunning with the same arguments resumes: finished rows "
                     "are skipped.")
@@ -24,11 +26,20 @@ def register(sub):
     p.add_argument("--mode", help="control mode (default: the scenario's)")
     p.add_argument("--t-end", type=float, help="simulated time per run [s] (default: the scenario's)")
     p.add_argument("--out", required=True, help="output directory (resumable)")
-    p.add_argument("--chunk", type=int, default=32, help="simulations per batch / Dask task (default 32)")
+    p.add_argument("--chunk", type=int, default=None,
+                   help="simulations per batch / Dask task (default: follows the number of rows — all in one batch "
+                        "up to 256 (multibody) / 1024 (reduced), at least two chunks per Dask worker)")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
+                   help="reduced (default: the batched reduced model; the --verify best rows are then re-run on "
+                        "the multibody backend) or multibody (mujoco.batch)")
+    p.add_argument("--verify", type=int, default=3,
+                   help="best rows (smallest --metric) re-run on the multibody backend, written to verify.csv "
+                        "(default 3; 0: none)")
     p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads per chunk (0: all CPUs)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://host:port (pip install mjbench[dask])")
     p.add_argument("--metric", help="metric of the summary plots (default chi_window, else chi_last_cycle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_sweep)
 
 
@@ -41,7 +52,8 @@ def cmd_sweep(args):
 
     spec = SweepSpec(scenario=args.scenario, grid=parse_grid(args.grid), samples=args.samples,
                      perturb=parse_perturb(args.perturb), seed=args.seed, mode=args.mode,
-                     t_end=args.t_end, overrides=list(args.overrides), chunk_size=args.chunk)
+                     t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides), chunk_size=args.chunk,
+                     backend=args.backend, verify=args.verify)
     if not spec.grid and not spec.samples:
         raise ParameterError("sweep: give at least one --grid KEY=V1,V2 or --samples N --perturb KEY=R%")
     if args.scheduler:
@@ -52,6 +64,12 @@ def cmd_sweep(args):
     res = run_sweep(spec, args.out, scheduler=args.scheduler, nthread=args.threads,
                     progress=not args.quiet and sys.stderr.isatty(), metric=args.metric)
     print(f"{res['rows']} simulations ({res['ran']} run now, {res['rows'] - res['ran']} resumed) -> {res['table']}")
+    ver = res.get("verified") or []
+    if ver:
+        print(f"best {len(ver)} rows by {ver[0]['metric']}: {args.backend} → multibody (verify.csv)")
+        for v in ver:
+            print(f"  row {v['row']}: {v[args.backend]:.6g} → {v['multibody']:.6g} "
+                  f"(difference {v['difference']:+.3g}, {100 * v['relative']:+.3g} %)")
     for p in res["plots"]:
         print(f"plot: {p}")
     return 0

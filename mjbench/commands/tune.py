@@ -3,17 +3,19 @@ from __future__ import annotations
 
 import os
 
+from . import add_fast_multibody, apply_fast_multibody
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir, write_json
 
 
 def register(sub):
     p = sub.add_parser(
-        "tune", help="autotune controller gains on the batched backend",
+        "tune", help="autotune controller gains (search on the reduced model, verify on MuJoCo)",
         description="Search the gains of the scenario's controller minimising --objective: a global stage "
-                    "(Sobol candidates simulated together on mujoco.batch), local Nelder-Mead refinement, "
-                    "then validation of the winner and of the scenario's own gains on the single-run "
-                    "multibody backend. Peaks of |voltage| and |current| above --limit are penalised "
+                    "(Sobol candidates simulated together on the --backend's batch), local Nelder-Mead "
+                    "refinement, then the --verify best candidates re-run on the multibody backend "
+                    "and the scenario's own gains on the single-run multibody backend; the report states both "
+                    "backends' figures. Peaks of |voltage| and |current| above --limit are penalised "
                     "(default limits: the peaks of the scenario's gains).")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--controller", required=True, choices=["pid", "pid-tv", "smc"],
@@ -23,6 +25,13 @@ def register(sub):
                         "ise/iae/itae: crank-speed error to the set-point")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
+    p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
+                   help="robustness constraint on the linear model (worst frozen angle): pm>=DEG, gm>=DB, "
+                        "ms<=PEAK_S, bw>=RAD_S (repeatable; docs/linear.md)")
+    p.add_argument("--margin-mode", choices=["penalty", "constraint"], default="penalty",
+                   help="penalty: objective + 10 × relative violation (default); constraint: violating "
+                        "candidates are not simulated")
+    p.add_argument("--margin-angles", type=int, default=12, help="frozen angles for the margins (default 12)")
     p.add_argument("--bounds", action="append", default=[], metavar="GAIN=LO:HI",
                    help="search interval of a gain (default: scenario value ×/÷ --span)")
     p.add_argument("--span", type=float, default=10.0, help="default search factor around the scenario's gains")
@@ -30,11 +39,17 @@ def register(sub):
     p.add_argument("--starts", type=int, default=1, help="local refinements from the best global candidates")
     p.add_argument("--maxfev", type=int, default=80, help="simulations per local refinement")
     p.add_argument("--t-end", type=float, help="simulated time per candidate [s] (default: χ window end)")
+    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
+                   help="search backend (default reduced: the batched reduced model; the best candidates are then "
+                        "re-run on the multibody backend and both figures reported)")
+    p.add_argument("--verify", type=int, default=3,
+                   help="best distinct candidates re-run on the multibody backend (default 3; 0: only the winner)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads (0: all CPUs)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--out", help="write tune.json and a speed comparison plot here")
     add_force_option(p)
+    add_fast_multibody(p)
     p.set_defaults(func=cmd_tune)
 
 
@@ -78,18 +93,22 @@ def cmd_tune(args):
     from .. import scenario as S
     from ..tune import report, tune
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     check_machine(scn)  # bad --set values: one message before any simulation
     limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds)
     with maybe_staged_dir(args.out, force=args.force) as out:
         res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
                    starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=bounds,
-                   seed=args.seed, t_end=args.t_end, nthread=args.threads)
+                   seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
+                   verify=args.verify, margins=args.margin, margin_mode=args.margin_mode,
+                   margin_angles=args.margin_angles)
         print(report(res))
         if out is not None:
             doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
                    "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
-                   "limits": res.limits, "validation": res.validation, "improvement": res.improvement,
+                   "limits": res.limits, "margins": [f"{k}{op}{v:g}" for k, op, v in res.margins],
+                   "validation": res.validation, "improvement": res.improvement,
+                   "search_backend": res.backend, "search": res.search, "verified": res.verified,
                    "history": res.history}
             write_json(os.path.join(out, "tune.json"), doc, indent=1)
             _plot(scn, res, os.path.join(out, "tune_speed.png"))
@@ -105,7 +124,7 @@ def _plot(scn, res, path):
     from ..tune import Problem
     import matplotlib.pyplot as plt
 
-    prob = Problem(scn, res.controller, res.objective, res.limits)
+    prob = Problem(scn, res.controller, res.objective, res.limits)  # (no margins: only the runs are drawn)
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
     for label, gains, st in (("scenario controller", res.baseline, dict(color="tab:gray")),
                              (f"tuned {res.controller}", res.best, dict(color="tab:blue"))):

@@ -95,6 +95,10 @@ class Mechanism(abc.ABC):
     internal: ClassVar[tuple[str, ...]] = ()
     #: how a video shows it: "side" (linkage in its plane x-y) or "top" (rotary table from above)
     view: ClassVar[str] = "side"
+    #: period [rad] of the reduced model's J(q), J'(q), E_p'(q) in the input coordinate (a crank:
+    #: one turn, 2π); the reduced backends tabulate rigid mechanisms over it.  None: not periodic
+    #: (the closed forms are evaluated at every step).
+    reduced_period: ClassVar[float | None] = 2.0 * np.pi
 
     # --- construction ------------------------------------------------------------------------
     @classmethod
@@ -126,6 +130,16 @@ class Mechanism(abc.ABC):
     def external_torque(self, q, qd, t):
         """Generalised external force on q [N·m] besides gravity and the drive (default 0)."""
         return 0.0 * q
+
+    def has_external_torque(self) -> bool:
+        """Whether :meth:`external_torque` can be non-zero (the reduced backends skip it if not)."""
+        return type(self).external_torque is not Mechanism.external_torque
+
+    def reduced_viscous(self, q):
+        """D(q) [N·m·s/rad] if :meth:`external_torque` is exactly −D(q)·q̇ (viscous friction
+        reduced to the input, smooth and periodic in q like J); None if it is anything else (the
+        tabulated reduced model then calls :meth:`external_torque` itself).  Default: None."""
+        return None
 
     def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
         """Accelerations (q̈, ẍ) of the reduced model under the input torque ``tau`` [N·m] (drive

@@ -356,6 +356,13 @@ class FourBar(Mechanism):
         return (self.damping_A + self.joint_damping * ((Q - 1.0) ** 2 + R * R)
                 + self.damping_C * (R - Q) ** 2)
 
+    def has_external_torque(self) -> bool:
+        return not (self.joint_damping == 0.0 and self.damping_A == 0.0 and self.damping_C == 0.0)
+
+    def reduced_viscous(self, q):
+        """Hinge friction is viscous: external_torque = −hinge_damping_factor(α)·α̇."""
+        return self.hinge_damping_factor(q) if self.has_external_torque() else None
+
     def external_torque(self, q, qd, t):
         """Viscous friction of the hinges reduced to the crank, −hinge_damping_factor(α)·α̇ [N·m]
         (the MJCF model has the same: joint damping in A, B, D; an explicit torque in C, see

@@ -326,6 +326,9 @@ class QuickReturn(Mechanism):
             return -self._work_sign * F0 * float(w) if on else 0.0
         return np.where(on, -self._work_sign * F0 * np.asarray(w, dtype=float), 0.0)
 
+    def has_external_torque(self) -> bool:
+        return not (self.cut_profile == "none" or self.cut_force == 0.0)
+
     def external_torque(self, q, qd, t):
         """Cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m] (Eq 26/31)."""
         if self.cut_profile == "none" or self.cut_force == 0.0:

@@ -11,16 +11,31 @@ Following it exactly needs (Incerti 2012 Eq 5 / Hülako & Çakar Eqs 18-20 inver
 
 :func:`demand` returns the peaks of these over one lap and flags voltage saturation
 (|V| > v_max) and current above ``i_max``.  :func:`predicted_error` adds a linear estimate of the
-periodic crank-speed error a PID leaves: per harmonic k of the lap,
-E_k = V_ff,k / (C(jω_k) + P⁻¹(jω_k)), with C = K_p + K_i/s + K_d·s (crank side, Eq 21),
-P⁻¹(s) = (R + L·s)(J̄·s + c̄)/(z·k_m) + z·k_m the inverse linearised plant (J̄ lap-mean inertia,
-c̄ lap-mean viscous friction), V_ff the feed-forward voltage above; DC is removed by the integral.
+periodic crank-speed error a PID leaves: the loop of :mod:`mjbench.linear` — the DC motor driving
+the lap-mean inertia J̄ with the lap-mean viscous friction c̄ (``linear.rigid_mechanics`` +
+``linear.plant``, the kernel's co-step at the control period) closed by the PID of Eq 21 as the
+simulation runs it (``linear.pid_controller``: crank-side gains, backward-difference derivative,
+integral = angle error) — driven by the feed-forward voltage V_ff the reference needs, entered as
+an input disturbance: per harmonic k of the lap, E_k = G_{d→q̇}(e^{jω_k T})·V_ff,k
+(= V_ff,k / (C + P⁻¹) at these low frequencies); DC is removed by the integral.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from mjbench import linear
+
+H_CONTROL = 1e-4  #: [s] control period of the seed-002 PID (the scenarios' co-step)
+
+
+def error_loop(drive, J, c, kp, ki, kd, h=H_CONTROL):
+    """The linear loop of :func:`predicted_error` (python-control objects, :class:`linear.Loop`):
+    DC motor + constant inertia J [kg·m², drive included] + viscous c, closed by the crank-side
+    PID (Eq 21) sampled at h."""
+    P = linear.sample(linear.plant(linear.rigid_mechanics(J, c), drive, h=h), 1)
+    return linear.loop(P, linear.pid_controller(kp, ki, kd, 1.0, h, h))
 
 
 def ideal_motion(mechanism, reference, n: int = 4096):
@@ -100,15 +115,13 @@ def predicted_error(mechanism, drive, reference, kp, ki, kd, n: int = 4096, harm
     Jbar = float(drive.J_eq + np.mean(J))
     cbar = float(drive.z ** 2 * drive.lam + np.mean(mechanism.hinge_damping_factor(a["q"]))
                  if hasattr(mechanism, "hinge_damping_factor") else drive.z ** 2 * drive.lam)
-    zk = float(drive.z * drive.k_m)
     F = np.fft.rfft(V) / len(V)
     k = np.arange(len(F))
     w = 2 * np.pi * k / T
-    s = 1j * w
-    with np.errstate(divide="ignore", invalid="ignore"):
-        C = kp + ki / s + kd * s
-        Pinv = (drive.R + drive.L * s) * (Jbar * s + cbar) / zk + zk
-        E = F / (C + Pinv)
+    lp = error_loop(drive, Jbar, cbar, kp, ki, kd)
+    E = np.zeros(len(F), dtype=complex)
+    kk = np.arange(1, min(harmonics, len(F) - 1) + 1)
+    E[kk] = linear.response(lp.closed, w[kk], "qd", "d") * F[kk]
     E[0] = 0.0
     E[harmonics + 1:] = 0.0
     e = np.fft.irfft(E * len(V), n=len(V))

@@ -51,8 +51,8 @@ import numpy as np
 
 from mjbench import metrics as M
 from mjbench import scenario as S
-from mjbench.backends import simulate
-from mjbench.errors import GeometryError, ParameterError, ScenarioError, SimulationDiverged
+from mjbench.backends import SEARCH_BACKENDS, simulate, simulate_many
+from mjbench.errors import GeometryError, MjbenchError, ParameterError, ScenarioError, SimulationDiverged
 
 # --------------------------------------------------------------------------- Incerti 2012 specification
 #: parameters the seed does not give (Table I illegible) → scenario key
@@ -251,8 +251,7 @@ def measure(scn, dt=None, record_dt=None, backend="reduced", t_open=None, refine
     win = scn.metrics.chi_window
     avg = scn.metrics.chi_average
     t_open = float(t_open if t_open is not None else scn.simulation.t_end)
-    opts = scn.multibody_options() if backend == "multibody" else {}
-    opts["timestep"] = dt
+    opts = _options(scn, backend, dt)
     tr = simulate(S.make_machine(scn, "open"), backend, t_open, record_dt=rec, options=opts)
     so = M.summary(tr, average=avg)
     chi_open = so.get("chi_last_cycle", float("nan"))
@@ -263,6 +262,45 @@ def measure(scn, dt=None, record_dt=None, backend="reduced", t_open=None, refine
     chi_pid = chi(tp.t, tp.omega, float(win[0]), float(win[1]), avg)
     return {"chi_open": float(chi_open), "chi_pid_window": float(chi_pid),
             "mean_speed_open": so["mean_motor_speed_rad_s"]}
+
+
+def _options(scn, backend, dt):
+    opts = scn.multibody_options() if backend == "multibody" else {"method": "rk4", "model": scn.reduced.model}
+    opts["timestep"] = dt
+    return opts
+
+
+def measure_many(scns, dt=None, record_dt=None, backend="reduced", t_open=None, refine=False):
+    """:func:`measure` of many scenarios (same dt, record step, χ window and run lengths), their
+    open-loop and PID runs each simulated together (``simulate_many``: the batched reduced model,
+    or ``mujoco.batch``).  Returns a list of measurement dicts, or the error message (str) of a
+    scenario whose run diverged."""
+    if not scns:
+        return []
+    s0 = scns[0]
+    dt = float(dt if dt is not None else s0.simulation.dt)
+    rec = max(float(record_dt if record_dt is not None else s0.simulation.record_dt), dt)
+    win, avg = s0.metrics.chi_window, s0.metrics.chi_average
+    t_open = float(t_open if t_open is not None else s0.simulation.t_end)
+    opts = _options(s0, backend, dt)
+    ro = simulate_many([S.make_machine(s, "open") for s in scns], backend, t_open, record_dt=rec, options=dict(opts))
+    rp = simulate_many([S.make_machine(s, "pid") for s in scns], backend, float(win[1]), record_dt=rec,
+                       options=dict(opts))
+    chi = chi_refined if refine else M.chi
+    out = []
+    for i in range(len(scns)):
+        if ro.diverged[i] or rp.diverged[i]:
+            out.append(ro.messages[i] or rp.messages[i])
+            continue
+        tr, tp = ro.trajectory(i), rp.trajectory(i)
+        so = M.summary(tr, average=avg)
+        chi_open = so.get("chi_last_cycle", float("nan"))
+        if refine and "last_cycle_start_s" in so:
+            chi_open = chi_refined(tr.t, tr.omega, so["last_cycle_start_s"], so["last_cycle_end_s"], avg)
+        out.append({"chi_open": float(chi_open),
+                    "chi_pid_window": float(chi(tp.t, tp.omega, float(win[0]), float(win[1]), avg)),
+                    "mean_speed_open": so["mean_motor_speed_rad_s"]})
+    return out
 
 
 def residuals_of(meas):
@@ -280,10 +318,77 @@ class Problem:
     cache: dict = field(default_factory=dict)
     #: parabola-refined max/min in χ (search); False = metrics.chi exactly as `mjbench run` (polish)
     refine: bool = True
+    #: search backend: the (batched) reduced model, or MuJoCo
+    backend: str = "reduced"
 
     def __post_init__(self):
+        if self.backend not in SEARCH_BACKENDS:
+            raise ParameterError(f"--backend {self.backend!r}: choose one of {list(SEARCH_BACKENDS)}")
         self.base = _base_values(self.scn)
         self.J_G = {i: float(S.get(self.scn, f"mechanism.J_G{i}")) for i in LINK}
+
+    def _key(self, u):
+        return tuple(np.round(np.asarray(u, dtype=float), 12))
+
+    def evaluate_many(self, U):
+        """:meth:`evaluate` of many search vectors, the feasible ones simulated together."""
+        keys = [self._key(u) for u in U]
+        todo, seen = [], set()
+        for u, k in zip(U, keys):
+            if k not in self.cache and k not in seen:
+                todo.append((np.asarray(u, dtype=float), k))
+                seen.add(k)
+        feas = []
+        for u, k in todo:
+            vals = self.values(u)
+            viol, why = feasibility(self.scn, vals, self.J_G)
+            if viol > 0:
+                self._store(k, (np.full(len(TARGETS), PENALTY * (1.0 + viol)), None, vals, why))
+            else:
+                feas.append((k, vals, why))
+        if feas:
+            meas = measure_many([_with(self.scn, v) for _, v, _ in feas], dt=self.dt,
+                                record_dt=self.record_dt or self.dt, backend=self.backend, refine=self.refine)
+            for (k, vals, why), m in zip(feas, meas):
+                if isinstance(m, str):
+                    self._store(k, (np.full(len(TARGETS), PENALTY), None, vals, f"diverged: {m}"))
+                    continue
+                r = residuals_of(m)
+                if not np.all(np.isfinite(r)):
+                    r, why = np.full(len(TARGETS), PENALTY), "no complete crank cycle"
+                self._store(k, (r, m, vals, why))
+        self.nfev += len(todo)
+        if self.bar is not None and todo:
+            self.bar.update(len(todo))
+        return [self.cache[k] for k in keys]
+
+    def _store(self, key, out):
+        if len(self.cache) > 5000:
+            self.cache.clear()
+        self.cache[key] = out
+
+    def jac(self, u, h=None):
+        """Forward-difference Jacobian of the residuals (steps as scipy's '2-point' scheme with
+        ``diff_step``, reversed at the upper bound 1), its columns simulated together."""
+        u = np.asarray(u, dtype=float)
+        h = DIFF_STEP if h is None else h
+        steps = []
+        for j in range(len(u)):
+            hj = h * max(1.0, abs(u[j]))
+            if u[j] + hj > 1.0:
+                hj = -hj
+            steps.append(hj)
+        pts = []
+        for j, hj in enumerate(steps):
+            e = u.copy()
+            e[j] = u[j] + hj
+            pts.append(e)
+        res = self.evaluate_many([u] + pts)
+        r0 = res[0][0]
+        J = np.empty((len(r0), len(u)))
+        for j, (hj, e) in enumerate(zip(steps, pts)):
+            J[:, j] = (res[j + 1][0] - r0) / (e[j] - u[j])
+        return J
 
     def values(self, u):
         return values(u, self.names, self.base, self.J_G)
@@ -304,7 +409,7 @@ class Problem:
         else:
             try:
                 meas = measure(_with(self.scn, vals), dt=self.dt, record_dt=self.record_dt or self.dt,
-                               refine=self.refine)
+                               refine=self.refine, backend=self.backend)
                 r = residuals_of(meas)
                 if not np.all(np.isfinite(r)):
                     r = np.full(len(TARGETS), PENALTY)
@@ -359,11 +464,15 @@ def newton_refine(prob, u, iters=8, goal=0.5, h=DIFF_STEP):
     for _ in range(iters):
         if np.max(np.abs(r)) <= goal:
             break
-        J = np.empty((len(r), len(u)))
+        pts = []
         for j in range(len(u)):
             e = np.zeros_like(u)
             e[j] = h if u[j] + h <= 1.0 else -h
-            J[:, j] = (prob.fun(u + e) - r) / e[j]
+            pts.append((u + e, e[j]))
+        res = prob.evaluate_many([p for p, _ in pts])  # the columns simulated together
+        J = np.empty((len(r), len(u)))
+        for j, ((p, ej), rr) in enumerate(zip(pts, res)):
+            J[:, j] = (rr[0] - r) / ej
         n_eval += len(u)
         du = np.linalg.lstsq(J, -r, rcond=None)[0]
         c0 = float(np.sum(r * r))
@@ -382,7 +491,7 @@ def newton_refine(prob, u, iters=8, goal=0.5, h=DIFF_STEP):
 def _fit_one(prob, u0, max_nfev, newton=8):
     from scipy.optimize import least_squares
 
-    res = least_squares(prob.fun, u0, bounds=(0.0, 1.0), method="trf", diff_step=DIFF_STEP,
+    res = least_squares(prob.fun, u0, jac=prob.jac, bounds=(0.0, 1.0), method="trf",
                         x_scale=1.0, max_nfev=max_nfev, xtol=1e-8, ftol=1e-10, gtol=1e-10)
     u, n_newton = newton_refine(prob, res.x, iters=newton) if newton else (res.x, 0)
     res.x = u
@@ -395,8 +504,8 @@ def _fit_one(prob, u0, max_nfev, newton=8):
 
 
 def _worker(args):
-    scn, names, dt, u0, max_nfev = args
-    prob = Problem(scn, names, dt=dt)
+    scn, names, dt, u0, max_nfev, backend = args
+    prob = Problem(scn, names, dt=dt, backend=backend)
     return _fit_one(prob, np.asarray(u0), max_nfev)
 
 
@@ -419,8 +528,7 @@ def screen(prob, n, seed=0):
     feasible); returns [(cost, u)] sorted by cost."""
     pts = feasible_starts(prob, n, seed=seed)
     out = []
-    for u in pts:
-        r = prob.evaluate(u)[0]
+    for u, (r, *_) in zip(pts, prob.evaluate_many(pts)):  # one batch
         out.append((float(0.5 * np.sum(r * r)), np.asarray(u)))
     out.sort(key=lambda cu: cu[0])
     return out
@@ -438,7 +546,8 @@ def pick_starts(scored, k, min_dist=0.15):
 
 
 def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0, n_screen=256,
-              polish=True, polish_nfev=4, jobs=1, progress=True, accept=1.0, select="closest"):
+              polish=True, polish_nfev=4, jobs=1, progress=True, accept=1.0, select="closest",
+              backend="reduced"):
     """Fit the missing parameters ``names`` of an Incerti 2012 scenario to TARGETS.
 
     Stages: (1) ``n_screen`` feasible Sobol points evaluated at ``dt``; (2) ``least_squares``
@@ -446,8 +555,11 @@ def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0,
     difference Jacobian); (3) if ``polish``, a few iterations from the best solution at the
     scenario's dt and record_dt.  Returns a dict: settings, per-start solutions (values,
     measurements, residuals), the distinct converged solutions, and ``result``."""
+    import time
+
+    t0 = time.perf_counter()
     names = check_params(list(names), scn)
-    prob = Problem(scn, names, dt=dt)
+    prob = Problem(scn, names, dt=dt, backend=backend)
     n = len(names)
     prob.bar = _bar(progress, n_screen, "calibrate: screening")
     scored = screen(prob, max(n_screen, starts), seed=seed)
@@ -461,7 +573,7 @@ def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0,
 
         bar = _bar(progress, len(u_starts), "calibrate: least squares (starts)")
         with ProcessPoolExecutor(max_workers=jobs) as ex:
-            for s in ex.map(_worker, [(scn, names, dt, u.tolist(), max_nfev) for u in u_starts]):
+            for s in ex.map(_worker, [(scn, names, dt, u.tolist(), max_nfev, backend) for u in u_starts]):
                 sols.append(s)
                 if bar is not None:
                     bar.update(1)
@@ -502,7 +614,7 @@ def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0,
     out["sensitivity"] = sensitivity(chosen, names)
     if polish:
         pprob = Problem(scn, names, dt=float(S.get(scn, "simulation.dt", 1e-4)),
-                        record_dt=float(S.get(scn, "simulation.record_dt", 5e-4)), refine=False)
+                        record_dt=float(S.get(scn, "simulation.record_dt", 5e-4)), refine=False, backend=backend)
         pprob.bar = _bar(progress, polish_nfev * (n + 1) + 1, "calibrate: polish at the scenario dt")
         r0, m0, _, why0 = pprob.evaluate(np.asarray(chosen["u"]))
         pol = _fit_one(pprob, np.asarray(chosen["u"]), polish_nfev)
@@ -519,7 +631,27 @@ def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0,
     else:
         out["result"] = chosen
     out["result"]["start"] = chosen["start"]
+    out["search_backend"] = backend
+    out["seconds_search"] = time.perf_counter() - t0
+    if backend != "multibody":
+        out["verification"] = verify(scn, out["result"])
+    out["seconds"] = time.perf_counter() - t0
     return out
+
+
+def verify(scn, result) -> dict:
+    """The calibrated values re-measured on the multibody backend at the scenario's dt and record
+    step (``metrics.chi`` as ``mjbench run``), next to the search backend's figures."""
+    s = _with(scn, result["values"])
+    dt = float(S.get(scn, "simulation.dt", 1e-4))
+    red = measure(s, dt=dt, backend="reduced")
+    try:
+        mb = measure(s, dt=dt, backend="multibody")
+    except MjbenchError as e:
+        return {"error": str(e), "reduced": red}
+    return {"dt_s": dt, "reduced": red, "multibody": mb,
+            "difference": {k: mb[k] - red[k] for k in TARGETS},
+            "relative": {k: (mb[k] - red[k]) / abs(mb[k]) if mb[k] else float("nan") for k in TARGETS}}
 
 
 def sensitivity(sol, names):
@@ -586,4 +718,16 @@ def table(res):
                  f"{100 * m.get('chi_pid_window', float('nan')):.2f} % (paper 2.6), mean speed = "
                  f"{m.get('mean_speed_open', float('nan')):.2f} rad/s (Fig. 4a ≈ 30); residuals "
                  f"{np.round(r['residuals'], 3).tolist()} (units of the tolerances)")
+    v = res.get("verification") or {}
+    if "multibody" in v:
+        lines.append(f"  verification at dt = {1e3 * v['dt_s']:g} ms (search on the {res.get('search_backend')} "
+                     f"backend): reduced → multibody")
+        for k, unit in (("chi_open", "%"), ("chi_pid_window", "%"), ("mean_speed_open", "rad/s")):
+            f = 100.0 if unit == "%" else 1.0
+            lines.append(f"    {k:<16s} {f * v['reduced'][k]:9.4f} → {f * v['multibody'][k]:9.4f} {unit}  "
+                         f"(difference {f * v['difference'][k]:+.3g} {unit}, {100 * v['relative'][k]:+.3g} % relative)")
+    elif v.get("error"):
+        lines.append(f"  verification on the multibody backend failed: {v['error']}")
+    if "seconds" in res:
+        lines.append(f"  {res['seconds']:.1f} s (search {res.get('seconds_search', 0):.1f} s)")
     return "\n".join(lines)

@@ -7,12 +7,15 @@ energy E(T) (closed form and MuJoCo), and the residual vibration of the initial 
 law named precisely — the free-vibration envelope at T and the actual peak |ψ| over
 [T, T + 2 s] — with the papers' ideal servo and with our machine (DC motor + cascade servo
 tracking the law, ``vibration.servo_study``); a warning when an optimised law is degenerate
-(:func:`mjbench.vibration.law_warnings`).  Figures: platform response before/after (the belt
+(:func:`mjbench.vibration.law_warnings`); the transmission modes of the linear machine model
+(motor locked — the papers' ω_n and ξ —, motor free, voltage-driven, servo loop closed) with the
+servo loop's margins (:mod:`mjbench.linear`).  Figures: platform response before/after (the belt
 paper's Fig. 3 layout), commands and platform (the Bezier paper's Figs 5-6 layout), ideal vs
-real servo, ω_n sensitivity.  Plots: :mod:`mjbench.papers.incerti_platforms_plots`.
+real servo, ω_n sensitivity, the servo loop's Bode plot and poles.  Plots: :mod:`mjbench.papers.incerti_platforms_plots`.
 """
 from __future__ import annotations
 
+import math
 import os
 
 from mjbench.papers import Case
@@ -128,6 +131,71 @@ def rows(ctx) -> list:
             ctx.warnings.append(f"the {LAW_NAMES[name]} law looks degenerate: {w}. Its residual figures hold for "
                                 "the nominal model only; try another start (`law.gammas` / "
                                 "`law.interior_over_Phi`) or constraints (`optimize.max_accel`).")
+    return rows + linear_rows(ctx)
+
+
+def _linear(ctx):
+    """Modes of the linear machine in four limits and the servo loop (computed once per case)."""
+    from mjbench import linear
+    from mjbench import scenario as S
+
+    if "linear" not in ctx.extra:
+        scn = ctx.scn
+        mach = S.make_machine(scn)
+        h = float(scn.simulation.dt)
+        op = linear.operating_point(mach, 0.0, 0.0)
+        tm = linear.transmission_modes(mach, op)
+        lp = mg = None
+        if linear.controller_counterpart(mach, op, h) is not None:
+            lp, mg = linear.analyse(mach, op, h)
+            tm["servo"] = [m for m in linear.modes(lp.feedback, True) if m.omega_n_rad_s < 0.5 * math.pi / h]
+        ctx.extra["linear"] = {"modes": tm, "loop": lp, "margins": mg}
+    return ctx.extra["linear"]
+
+
+LIMITS = (("locked", "motor locked (the papers' ideal servo)"),
+          ("free", "motor free (open circuit)"),
+          ("driven", "voltage-driven motor (back-EMF damping)"),
+          ("servo", "cascade servo loop closed"))
+WHY = {"free": "not the papers' figure: the motor inertia moves with the platform (two-inertia mode)",
+       "driven": "not the papers' figure: the back-EMF of the short-circuited armature damps the motor side",
+       "servo": "not the papers' figure: the assumed servo (docs/vibration.md) holds the motor close to its "
+                "law, so the mode approaches the locked-motor one"}
+
+
+def linear_rows(ctx) -> list:
+    """The transmission mode of the linear machine model (mechanism + drive + servo) in the four
+    limits; the papers' ω_n and ξ are exactly the locked-motor limit."""
+    lin = _linear(ctx)
+    pap = ctx.scn.get("paper", {})
+    rows = []
+    for key, label in LIMITS:
+        ms = lin["modes"].get(key) or []
+        if not ms:
+            continue
+        m = ms[0]  # the transmission mode: the lowest oscillatory one
+        locked = key == "locked"
+        rows += [
+            {"name": f"transmission mode ω_n, {label} — linear model", "unit": "rad/s",
+             "paper": pap.get("omega_n") if locked else None, "ours": {"linear": m.omega_n_rad_s},
+             "reason": ("the locked-motor limit is exactly √(k/J_eq): the paper's figure (printed truncated)"
+                        if locked and "omega_n" in pap else
+                        ("the papers' ω_n: the locked-motor limit" if locked else WHY[key]))},
+            {"name": f"damping ratio ξ, {label} — linear model", "unit": "1",
+             "paper": pap.get("xi") if locked else None, "ours": {"linear": m.zeta},
+             "reason": "" if locked and "xi" in pap else ("the papers' ξ: the locked-motor limit" if locked else
+                                                           WHY[key])},
+        ]
+    mg = lin["margins"]
+    if mg is not None:
+        why = "the assumed servo (docs/vibration.md), linear loop at the plant input"
+        rows += [{"name": "servo loop: phase margin", "unit": "deg", "paper": None, "ours": {"linear": mg.phase_margin_deg},
+                  "reason": why},
+                 {"name": "servo loop: gain margin", "unit": "dB", "paper": None, "ours": {"linear": mg.gain_margin_dB},
+                  "reason": why},
+                 {"name": "servo loop: peak |S|", "unit": "1", "paper": None, "ours": {"linear": mg.Ms}, "reason": why},
+                 {"name": "servo loop: closed-loop bandwidth", "unit": "rad/s", "paper": None,
+                  "ours": {"linear": mg.bandwidth_rad_s}, "reason": why}]
     return rows
 
 
@@ -176,4 +244,24 @@ def figures(ctx) -> list:
                                  title=f"{ctx.case.name}: deflection ψ with the ideal servo and with the DC motor + servo"))
     figs.append(PV.fig_sensitivity(fine, table, os.fspath(out / "sensitivity_omega_n.png"),
                                    title=f"{ctx.case.name}: E(T_end) vs error in ω_n"))
-    return figs
+    return figs + _linear_figures(ctx)
+
+
+def _linear_figures(ctx) -> list:
+    from mjbench import linear
+    from mjbench import linear_plots as LP
+
+    lin = _linear(ctx)
+    lp, mg = lin["loop"], lin["margins"]
+    if lp is None:
+        return []
+    name = ctx.case.name
+    groups = [(f"{label}", [m.pole for m in lin["modes"].get(key, [])], dict(marker=mk, s=60), None)
+              for (key, label), mk in zip(LIMITS, ("s", "^", "x", "o"))]
+    groups.append(("closed servo loop, every pole", linear.s_poles(lp.feedback), dict(marker=".", color="k", s=20), None))
+    return [LP.bode([], ctx.out / "linear_servo_bode.png", nominal=lp.L, margins=mg,
+                    title=f"{name}: servo loop L at the plant input (linear machine model)"),
+            LP.poles(groups, ctx.out / "linear_modes.png",
+                     title=f"{name}: transmission mode — motor locked, free, voltage-driven, servo closed")]
+
+

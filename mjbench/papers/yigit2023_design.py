@@ -151,3 +151,108 @@ def check_with_mechanism(x_mm) -> dict:
     r2, r3, r4, a, b = (float(v) * 1e-3 for v in x_mm)
     m = QuickReturn(r2=r2, r3=r3, r4=r4, a=a, b=b)
     return {"TR": m.time_ratio, "stroke_mm": 1e3 * m.stroke, "mu_min_deg": math.degrees(m.min_transmission_angle())}
+
+
+# ------------------------------------------------------------------ dynamic check of the designs
+#: figures of the closed-loop run of a design (seed-004 SMC at ω_d, steady window)
+DYN_FIGURES = (("error_abs_mean", "SMC |mean e| / ω_d", "1"), ("current_rms_steady", "steady rms current", "A"),
+               ("current_peak", "peak current", "A"), ("speed_mean", "mean crank speed", "rad/s"))
+
+
+def candidates(res) -> list:
+    """[(label, x_mm)]: Table I, then the distinct feasible SLSQP end points by increasing sum."""
+    out = [("Table I", [float(v) for v in TABLE_I])]
+    seen = []
+    for r in sorted((r for r in res["runs"] if r["feasible"]), key=lambda r: r["sum_mm"]):
+        x = np.round(np.asarray(r["x"]), 2)
+        if any(np.max(np.abs(x - y)) < 0.05 for y in seen):
+            continue
+        seen.append(x)
+        out.append((f"optimum {len(seen)}" if len(seen) > 1 else "optimum", [float(v) for v in r["x"]]))
+    return out
+
+
+def _scenario(x_mm, overrides=()):
+    from mjbench import scenario as S
+
+    keys = {n: float(v) * 1e-3 for n, v in zip(NAMES, x_mm)}
+    return S.with_values(S.load("yigit2023", list(overrides)), {f"mechanism.{k}": v for k, v in keys.items()})
+
+
+def simulate_designs(designs, backend="reduced", mode="smc", t_end=None, overrides=()) -> list:
+    """Closed-loop figures (:data:`DYN_FIGURES`) of each design x [mm] with Table I's masses and drive,
+    the runs simulated together on ``backend``; a design that cannot be built or diverges gives
+    {"error": message}."""
+    from mjbench import scenario as S
+    from mjbench.backends import simulate_many
+    from mjbench.errors import MjbenchError
+    from mjbench.runner import backend_options
+
+    from . import yigit2023_metrics as MQ
+
+    out, machines, idx = [None] * len(designs), [], []
+    scn0 = None
+    for i, x in enumerate(designs):
+        try:
+            s = _scenario(x, overrides)
+            machines.append(S.make_machine(s, mode))
+            idx.append(i)
+            scn0 = scn0 or s
+        except (MjbenchError, ValueError) as e:
+            out[i] = {"error": str(e)}
+    if not machines:
+        return out
+    t_end = float(t_end if t_end is not None else scn0.simulation.t_end)
+    opts = backend_options(scn0, backend)
+    wd = float(S.get(scn0, "metrics.omega_d", 5.0))
+    t0 = min(float(S.get(scn0, "metrics.steady_start", 2.0)), 0.5 * t_end)
+    res = simulate_many(machines, backend, t_end, record_dt=scn0.simulation.record_dt, options=opts)
+    for j, i in enumerate(idx):
+        if res.diverged[j]:
+            out[i] = {"error": res.messages[j]}
+            continue
+        tr = res.trajectory(j)
+        out[i] = {**MQ.steady_error(tr, wd, t0), **MQ.current_stats(tr, t0), **MQ.speed_stats(tr, t0)}
+    return out
+
+
+def dynamic_check(res, backend="reduced", verify=2, mode="smc", t_end=None, overrides=()) -> dict:
+    """Every candidate design (:func:`candidates`) in closed loop on ``backend``; the first
+    ``verify`` + 1 (Table I and the best optima) re-run on the multibody backend when the search
+    backend is the reduced model.  Masses, drive and controller: Table I's scenario (the paper
+    gives no mass model for other lengths)."""
+    cands = candidates(res)
+    figs = simulate_designs([x for _, x in cands], backend, mode, t_end, overrides)
+    rows = [{"label": lab, "x": x, backend: f} for (lab, x), f in zip(cands, figs)]
+    if backend != "multibody" and verify > 0:
+        k = min(len(cands), 1 + verify)
+        mb = simulate_designs([x for _, x in cands[:k]], "multibody", mode, t_end, overrides)
+        for r, f in zip(rows, mb):
+            r["multibody"] = f
+    return {"backend": backend, "mode": mode, "rows": rows,
+            "note": "masses, drive and SMC of Table I's scenario for every design"}
+
+
+def dynamic_table(dyn) -> str:
+    b = dyn["backend"]
+    lines = [f"closed loop ({dyn['mode']}) of each design on the {b} backend"
+             + (" → multibody (verification)" if any("multibody" in r for r in dyn["rows"]) and b != "multibody" else "")
+             + f"; {dyn['note']}"]
+    for r in dyn["rows"]:
+        f = r[b]
+        if "error" in f:
+            lines.append(f"  {r['label']:<10s} {f['error']}")
+            continue
+        for key, text, unit in DYN_FIGURES:
+            line = f"  {r['label']:<10s} {text:<20s} {f[key]:12.6g}"
+            m = r.get("multibody")
+            if m is not None and b != "multibody":
+                if "error" in m:
+                    line += f"   multibody: {m['error']}"
+                else:
+                    d = m[key] - f[key]
+                    line += f" → {m[key]:12.6g} {unit:<5s} (difference {d:+.3g}, {100 * d / abs(m[key]) if m[key] else float('nan'):+.3g} %)"
+            else:
+                line += f" {unit}"
+            lines.append(line)
+    return "\n".join(lines)

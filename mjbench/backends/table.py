@@ -1,0 +1,160 @@
+"""Tabulated reduced model: J, J'/2, E_p' (and a viscous D) of a rigid mechanism over one period.
+
+The reduced (Eksergian) model of a rigid mechanism needs, at every RK4 stage, J(q), J'(q) and
+E_p'(q) (seed 000 Eqs 10-13) — closed forms full of trigonometry and square roots (2.8 µs per
+four-bar evaluation in Python).  They depend on the input coordinate only and are periodic in it
+(one crank turn, ``Mechanism.reduced_period``), so we tabulate them once per mechanism:
+
+* a periodic cubic spline (``scipy.interpolate.CubicSpline(bc_type="periodic")``) of each
+  quantity on a uniform grid of n nodes over the period; its coefficients are stored per cell in
+  the cell's local coordinate f ∈ [0, 1) so that a lookup is ``i = ⌊q·n/P⌋ mod n``,
+  ``f = q·n/P − ⌊q·n/P⌋`` and one Horner evaluation ``((c₃f + c₂)f + c₁)f + c₀`` per quantity —
+  only +, −, ×, ⌊·⌋: the scalar (Python float) and the array (NumPy, one row per simulation) paths
+  perform the same IEEE operations in the same order and give the same bits;
+* accuracy measured, not assumed: n starts at ``N0`` and doubles until the largest error against
+  the closed forms at 3 interior points of every cell (f = ¼, ½, ¾, where a cubic spline's error
+  peaks), relative to the quantity's largest magnitude over the period, is ≤ ``tol`` (default
+  1e-9); the table records that error (``max_rel_error``) and its node count.  A spline's error
+  falls as h⁴ (×16 per doubling): the seed-000 four-bar needs 2048 nodes (7e-11; docs/performance.md).
+* the mechanism's viscous external torque −D(q)·q̇ (``Mechanism.reduced_viscous``, e.g. the
+  four-bar's hinge friction) is tabulated as a fourth quantity; any other external torque
+  (the quick-return's cutting force, discontinuous) is evaluated by the mechanism at each stage.
+
+Layout: ``coef`` is (4·m, n) — rows c₀ of the m quantities, then c₁, c₂, c₃ — so that a batch
+gathers the (4·m, N) coefficients of N simulations with one ``np.take(axis=1)`` and evaluates
+contiguous rows; ``rows`` is the same as a list of n tuples for the scalar path.
+Tables are cached by the mechanism's parameters (``describe()``): a batch of gain candidates
+shares one table, a calibration builds one per candidate linkage (≈ 2–5 ms).
+"""
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+
+import numpy as np
+
+from ..errors import ParameterError
+
+N0 = 1024         #: first grid size tried (doubled until the tolerance is met)
+NMAX = 1 << 16    #: largest grid tried
+TOL = 1e-9        #: default relative interpolation tolerance
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_MAX = 256  #: tables kept (≈ 0.2 MB each, ≈ 1 MB once used by a single run)
+
+
+def supports(mech) -> bool:
+    """Whether the mechanism's reduced model can be tabulated (rigid, periodic in q)."""
+    return not mech.internal and getattr(mech, "reduced_period", None)
+
+
+class ReducedTable:
+    """Periodic cubic-spline table of one rigid mechanism (see the module docstring).
+
+    Attributes: ``n`` nodes, ``period`` [rad], ``k`` = n/period [1/rad], ``m`` quantities
+    (J, J'/2, E_p' and, if ``viscous``, D), ``coef`` (4m, n), ``rows`` (n tuples of 4m floats),
+    ``max_rel_error`` (measured, per quantity in ``errors``)."""
+
+    def __init__(self, mech, tol: float = TOL, n0: int = N0, nmax: int = NMAX, viscous: bool | None = None):
+        from scipy.interpolate import CubicSpline
+
+        if not supports(mech):
+            raise ParameterError(f"{mech.type_name}: the reduced model cannot be tabulated (internal coordinates "
+                                 "or not periodic in the input coordinate); use [reduced] model = \"closed\"")
+        self.period = P = float(mech.reduced_period)
+        self.viscous = (mech.reduced_viscous(0.0) is not None) if viscous is None else bool(viscous)
+        names = ["J", "dJ_half", "dEp"] + (["D"] if self.viscous else [])
+        self.names, self.m = tuple(names), len(names)
+        n = int(n0)
+        while True:
+            q = np.arange(n + 1) * (P / n)
+            q[-1] = P
+            y = _quantities(mech, q, self.viscous)
+            y[-1] = y[0]  # periodic: the closed forms agree to round-off, the spline needs equality
+            sp = CubicSpline(q, y, bc_type="periodic", axis=0)
+            # check at 3 interior points of every cell, against the closed forms
+            fq = np.array([0.25, 0.5, 0.75])
+            qc = (np.arange(n)[:, None] + fq[None, :]).ravel() * (P / n)
+            exact = _quantities(mech, qc, self.viscous)
+            scale = np.maximum(np.max(np.abs(y), axis=0), 1e-300)
+            err = np.max(np.abs(sp(qc) - exact), axis=0) / scale
+            if np.all(err <= tol) or n >= nmax:
+                break
+            n *= 2
+        self.n = n
+        self.k = n / P
+        self.errors = dict(zip(names, map(float, err)))
+        self.max_rel_error = float(np.max(err))
+        self.tol = tol
+        if self.max_rel_error > tol:
+            raise ParameterError(f"{mech.type_name}: tabulated reduced model misses the tolerance {tol:g} with "
+                                 f"{n} nodes (relative error {self.max_rel_error:.3g}: a near-singular linkage?); "
+                                 "use [reduced] model = \"closed\"")
+        # CubicSpline: y = Σ c[3-j]·(x − x_i)^j.  In f = (x − x_i)·n/P: c_j·(P/n)^j
+        dx = P / n
+        c = sp.c  # (4, n, m): highest power first
+        coef = np.empty((4 * self.m, n))
+        for j in range(4):  # c_j (power j)
+            coef[j * self.m:(j + 1) * self.m] = (c[3 - j] * dx ** j).T
+        self.coef = np.ascontiguousarray(coef)
+        self._rows = None
+
+    @property
+    def rows(self):
+        """The coefficients as n tuples of 4m Python floats (scalar path; built on first use)."""
+        if self._rows is None:
+            self._rows = [tuple(map(float, col)) for col in self.coef.T]
+        return self._rows
+
+    def describe(self) -> dict:
+        return {"model": "table", "table_nodes": self.n, "table_max_rel_error": self.max_rel_error,
+                "table_tolerance": self.tol}
+
+    # ---------------------------------------------------------------- evaluation (checks, plots)
+    def __call__(self, q):
+        """(J, J'/2, E_p'[, D]) at q (float or array), by the same arithmetic as the plants."""
+        q = np.asarray(q, dtype=float)
+        u = q * self.k
+        fl = np.floor(u)
+        f = u - fl
+        i = np.remainder(fl.astype(np.intp), self.n)
+        g = self.coef[:, i]
+        m = self.m
+        out = []
+        for j in range(m):
+            out.append(((g[3 * m + j] * f + g[2 * m + j]) * f + g[m + j]) * f + g[j])
+        return tuple(out)
+
+
+def _quantities(mech, q, viscous):
+    J, dJ, dEp = mech.reduced(q)
+    cols = [np.asarray(J + 0.0 * q, float), 0.5 * np.asarray(dJ + 0.0 * q, float), np.asarray(dEp + 0.0 * q, float)]
+    if viscous:
+        D = mech.reduced_viscous(q)
+        cols.append(np.asarray((0.0 if D is None else D) + 0.0 * q, float))
+    return np.stack(cols, axis=1)
+
+
+def _key(mech, tol, viscous=None):
+    return (type(mech).__name__, repr(sorted(mech.describe().items())), float(tol), viscous)
+
+
+def table_for(mech, tol: float = TOL, viscous: bool | None = None) -> ReducedTable:
+    """The (cached) table of a mechanism (``viscous=True``: with a D column, 0 if it has none)."""
+    key = _key(mech, tol, viscous)
+    t = _CACHE.get(key)
+    if t is None:
+        t = ReducedTable(mech, tol, viscous=viscous)
+        _CACHE[key] = t
+        while len(_CACHE) > _CACHE_MAX:
+            _CACHE.popitem(last=False)
+    else:
+        _CACHE.move_to_end(key)
+    return t
+
+
+def floor(x):
+    """⌊x⌋ as a float for a Python float (``math.floor`` raises on inf/NaN: those give NaN)."""
+    try:
+        return float(math.floor(x))
+    except (ValueError, OverflowError):
+        return math.nan
