@@ -27,7 +27,7 @@ import numpy as np
 
 from mjbench import linear
 
-H_CONTROL = 1e-4  #: [s] control period of the seed-002 PID (the scenarios' co-step)
+H_CONTROL = 1e-4  #: [s] control period of the Hülako & Çakar PID (the scenarios' co-step)
 
 
 def error_loop(drive, J, c, kp, ki, kd, h=H_CONTROL):

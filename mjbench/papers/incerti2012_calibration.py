@@ -1,6 +1,6 @@
 """Explicit calibration of the *missing* Incerti 2012 parameters to the paper's reported figures.
 
-Seed 000 (Incerti 2012) Table I is partly illegible: a, b, c, h_x, f_1..f_3, m_1..m_3 and the
+Incerti 2012 Table I is partly illegible: a, b, c, h_x, f_1..f_3, m_1..m_3 and the
 armature resistance R are missing (docs/errata.md, Incerti 2012).  The default scenario
 ``incerti2012`` fills them with a-priori assumptions (uniform bars, R from Fig. 4a) and does *not*
 reproduce χ.  This module is the one explicit, documented step that fits chosen missing values so

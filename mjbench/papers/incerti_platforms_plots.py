@@ -42,7 +42,7 @@ def response(law, osc, t_after=0.5, n=3001):
 
 def fig_energy_response(law_before, law_after, osc, path, t_after=0.5, titles=("non-optimised", "optimised"),
                         suptitle=""):
-    """Seed 001 Fig. 3: platform speed and acceleration (solid) with the commands λφ̇, λφ̈
+    """Incerti belt Fig. 3: platform speed and acceleration (solid) with the commands λφ̇, λφ̈
     (dashed), kinetic and elastic potential energy; left before, right after the optimisation."""
     fig, ax = plt.subplots(4, 2, figsize=(11, 10), sharex=True)
     for col, (law, title) in enumerate(zip((law_before, law_after), titles)):
@@ -76,7 +76,7 @@ def fig_energy_response(law_before, law_after, osc, path, t_after=0.5, titles=("
 
 
 def fig_commands_platform(law, osc, path, t_after=0.5, title=""):
-    """Seed 003 Figs 5-6: left, the commands α = zφ, α̇, α̈ with their control polygons (Bezier
+    """Incerti Bezier Figs 5-6: left, the commands α = zφ, α̇, α̈ with their control polygons (Bezier
     laws); right, the platform rotation β, speed β̇ and acceleration β̈."""
     r = response(law, osc, t_after)
     t, rho = r["t"], osc.ratio

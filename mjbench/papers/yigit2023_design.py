@@ -154,7 +154,7 @@ def check_with_mechanism(x_mm) -> dict:
 
 
 # ------------------------------------------------------------------ dynamic check of the designs
-#: figures of the closed-loop run of a design (seed-004 SMC at ω_d, steady window)
+#: figures of the closed-loop run of a design (Yiğit & Şen SMC at ω_d, steady window)
 DYN_FIGURES = (("error_abs_mean", "SMC |mean e| / ω_d", "1"), ("current_rms_steady", "steady rms current", "A"),
                ("current_peak", "peak current", "A"), ("speed_mean", "mean crank speed", "rad/s"))
 
