@@ -115,7 +115,8 @@ def _chi_rows(ctx) -> list:
                 "reason": f"our limiter: ±{v_max:g} V (Fig. 3 draws one without a value)"})
     if math.isfinite(v_max):
         windows = [("over the whole run", None, None)]
-        if scn.metrics.chi_window is not None:
+        t_run = min(float(tr.t[-1]) for tr in ctx.runs["pid"].values())
+        if scn.metrics.chi_window is not None and t_run >= scn.metrics.chi_window[1] - 1e-9:
             t0, t1 = scn.metrics.chi_window
             windows.append((f"in the window {t0:g}–{t1:g} s", t0, t1))
         for what, a, b in windows:
