@@ -187,7 +187,7 @@ def linear_rows(ctx) -> list:
         {"name": "linear speed loop with K_d = 0 (PI): 90 % rise time", "unit": "s", "paper": pap.get("rise_time"),
          "ours": {"linear": lin["rise_pi_s"]},
          "reason": f"bandwidth {lin['bw_pi']:.3g} rad/s (linear: no 12 V limit): without the derivative the loop "
-                   f"is fast enough — not the paper's stated gains"},
+                   f"rises this fast — not the paper's stated gains"},
         {"name": "frozen-angle validity ν = max(|J'q̇/J|, |∂q̇_trj/∂q|) / bandwidth", "unit": "1", "paper": None,
          "ours": {"linear": v["ratio"]},
          "reason": f"{v['verdict']} (< 0.1 valid, > 1 fails): the Eq 17 reference changes at up to "
