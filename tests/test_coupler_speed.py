@@ -296,7 +296,7 @@ def test_run_writes_coupler_metrics_and_judges_the_paper(tmp_path, capsys):
     assert err["verdict"]["ok"] == (cs["crank_error_max_after_rad_s"] <= 0.1)
     assert rows["coupler_speed.rise_time_s"]["compare"] == "value"
     text = capsys.readouterr().out
-    assert "max |V_C − V_des| after settle_time" in text and "verdict:" in text
+    assert "max |V_C − V_des| after 1.5 s" in text and "verdict:" in text
 
 
 def test_metrics_definitions_on_synthetic_run(fb1):
