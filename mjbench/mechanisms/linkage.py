@@ -606,10 +606,14 @@ class _Compiled:
         p, sysm = self.p, self.sys
         q0 = float(p.input_angle)
         self.q0 = q0
-        z_ref, res = sysm.assemble(self.guess(q0), q0)
+        z_free, res_free = sysm.assemble(self.guess(q0), q0, free=True)
+        if res_free < 1e-9:  # the loops close near the stated pose (input free): count the freedom there
+            self._mobility(z_free)
+        z_ref, res = sysm.assemble(z_free if res_free < 1e-9 else self.guess(q0), q0)
         if not res < 1e-9:
             self._no_assembly(q0, z_ref)
-        self._mobility(z_ref)
+        if not res_free < 1e-9:
+            self._mobility(z_ref)
         try:
             qs, Z, V, A = sysm.continuation(z_ref, q0, TWO_PI, COARSE_STEPS, cond_tol=COND_TOL)
         except SolveError as e:
@@ -920,6 +924,109 @@ class Linkage(Mechanism):
     def describe(self) -> dict:
         return self.params.to_dict()
 
+    # ------------------------------------------------------------------ kinematic analysis
+    def kinematic_analysis(self, q):
+        """Over input angles q (array): velocity ratios of every joint, slide strokes, transmission
+        angles, toggle (collinear) and limit positions.  See docs/linkages.md §6 for definitions."""
+        c, p = self.c, self.params
+        q = np.asarray(q, float)
+        z, v, _ = c.exact(q)
+        rates = c.joint_rates(z, v)
+        slides = c.slide_positions(z)
+        pts = c.world_points(z)
+        out = {"ratios": {}, "ratio_units": {}, "strokes_m": {}, "transmission": {}, "toggles": {},
+               "limit_positions": {}}
+        for k, j in enumerate(p.joints):
+            if j.name == p.input:
+                continue
+            out["ratios"][j.name] = rates[:, k]
+            out["ratio_units"][j.name] = "rad/rad" if j.type == "revolute" else "m/rad"
+            roots = _roots(q, rates[:, k])
+            out["limit_positions"][j.name] = [float(x) for x in roots]
+            if j.type == "prismatic":  # stroke: extremes at the limit positions (exact solve there)
+                ext = slides[:, k]
+                if len(roots):
+                    ext = np.concatenate([ext, c.slide_positions(c.exact(roots)[0])[:, k]])
+                out["strokes_m"][j.name] = float(np.ptp(ext))
+        # revolute points of each link (its "link line" if binary)
+        rpts = {n: [] for n in c.links}
+        prism = {n: [] for n in c.links}
+        for k, j in enumerate(p.joints):
+            l1, p1, l2, p2 = c.jlinks[k]
+            for lk, pt in ((l1, p1), (l2, p2)):
+                if lk != GROUND:
+                    (rpts if j.type == "revolute" else prism)[lk].append((k, pt))
+        binary = {n: sorted({pt for _, pt in v}) for n, v in rpts.items()}
+        binary = {n: v for n, v in binary.items() if len(v) == 2 and not prism[n]}
+        dist = self._distances()
+        for k, j in enumerate(p.joints):
+            if j.type != "revolute":
+                continue
+            l1, p1, l2, p2 = c.jlinks[k]
+            if GROUND in (l1, l2):
+                continue
+            for L, pL, K, pK in ((l1, p1, l2, p2), (l2, p2, l1, p1)):
+                if L not in binary or L == c.input_link or K == c.input_link or dist.get(K, 0) <= dist.get(L, 0):
+                    continue
+                other = [x for x in binary[L] if x != pL][0]
+                line = _vec(pts, f"{L}.{pL}", f"{L}.{other}")
+                mu = self._mu(k, K, pK, line, z, v, pts)
+                if mu is not None:
+                    out["transmission"][f"{j.name} ({L} on {K})"] = mu
+            # toggle: both links binary: their lines through the joint become collinear
+            if l1 in binary and l2 in binary:
+                o1 = [x for x in binary[l1] if x != p1][0]
+                o2 = [x for x in binary[l2] if x != p2][0]
+                u1 = _vec(pts, f"{l1}.{o1}", f"{l1}.{p1}")
+                u2 = _vec(pts, f"{l2}.{o2}", f"{l2}.{p2}")
+                cross = u1[0] * u2[1] - u1[1] * u2[0]
+                dot = u1[0] * u2[0] + u1[1] * u2[1]
+                roots = _roots(q, cross)
+                kinds = ["folded" if np.interp(r, q, dot) > 0 else "extended" for r in roots]
+                out["toggles"][j.name] = [{"q": float(r), "kind": kd, "links": [l1, l2]} for r, kd in zip(roots, kinds)]
+        return out
+
+    def _distances(self):
+        """Joint-graph distance of every link from the input link, not passing through the ground."""
+        c = self.c
+        adj = {n: set() for n in c.links}
+        for l1, _, l2, _ in c.jlinks:
+            if GROUND not in (l1, l2):
+                adj[l1].add(l2)
+                adj[l2].add(l1)
+        dist, dq = {c.input_link: 0}, deque([c.input_link])
+        while dq:
+            u = dq.popleft()
+            for w in adj[u]:
+                if w not in dist:
+                    dist[w] = dist[u] + 1
+                    dq.append(w)
+        return dist
+
+    def _mu(self, k, K, pK, line, z, v, pts):
+        """Transmission angle at joint k where the binary link (force along ``line``) drives link K
+        at its point pK: against K's ground pivot arm, its ground slide, else its point velocity."""
+        c, p = self.c, self.params
+        for kk, j in enumerate(p.joints):
+            l1, p1, l2, p2 = c.jlinks[kk]
+            if {l1, l2} != {K, GROUND}:
+                continue
+            if j.type == "revolute":
+                pkO = p2 if l2 == K else p1
+                if pkO == pK:
+                    continue
+                arm = _vec(pts, f"{K}.{pkO}", f"{K}.{pK}")
+                return _fold(line, arm)
+            u = np.array(j.axis, float)
+            if l2 == K:  # the ground owns the line: its direction is fixed
+                ang = _fold(line, (np.full_like(line[0], u[0]), np.full_like(line[0], u[1])))
+                return 0.5 * np.pi - ang
+        b, s_ = c._body_point(K, pK)
+        vel = c.sys.point_vel(z, v, b, s_)
+        mu = 0.5 * np.pi - _fold(line, (vel[:, 0], vel[:, 1]))
+        speed = np.hypot(vel[:, 0], vel[:, 1])
+        return np.where(speed > 1e-9 * c.L, mu, np.nan)
+
     # ------------------------------------------------------------------ MJCF
     def build_spec(self, armature: float = 0.0, options=None):
         """MjSpec: links as bodies of a kinematic tree (hinge / slide joints named after the
@@ -1196,6 +1303,29 @@ class Linkage(Mechanism):
                 qfrc[d] = val
 
 
+def _vec(pts, a, b):
+    """World vector from point a to point b, (x (B,), y (B,))."""
+    return pts[b][0] - pts[a][0], pts[b][1] - pts[a][1]
+
+
+def _fold(u, w):
+    """Angle between the lines of u and w folded to [0, π/2] [rad]."""
+    dot = np.abs(u[0] * w[0] + u[1] * w[1])
+    n = np.hypot(u[0], u[1]) * np.hypot(w[0], w[1])
+    return np.arccos(np.clip(dot / np.where(n > 0, n, 1.0), 0.0, 1.0))
+
+
+def _roots(q, f):
+    """Input angles where the sampled periodic f(q) changes sign (linear interpolation)."""
+    f = np.asarray(f, float)
+    f2 = np.append(f, f[0])
+    q2 = np.append(q, q[0] + TWO_PI)
+    pos = f2 >= 0.0
+    i = np.flatnonzero((pos[:-1] != pos[1:]) & np.isfinite(f2[:-1]) & np.isfinite(f2[1:]))
+    den = f2[i + 1] - f2[i]
+    return q2[i] - f2[i] * (q2[i + 1] - q2[i]) / np.where(den != 0, den, 1.0)
+
+
 def _quat(ang):
     """Quaternion of a rotation by ang (counter-clockwise in the description plane) = about −y."""
     return [math.cos(0.5 * ang), 0.0, -math.sin(0.5 * ang), 0.0]
@@ -1261,3 +1391,84 @@ def _force_law(ld: LoadSpec):
 
 Linkage.Params = LinkageParams
 register(Linkage)
+
+
+# ============================================================================ equivalents of the hand-coded mechanisms
+def table_from_fourbar(fb) -> dict:
+    """The ``[mechanism]`` table of a :class:`~mjbench.mechanisms.fourbar.FourBar` written as a
+    generic linkage (same notation as tests/data/linkages/incerti2012.toml): link frames at the
+    proximal joints along the link lines, joint point masses as point masses, hinge damping."""
+    beta, gamma = (float(v) for v in fb.angles(0.0))
+    pol = (lambda r, t: [r * math.cos(t), r * math.sin(t)])
+    jm = fb.joint_masses
+    pt = fb.coupler_point
+    return {
+        "type": "linkage", "name": f"{fb.name}-linkage", "input": "A", "input_angle": 0.0,
+        "gravity": [0.0, -float(fb.g)], "trace": "coupler.P",
+        "ground": {"A": [0.0, 0.0], "D": [float(fb.h_x), float(fb.h_y)]},
+        "links": {
+            "crank": {"mass": fb.m[0], "com": pol(fb.f[0], fb.theta[0]), "inertia": fb.J_G[0],
+                      "points": {"A": [0.0, 0.0], "B": [fb.a, 0.0]},
+                      "point_masses": {k: v for k, v in (("A", jm.get("A", 0.0)), ("B", jm.get("B", 0.0))) if v}},
+            "coupler": {"mass": fb.m[1], "com": pol(fb.f[1], fb.theta[1]), "inertia": fb.J_G[1],
+                        "points": {"B": [0.0, 0.0], "C": [fb.b, 0.0], "P": pol(pt.f, pt.theta)}, "angle": beta},
+            "rocker": {"mass": fb.m[2], "com": pol(fb.f[2], fb.theta[2]), "inertia": fb.J_G[2],
+                       "points": {"D": [0.0, 0.0], "C": [fb.c, 0.0]}, "angle": gamma,
+                       "point_masses": {k: v for k, v in (("C", jm.get("C", 0.0)), ("D", jm.get("D", 0.0))) if v}},
+        },
+        "joints": [{"name": "A", "at": ["ground.A", "crank.A"], "damping": fb.damping_A},
+                   {"name": "B", "at": ["crank.B", "coupler.B"], "damping": fb.joint_damping},
+                   {"name": "C", "at": ["coupler.C", "rocker.C"], "damping": fb.damping_C},
+                   {"name": "D", "at": ["ground.D", "rocker.D"], "damping": fb.joint_damping}],
+    }
+
+
+def table_from_quickreturn(qr) -> dict:
+    """The seed-004 quick-return (:class:`~mjbench.mechanisms.quickreturn.QuickReturn`) as a
+    generic linkage (tests/data/linkages/yigit2023.toml); the cutting force on the "stroke"
+    profile becomes a load against the slider on its working stroke (other profiles: no load)."""
+    k = qr.kin(0.0)
+    H = qr.a + qr.b
+    loads = []
+    if qr.cut_profile == "stroke" and qr.cut_force > 0:
+        loads = [{"name": "cut", "point": "slider.C", "direction": [-qr.working_direction, 0.0],
+                  "force": float(qr.cut_force), "active": "stroke_against"}]
+    return {
+        "type": "linkage", "name": f"{qr.name}-linkage", "input": "A0", "input_angle": 0.0,
+        "gravity": [0.0, -float(qr.g)], "trace": "slider.C",
+        "ground": {"A0": [0.0, qr.a], "B0": [0.0, 0.0], "S": [0.0, H]},
+        "links": {
+            "crank": {"mass": qr.m2, "com": [qr.c2, 0.0], "inertia": qr.I_G2,
+                      "points": {"A0": [0.0, 0.0], "A": [qr.r2, 0.0]}},
+            "block": {"mass": qr.m_block, "inertia": qr.I_block, "points": {"A": [0.0, 0.0]},
+                      "angle": float(k["th3"])},
+            "lever": {"mass": qr.m3, "com": [qr.c3, 0.0], "inertia": qr.I_G3,
+                      "points": {"B0": [0.0, 0.0], "B": [qr.r3, 0.0]}, "angle": float(k["th3"])},
+            "rod": {"mass": qr.m4, "com": [qr.c4, 0.0], "inertia": qr.I_G4,
+                    "points": {"B": [0.0, 0.0], "C": [qr.r4, 0.0]}, "angle": float(k["th4"])},
+            "slider": {"mass": qr.m5, "inertia": 0.0, "points": {"C": [0.0, 0.0]}},
+        },
+        "joints": [{"name": "A0", "at": ["ground.A0", "crank.A0"]},
+                   {"name": "A", "at": ["crank.A", "block.A"]},
+                   {"name": "slot", "type": "prismatic", "at": ["lever.B0", "block.A"], "axis": [1.0, 0.0]},
+                   {"name": "B0", "at": ["ground.B0", "lever.B0"]},
+                   {"name": "B", "at": ["lever.B", "rod.B"]},
+                   {"name": "C", "at": ["rod.C", "slider.C"]},
+                   {"name": "slide", "type": "prismatic", "at": ["ground.S", "slider.C"], "axis": [1.0, 0.0]}],
+        "loads": loads,
+    }
+
+
+def equivalent(mech):
+    """A :class:`Linkage` equivalent to a hand-coded mechanism (kinematic analysis of the built-in
+    four-bar and quick-return: velocity ratios, transmission angles, toggles), or None."""
+    if isinstance(mech, Linkage):
+        return mech
+    from .fourbar import FourBar
+    from .quickreturn import QuickReturn
+
+    if isinstance(mech, FourBar):
+        return Linkage(LinkageParams.model_validate(table_from_fourbar(mech)))
+    if isinstance(mech, QuickReturn):
+        return Linkage(LinkageParams.model_validate(table_from_quickreturn(mech)))
+    return None

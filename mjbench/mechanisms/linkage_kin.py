@@ -277,10 +277,11 @@ class PlanarSystem:
             ok = np.isfinite(err) & (err < tol)
         return z, ok
 
-    def assemble(self, z0, q, tol=1e-12, anchor=0.1):
+    def assemble(self, z0, q, tol=1e-12, anchor=0.1, free=False):
         """Assembly from a rough guess z0 whose link angles pick the branch: Levenberg-Marquardt
         on Φ plus a soft pull ``anchor``·(θ − θ₀) of every angle towards the guess (so the
         closest assembly to the stated angles is found), then on Φ alone, then Newton.
+        ``free``: without the driving constraint (the input moves too; no Newton).
         Returns (z, scaled residual)."""
         from scipy.optimize import least_squares
 
@@ -288,12 +289,13 @@ class PlanarSystem:
         z0 = np.asarray(z0, float)
         th0 = z0[2::3].copy()
         nb = len(th0)
+        rows = slice(0, self.m - 1) if free else slice(0, self.m)
 
         def f(x):
-            return self.phi((x / C)[None], q)[0] * R
+            return (self.phi((x / C)[None], q)[0] * R)[rows]
 
         def jac(x):
-            return self.jac((x / C)[None])[0] * R[:, None] / C[None, :]
+            return (self.jac((x / C)[None])[0] * R[:, None] / C[None, :])[rows]
 
         def fa(x):
             return np.concatenate([f(x), anchor * (x[2::3] - th0)])
@@ -303,12 +305,15 @@ class PlanarSystem:
             Ja[np.arange(nb), 3 * np.arange(nb) + 2] = anchor
             return np.vstack([jac(x), Ja])
 
-        kw = dict(method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000)
+        kw = dict(xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000)
         x = z0 * C
         if anchor > 0:
-            x = least_squares(fa, x, jac=ja, **kw).x
-        x = least_squares(f, x, jac=jac, **kw).x
+            x = least_squares(fa, x, jac=ja, method="lm", **kw).x
+        nrow = self.m - 1 if free else self.m
+        x = least_squares(f, x, jac=jac, method="lm" if nrow >= self.nz else "trf", **kw).x
         z = (x / C)[None]
+        if free:
+            return z[0], float(np.max(np.abs(f(x)), initial=0.0))
         z2, ok = self.newton(z, q, tol=tol)
         if ok[0]:
             z = z2
