@@ -956,8 +956,10 @@ class Linkage(Mechanism):
             for lk, pt in ((l1, p1), (l2, p2)):
                 if lk != GROUND:
                     (rpts if j.type == "revolute" else prism)[lk].append((k, pt))
+        grounded = {lk for l1, _, l2, _ in c.jlinks if GROUND in (l1, l2) for lk in (l1, l2)}
         binary = {n: sorted({pt for _, pt in v}) for n, v in rpts.items()}
         binary = {n: v for n, v in binary.items() if len(v) == 2 and not prism[n]}
+        couplers = {n for n in binary if n not in grounded}  # floating two-force members
         dist = self._distances()
         for k, j in enumerate(p.joints):
             if j.type != "revolute":
@@ -966,7 +968,7 @@ class Linkage(Mechanism):
             if GROUND in (l1, l2):
                 continue
             for L, pL, K, pK in ((l1, p1, l2, p2), (l2, p2, l1, p1)):
-                if L not in binary or L == c.input_link or K == c.input_link or dist.get(K, 0) <= dist.get(L, 0):
+                if L not in couplers or K == c.input_link or dist.get(K, 0) <= dist.get(L, 0):
                     continue
                 other = [x for x in binary[L] if x != pL][0]
                 line = _vec(pts, f"{L}.{pL}", f"{L}.{other}")
