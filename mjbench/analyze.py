@@ -130,6 +130,8 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
                           "text": f"joint {jn} momentarily stops (limit position) at q = {math.degrees(r) % 360:.1f}°"})
     res["toggles"] = kin.get("toggles", {})
     res["limit_positions"] = kin.get("limit_positions", {})
+    res["swings_deg"] = kin.get("swings_deg", {})
+    res["stroke_arcs_deg"] = kin.get("stroke_arcs_deg", {})
     # ---- torque at constant speed, through the gearbox, against the motor
     z, km, R, L = float(drive.z), float(drive.k_m), float(drive.R), float(drive.L)
     lam, T0, vmax, imax = float(drive.lam), float(drive.T_0), float(drive.v_max), float(drive.i_max)

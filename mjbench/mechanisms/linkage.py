@@ -934,8 +934,9 @@ class Linkage(Mechanism):
         rates = c.joint_rates(z, v)
         slides = c.slide_positions(z)
         pts = c.world_points(z)
-        out = {"ratios": {}, "ratio_units": {}, "strokes_m": {}, "transmission": {}, "toggles": {},
-               "limit_positions": {}}
+        out = {"ratios": {}, "ratio_units": {}, "strokes_m": {}, "swings_deg": {}, "stroke_arcs_deg": {},
+               "transmission": {}, "toggles": {}, "limit_positions": {}}
+        th = z[:, 2::3]
         for k, j in enumerate(p.joints):
             if j.name == p.input:
                 continue
@@ -948,6 +949,20 @@ class Linkage(Mechanism):
                 if len(roots):
                     ext = np.concatenate([ext, c.slide_positions(c.exact(roots)[0])[:, k]])
                 out["strokes_m"][j.name] = float(np.ptp(ext))
+            else:  # swing of a joint that does not turn fully (relative angle range)
+                jt = c.kjoints[k]
+                rel = (th[:, jt.j] if jt.j >= 0 else 0.0) - (th[:, jt.i] if jt.i >= 0 else 0.0)
+                w = (c.w[jt.j] if jt.j >= 0 else 0.0) - (c.w[jt.i] if jt.i >= 0 else 0.0)
+                if w == 0 and len(roots):
+                    zr = c.exact(roots)[0]
+                    relr = (zr[:, 3 * jt.j + 2] if jt.j >= 0 else 0.0) - (zr[:, 3 * jt.i + 2] if jt.i >= 0 else 0.0)
+                    out["swings_deg"][j.name] = float(np.degrees(np.ptp(np.concatenate([rel, np.atleast_1d(relr)]))))
+            if len(roots) == 2:  # the two strokes of an oscillating joint: input arcs with ds/dq > 0 and < 0
+                a1 = float((roots[1] - roots[0]) % TWO_PI)
+                mid = roots[0] + 0.5 * a1
+                up = float(np.interp(mid, q, rates[:, k], period=TWO_PI)) > 0
+                out["stroke_arcs_deg"][j.name] = {"increasing": math.degrees(a1 if up else TWO_PI - a1),
+                                                  "decreasing": math.degrees(TWO_PI - a1 if up else a1)}
         # revolute points of each link (its "link line" if binary)
         rpts = {n: [] for n in c.links}
         prism = {n: [] for n in c.links}
@@ -1043,7 +1058,7 @@ class Linkage(Mechanism):
         spec = new_spec(self.name, o, gravity=(float(c.g[0]), 0.0, float(c.g[1])))
         world = spec.worldbody
         world.add_light(pos=[0, -3, 3], dir=[0, 1, -1], diffuse=[0.8, 0.8, 0.8])
-        rad = 0.012 * c.L
+        rad = 0.01 * self._extent()  # display sizes (geoms are massless)
         gray = [0.45, 0.45, 0.5, 1]
         bodies = {GROUND: world}
         # ground: pivots of revolute joints, guides of prismatic joints
@@ -1064,7 +1079,7 @@ class Linkage(Mechanism):
                 ang = math.atan2(u[1], u[0])
                 ctr = gp + mid * u
                 world.add_geom(name=f"guide_{j.name}", type=mujoco.mjtGeom.mjGEOM_BOX,
-                               size=[half, 0.5 * rad, 0.3 * rad], pos=[ctr[0], 2.5 * rad, ctr[1]],
+                               size=[half, 0.5 * rad, 0.7 * rad], pos=[ctr[0], 2.5 * rad, ctr[1]],
                                quat=_quat(ang), rgba=gray, contype=0, conaffinity=0)
         for e in c.edges:
             parent = bodies[e.parent]
@@ -1112,7 +1127,7 @@ class Linkage(Mechanism):
                               solref=solref, solimp=solimp)
         for k, (_, _, s) in enumerate(c.springs):
             t = spec.add_tendon(name=s.name or f"spring{k}", stiffness=[float(s.stiffness), 0, 0],
-                                damping=[float(s.damping), 0, 0], width=0.4 * rad, rgba=[0.9, 0.7, 0.1, 1])
+                                damping=[float(s.damping), 0, 0], width=1.2 * rad, rgba=[0.9, 0.6, 0.1, 1])
             L0 = float(s.length) if s.length is not None else 0.0
             t.springlength = [L0, L0] if s.stiffness > 0 else [0.0, 0.0]
             t.wrap_site(s.between[0])
@@ -1142,12 +1157,20 @@ class Linkage(Mechanism):
             v = self.c.pts[name][p2]
             ang = math.atan2(j.axis[1], j.axis[0]) + 0.0  # axis in link-1 axes = link-2 axes rotated by angle
             ang -= float(j.angle)
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[3 * rad, 1.5 * rad, 2 * rad],
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[4 * rad, 1.5 * rad, 3 * rad],
                           pos=[v[0], 0.0, v[1]], quat=_quat(ang), rgba=rgba, contype=0, conaffinity=0, mass=0)
         if not segs:
             v = uniq[0]
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[1.5 * rad, 0, 0], pos=[v[0], 0, v[1]],
                           rgba=rgba, contype=0, conaffinity=0, mass=0)
+
+    def _extent(self):
+        """Largest span of the drawing over one turn [m] (display sizes)."""
+        q = self.c.q0 + TWO_PI * np.arange(90) / 90
+        pts = self.c.world_points(self.c.z_guess(q))
+        xs = np.concatenate([np.ravel(x) for x, _ in pts.values()])
+        ys = np.concatenate([np.ravel(y) for _, y in pts.values()])
+        return max(float(np.ptp(xs)), float(np.ptp(ys)), 1e-3)
 
     def _slide_ranges(self):
         """Travel (min, max) of every ground prismatic joint over one turn [m]."""
