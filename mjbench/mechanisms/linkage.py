@@ -36,8 +36,8 @@ the description), so gravity (g_x, g_y) becomes (g_x, 0, g_y).
 """
 from __future__ import annotations
 
+import bisect
 import hashlib
-import json
 import math
 from collections import deque
 from typing import Literal
@@ -1251,12 +1251,21 @@ class Linkage(Mechanism):
             h1 = {d for e, _, d in chain(l1) if e.kind == "R"} if l1 != GROUND else set()
             h2 = {d for e, _, d in chain(l2) if e.kind == "R"} if l2 != GROUND else set()
             damp.append((float(j.damping), sorted(h2 - h1), sorted(h1 - h2)))
-        loads = []
+        raw_loads = []
         for k, ld in enumerate(p.loads):
             lk, pt = _ref(ld.point)
             d = np.array(ld.direction, float) / math.hypot(*ld.direction)
-            loads.append((self._loads[k][1], chain(lk) if lk != GROUND else [], c.pts[lk][pt], d, self._loads[k][2]))
-        dofs = sorted({dd for _, a, b in damp for dd in a + b} | {d for _, ch, _, _, _ in loads for _, _, d in ch})
+            raw_loads.append((k, chain(lk) if lk != GROUND else [], c.pts[lk][pt], d))
+        dofs = sorted({dd for _, a, b in damp for dd in a + b} | {da for _, ch, _, _ in raw_loads for _, _, da in ch})
+        idx = {d: i for i, d in enumerate(dofs)}
+        damp = [(cd, [(idx[d], d) for d in a], [(idx[d], d) for d in b]) for cd, a, b in damp]
+        loads = []
+        for k, ch, pt, d in raw_loads:
+            cc = tuple((idx[da], qa, da, e.kind == "R", float(e.p[0]), float(e.p[1]), float(e.c[0]), float(e.c[1]),
+                        float(e.u[0]) if e.u is not None else 0.0, float(e.u[1]) if e.u is not None else 0.0,
+                        float(e.phi)) for e, qa, da in ch)
+            loads.append((self._loads[k][1], cc, float(pt[0]), float(pt[1]), float(d[0]), float(d[1]),
+                          self._loads[k][2]))
         jin = model.joint(self.input_joint)
         setup = (damp, loads, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep))
         self._mb = (model, setup)
@@ -1265,67 +1274,63 @@ class Linkage(Mechanism):
     def multibody_load(self, model, data, t: float) -> None:
         """Point loads and the viscous friction of loop-closing hinges as generalised forces of the
         MuJoCo tree.  Loads: the point's position from the tree's own kinematics at the step's
-        predicted mid-point qpos + ½·h·qvel (its rate from qvel), F(s, ṡ) applied through the
-        point Jacobian.  A load gated by its stroke (``active``) takes the stroke from the input
-        angle, sign ds/dq(q_mid) of the description's kinematics (the process timing, as seed 004's
-        crank-angle window; the point's own velocity in the slightly compliant MuJoCo loop dithers
-        about zero at the reversal).  Closure damping from the relative angular rate at the start
-        of the step.
-        ``qfrc_applied[input]`` (the drive torque) is added to, every other touched dof is set."""
+        predicted mid-point qpos + ½·h·qvel, F(s) applied through the point Jacobian.  A load gated
+        by its stroke (``active``) takes the stroke from the input angle, sign ds/dq(q_mid) of the
+        description's kinematics (the process timing, as seed 004's crank-angle window; the
+        point's own velocity in the slightly compliant MuJoCo loop dithers about zero at the
+        reversal).  Closure damping from the relative angular rate at the start of the step.
+        ``qfrc_applied[input]`` (the drive torque) is added to, every other touched dof is set.
+        Works on a batch's (nv, nsim) state columns too (elementwise NumPy)."""
         damp, loads, dofs, ina, qina, h2 = self._mb_setup(model)
         qpos, qvel, qfrc = data.qpos, data.qvel, data.qfrc_applied
-        f = dict.fromkeys(dofs, 0.0)
+        arr = qpos.ndim == 2
+        cos, sin = (np.cos, np.sin) if arr else (math.cos, math.sin)
+        f = [0.0] * len(dofs)
         for cdamp, plus, minus in damp:
             w = 0.0
-            for d in plus:
+            for i, d in plus:
                 w = w + qvel[d]
-            for d in minus:
+            for i, d in minus:
                 w = w - qvel[d]
             tau = -cdamp * w
-            for d in plus:
-                f[d] = f[d] + tau
-            for d in minus:
-                f[d] = f[d] - tau
+            for i, _ in plus:
+                f[i] = f[i] + tau
+            for i, _ in minus:
+                f[i] = f[i] - tau
         if loads:
-            qd_in = qvel[ina]
-            q_mid = qpos[qina] + h2 * qd_in
-        for kd, ch, pt, dirn, law in loads:
+            q_mid = qpos[qina] + h2 * qvel[ina]
+        for kd, ch, pt0, pt1, dx, dy, law in loads:
             cols = []
-            th, ox, oy = 0.0, 0.0, 0.0
-            for e, qa, da in ch:
+            th, cP, sP, ox, oy = 0.0, 1.0, 0.0, 0.0, 0.0
+            for i, qa, da, hinge, p0, p1, c0, c1, u0, u1, phi in ch:
                 val = qpos[qa] + h2 * qvel[da]
-                xp = math if isinstance(val, float) else np
-                cP, sP = xp.cos(th), xp.sin(th)
-                px = ox + cP * e.p[0] - sP * e.p[1]
-                py = oy + sP * e.p[0] + cP * e.p[1]
-                if e.kind == "R":
+                px = ox + cP * p0 - sP * p1
+                py = oy + sP * p0 + cP * p1
+                if hinge:
+                    cols.append((i, da, True, px, py))
                     th = th + val
-                    cols.append((da, True, px, py))
                 else:
-                    ux, uy = cP * e.u[0] - sP * e.u[1], sP * e.u[0] + cP * e.u[1]
+                    ux, uy = cP * u0 - sP * u1, sP * u0 + cP * u1
                     px, py = px + val * ux, py + val * uy
-                    th = th + e.phi
-                    cols.append((da, False, ux, uy))
-                xp = math if isinstance(th, float) else np
-                cc, ss = xp.cos(th), xp.sin(th)
-                ox = px - (cc * e.c[0] - ss * e.c[1])
-                oy = py - (ss * e.c[0] + cc * e.c[1])
-            xp = math if isinstance(th, float) else np
-            cc, ss = xp.cos(th), xp.sin(th)
-            x = ox + cc * pt[0] - ss * pt[1]
-            y = oy + ss * pt[0] + cc * pt[1]
-            # stroke of a gated load from the input angle (see the docstring)
-            sp = self._tab1(q_mid, kd) if isinstance(q_mid, float) else self._tab(q_mid, [kd])[..., 0]
-            F = law(x * dirn[0] + y * dirn[1], sp)
-            for da, hinge, a, b in cols:
-                jx, jy = (-(y - b), x - a) if hinge else (a, b)
-                pj = jx * dirn[0] + jy * dirn[1]
-                f[da] = f[da] + F * pj
-        for d, val in f.items():
+                    cols.append((i, da, False, ux, uy))
+                    th = th + phi
+                cP, sP = cos(th), sin(th)
+                ox = px - (cP * c0 - sP * c1)
+                oy = py - (sP * c0 + cP * c1)
+            x = ox + cP * pt0 - sP * pt1
+            y = oy + sP * pt0 + cP * pt1
+            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
+            F = law(x * dx + y * dy, sp)
+            for i, da, hinge, a, b in cols:
+                if hinge:
+                    f[i] = f[i] + F * ((b - y) * dx + (x - a) * dy)
+                else:
+                    f[i] = f[i] + F * (a * dx + b * dy)
+        for i, d in enumerate(dofs):
             if d == ina:
-                qfrc[d] += val
+                qfrc[d] += f[i]
             else:
-                qfrc[d] = val
+                qfrc[d] = f[i]
 
 
 def _vec(pts, a, b):
@@ -1395,7 +1400,6 @@ def _force_law(ld: LoadSpec):
                     return Fl[0]
                 if s >= xl[-1]:
                     return Fl[-1]
-                import bisect
                 i = bisect.bisect_right(xl, s) - 1
                 t = (s - xl[i]) / (xl[i + 1] - xl[i])
                 return Fl[i] + t * (Fl[i + 1] - Fl[i])
