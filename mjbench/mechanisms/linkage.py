@@ -942,7 +942,7 @@ class Linkage(Mechanism):
                 continue
             out["ratios"][j.name] = rates[:, k]
             out["ratio_units"][j.name] = "rad/rad" if j.type == "revolute" else "m/rad"
-            roots = _roots(q, rates[:, k])
+            roots = self._refine(_roots(q, rates[:, k]), lambda x, k=k: c.joint_rates(*c.exact(x)[:2])[:, k])
             out["limit_positions"][j.name] = [float(x) for x in roots]
             if j.type == "prismatic":  # stroke: extremes at the limit positions (exact solve there)
                 ext = slides[:, k]
@@ -998,10 +998,31 @@ class Linkage(Mechanism):
                 u2 = _vec(pts, f"{l2}.{o2}", f"{l2}.{p2}")
                 cross = u1[0] * u2[1] - u1[1] * u2[0]
                 dot = u1[0] * u2[0] + u1[1] * u2[1]
-                roots = _roots(q, cross)
+
+                def crossf(x, l1=l1, l2=l2, o1=o1, o2=o2, p1=p1, p2=p2):
+                    pp = c.world_points(c.exact(x)[0])
+                    a1, a2 = _vec(pp, f"{l1}.{o1}", f"{l1}.{p1}"), _vec(pp, f"{l2}.{o2}", f"{l2}.{p2}")
+                    return a1[0] * a2[1] - a1[1] * a2[0]
+
+                roots = self._refine(_roots(q, cross), crossf)
                 kinds = ["folded" if np.interp(r, q, dot) > 0 else "extended" for r in roots]
                 out["toggles"][j.name] = [{"q": float(r), "kind": kd, "links": [l1, l2]} for r, kd in zip(roots, kinds)]
         return out
+
+    @staticmethod
+    def _refine(roots, fn, iters=4, h=1e-4):
+        """Secant iterations on exact evaluations fn(q_array) from the grid's linear roots."""
+        r = np.asarray(roots, float)
+        if len(r) == 0:
+            return r
+        a, b = r - h, r + h
+        fa, fb = fn(a), fn(b)
+        for _ in range(iters):
+            den = np.where(fb != fa, fb - fa, 1.0)
+            new = b - fb * (b - a) / den
+            a, fa = b, fb
+            b, fb = new, fn(new)
+        return np.where(np.isfinite(b) & (np.abs(b - r) < 0.05), b, r)
 
     def _distances(self):
         """Joint-graph distance of every link from the input link, not passing through the ground."""
@@ -1125,6 +1146,18 @@ class Linkage(Mechanism):
             spec.add_equality(name=f"closure_{j.name}", type=mujoco.mjtEq.mjEQ_CONNECT,
                               objtype=mujoco.mjtObj.mjOBJ_SITE, name1=j.at[0], name2=j.at[1],
                               solref=solref, solimp=solimp)
+        # the assembled stated pose as a keyframe (a user opening the exported file sees it closed)
+        z0, _, _ = c.exact([c.q0])
+        vals, _ = self._tree_values(z0)
+        kids = {}
+        for e in c.edges:  # MuJoCo numbers bodies (and their joints) depth-first, children in order
+            kids.setdefault(e.parent, []).append(e)
+        order, stack = [], list(reversed(kids.get(GROUND, [])))
+        while stack:
+            e = stack.pop()
+            order.append(e)
+            stack += list(reversed(kids.get(e.child, [])))
+        spec.add_key(name="assembled", qpos=[float(vals[e.name]) for e in order])
         for k, (_, _, s) in enumerate(c.springs):
             t = spec.add_tendon(name=s.name or f"spring{k}", stiffness=[float(s.stiffness), 0, 0],
                                 damping=[float(s.damping), 0, 0], width=1.2 * rad, rgba=[0.9, 0.6, 0.1, 1])

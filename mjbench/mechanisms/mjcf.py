@@ -196,24 +196,33 @@ class _Model:
         Jc = np.asarray(d.efc_J).reshape(-1)[:ne * m.nv].reshape(ne, m.nv).copy()
         return d.efc_pos[:ne].copy(), Jc
 
-    def project(self, qpos, q, tol=1e-13, maxit=30):
-        """Newton with the input held at q: the closest assembly to qpos.  Returns (qpos, residual)."""
+    def project(self, qpos, q, tol=1e-13, maxit=60):
+        """Damped Newton (Gauss-Newton with step halving) with the input held at q: the closest
+        assembly to qpos.  Returns (qpos, residual)."""
         import mujoco
 
         m = self.model
         x = np.array(qpos, float)
         x[self.qa] = q
         others = np.array([i for i in range(m.nv) if i != self.va])
-        res = math.inf
+        r, Jc = self._eq(x)
+        res = float(np.max(np.abs(r))) if len(r) else 0.0
         for _ in range(maxit):
-            r, Jc = self._eq(x)
-            res = float(np.max(np.abs(r))) if len(r) else 0.0
             if res < tol:
                 break
             dv = np.zeros(m.nv)
             dv[others] = np.linalg.lstsq(Jc[:, others], -r, rcond=None)[0]
-            mujoco.mj_integratePos(m, x, dv, 1.0)
-            x[self.qa] = q
+            step, nrm = 1.0, float(np.linalg.norm(r))
+            for _ in range(30):
+                y = x.copy()
+                mujoco.mj_integratePos(m, y, dv, step)
+                y[self.qa] = q
+                r2, J2 = self._eq(y)
+                if np.linalg.norm(r2) < nrm or step < 1e-6:
+                    break
+                step *= 0.5
+            x, r, Jc = y, r2, J2
+            res = float(np.max(np.abs(r))) if len(r) else 0.0
         return x, res
 
     def velocity(self, qpos):
