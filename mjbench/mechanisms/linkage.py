@@ -1292,15 +1292,31 @@ class Linkage(Mechanism):
         dofs = sorted({dd for _, a, b in damp for dd in a + b} | {da for _, ch, _, _ in raw_loads for _, _, da in ch})
         idx = {d: i for i, d in enumerate(dofs)}
         damp = [(cd, [(idx[d], d) for d in a], [(idx[d], d) for d in b]) for cd, a, b in damp]
-        loads = []
+        loads, affine = [], []
         for k, ch, pt, d in raw_loads:
             cc = tuple((idx[da], qa, da, e.kind == "R", float(e.p[0]), float(e.p[1]), float(e.c[0]), float(e.c[1]),
                         float(e.u[0]) if e.u is not None else 0.0, float(e.u[1]) if e.u is not None else 0.0,
                         float(e.phi)) for e, qa, da in ch)
+            if all(not el[3] for el in cc):
+                # slides only (a ram on its guide): s is affine in the slide values, s = s0 + Σ k_i·d_i,
+                # and the generalised force on slide i is F·k_i (k_i = its world direction · load direction)
+                th, s0, terms = 0.0, 0.0, []
+                ox = oy = 0.0
+                for i, qa, da, _, p0, p1, c0, c1, u0, u1, phi in cc:
+                    cP, sP = math.cos(th), math.sin(th)
+                    ox, oy = ox + cP * p0 - sP * p1, oy + sP * p0 + cP * p1
+                    terms.append((i, qa, da, (cP * u0 - sP * u1) * d[0] + (sP * u0 + cP * u1) * d[1]))
+                    th += phi
+                    cc_, ss_ = math.cos(th), math.sin(th)
+                    ox, oy = ox - (cc_ * c0 - ss_ * c1), oy - (ss_ * c0 + cc_ * c1)
+                cc_, ss_ = math.cos(th), math.sin(th)
+                s0 = (ox + cc_ * pt[0] - ss_ * pt[1]) * d[0] + (oy + ss_ * pt[0] + cc_ * pt[1]) * d[1]
+                affine.append((self._loads[k][1], float(s0), tuple(terms), self._loads[k][2]))
+                continue
             loads.append((self._loads[k][1], cc, float(pt[0]), float(pt[1]), float(d[0]), float(d[1]),
                           self._loads[k][2]))
         jin = model.joint(self.input_joint)
-        setup = (damp, loads, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep))
+        setup = (damp, loads, affine, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep))
         self._mb = (model, setup)
         return setup
 
@@ -1314,9 +1330,20 @@ class Linkage(Mechanism):
         reversal).  Closure damping from the relative angular rate at the start of the step.
         ``qfrc_applied[input]`` (the drive torque) is added to, every other touched dof is set.
         Works on a batch's (nv, nsim) state columns too (elementwise NumPy)."""
-        damp, loads, dofs, ina, qina, h2 = self._mb_setup(model)
+        damp, loads, affine, dofs, ina, qina, h2 = self._mb_setup(model)
         qpos, qvel, qfrc = data.qpos, data.qvel, data.qfrc_applied
         arr = qpos.ndim == 2
+        if not damp and not loads and len(affine) == 1 and len(affine[0][2]) == 1:
+            # the common case, one load on a ram on its guide: no list, no loop
+            kd, s0, ((_, qa, da, kk),), law = affine[0]
+            q_mid = qpos[qina] + h2 * qvel[ina]
+            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
+            F = law(s0 + kk * (qpos[qa] + h2 * qvel[da]), sp)
+            if da == ina:
+                qfrc[da] += F * kk
+            else:
+                qfrc[da] = F * kk
+            return
         cos, sin = (np.cos, np.sin) if arr else (math.cos, math.sin)
         f = [0.0] * len(dofs)
         for cdamp, plus, minus in damp:
@@ -1330,8 +1357,16 @@ class Linkage(Mechanism):
                 f[i] = f[i] + tau
             for i, _ in minus:
                 f[i] = f[i] - tau
-        if loads:
+        if loads or affine:
             q_mid = qpos[qina] + h2 * qvel[ina]
+        for kd, s0, terms, law in affine:
+            sv = s0
+            for i, qa, da, kk in terms:
+                sv = sv + kk * (qpos[qa] + h2 * qvel[da])
+            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
+            F = law(sv, sp)
+            for i, qa, da, kk in terms:
+                f[i] = f[i] + F * kk
         for kd, ch, pt0, pt1, dx, dy, law in loads:
             cols = []
             th, cP, sP, ox, oy = 0.0, 1.0, 0.0, 0.0, 0.0
