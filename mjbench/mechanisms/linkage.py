@@ -14,7 +14,7 @@ Description (docs/linkages.md has the full reference and examples):
   ``input_angle``: q of the stated pose; ``gravity`` (vector in the plane);
 * optional ``springs`` (linear spring + damper between two points) and ``loads`` (a force on a
   point along a fixed direction, constant or a table of the point's coordinate, optionally only
-  while the point moves one way).
+  on one stroke of the point).
 
 From that one description come two independent models:
 
@@ -29,7 +29,8 @@ From that one description come two independent models:
   prismatic joints preferred as tree joints) with every other joint closed by a ``connect``
   equality between sites (solref/solimp as fourbar.py), springs as spatial tendons, point loads
   and the damping of loop-closing hinges as generalised forces (``multibody_load``, from the
-  tree's own kinematics, not from the reduced model).
+  tree's own kinematics; only the on/off stroke of a gated load is read from the description's
+  kinematics).
 
 In MuJoCo the plane (x, y) maps to (x, z); hinges turn about −y (angles counter-clockwise as in
 the description), so gravity (g_x, g_y) becomes (g_x, 0, g_y).
