@@ -72,3 +72,15 @@ def test_cli_outputs_and_speed_units(tmp_path, capsys):
     assert main(["analyze", "press-slidercrank", "--speed", "fast"]) == 2
     assert "--speed 'fast'" in capsys.readouterr().err
     assert main(["analyze", "press-slidercrank", "--speed", "-3"]) == 2
+
+
+def test_output_folder_whole_or_refused(tmp_path, capsys):
+    """analyze stages its folder like every command (docs/outputs.md): a non-empty --out is refused
+    before computing (exit 2), --force replaces it whole."""
+    out = tmp_path / "a"
+    out.mkdir()
+    (out / "old.txt").write_text("x")
+    assert main(["analyze", "sixbar-watt2", "--points", "64", "--out", str(out)]) == 2
+    assert "already holds" in capsys.readouterr().err and sorted(p.name for p in out.iterdir()) == ["old.txt"]
+    assert main(["analyze", "sixbar-watt2", "--points", "64", "--out", str(out), "--force"]) == 0
+    assert not (out / "old.txt").exists() and (out / "analysis.json").exists()
