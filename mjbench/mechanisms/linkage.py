@@ -47,7 +47,7 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from ..errors import GeometryError, ParameterError
+from ..errors import GeometryError
 from ..schema import OptQ, Q, Strict
 from . import register
 from .base import Mechanism, new_spec
@@ -1222,7 +1222,6 @@ class Linkage(Mechanism):
         if v is not None:
             jr = c.joint_rates(z, v)[0]
         for e in c.edges:
-            jt = c.kjoints[e.k]
             if e.kind == "R":
                 tp = th[c.index[e.parent]] if e.parent != GROUND else 0.0
                 vals[e.name] = th[c.index[e.child]] - tp
@@ -1233,7 +1232,6 @@ class Linkage(Mechanism):
                 vals[e.name] = d
                 if v is not None:
                     rates[e.name] = jr[e.k]
-            del jt
         return vals, rates
 
     def initial_qpos(self, model, q0: float, x0=None) -> np.ndarray:

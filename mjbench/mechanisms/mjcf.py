@@ -28,7 +28,6 @@ along +y), the traced point is the site ``trace`` names.
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 from typing import Literal
 

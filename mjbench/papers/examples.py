@@ -83,14 +83,14 @@ def rows(ctx) -> list:
         if "motor_line_torque_Nm" in sp:
             row(f"motor torque at {w:.4g} rad/s: peak (motor line at v_max: {sp['motor_line_torque_Nm']:.3g} N·m)",
                 "N·m", sp["motor_torque_Nm"]["max"],
-                "constant speed, no flywheel smoothing: above the line the speed must dip (the flywheel "
-                "J_b carries the peak)" if sp["torque_margin"] < 0 else DESIGN)
+                "above the motor line: the drive cannot hold this speed through the peak; the speed dips "
+                "and the inertia (flywheel J_b, if any) carries it" if sp["torque_margin"] < 0 else DESIGN)
     for mode, m in ctx.metrics.items():
         c = m.get("multibody_vs_reduced")
         if c:
             note = m.get("reduced_model", "")
             row(f"multibody vs reduced crank speed, max |Δ|/peak ({mode})", "1", c["max_rel_diff"],
-                ("NOT an independent check: " + note) if note.startswith("MuJoCo-derived")
+                note if note.startswith("MuJoCo-derived")
                 else "reduced model from our own kinematics: an independent check of the MuJoCo run")
     if ctx.scn.mechanism.type == "mjcf":
         out += _mjcf_vs_closed_form(ctx)
