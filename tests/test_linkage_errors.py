@@ -169,3 +169,13 @@ def test_cli_accepts_the_good_file(tmp_path):
     f = _write_scenario(tmp_path / "good.toml", BASE)
     assert main(["run", str(f), "--out", str(tmp_path / "o"), "--t-end", "0.05", "--quiet", "--no-figure"]) == 0
     assert math.isfinite(float((tmp_path / "o" / "trajectory_reduced.csv").read_text().splitlines()[-1].split(",")[2]))
+
+
+def test_dead_centre_on_the_turn_gives_the_input_angle():
+    """A parallelogram (crank = rocker = 0.1 m, coupler = frame = 0.3 m) passes its change point
+    with all links collinear at q = 180°: the error gives that angle (located by the sign change of
+    the constraint Jacobian's determinant)."""
+    m = variant(ground__D=[0.30, 0.0], links__rocker__points={"D": [0.0, 0.0], "C": [0.10, 0.0]},
+                links__coupler__angle=0.0, links__rocker__angle=1.0, input_angle=1.0)
+    with pytest.raises(GeometryError, match=r"dead centre or branch point at input angle 180\.0°.*joints B, C, D"):
+        build(m)

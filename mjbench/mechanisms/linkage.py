@@ -668,7 +668,8 @@ class _Compiled:
             if jt.kind == "P":
                 r[:, k] /= self.L
         r = r.max(axis=0)
-        return [self.p.joints[k].name for k in np.flatnonzero(r > 1e-6 * max(r.max(), 1e-300))]
+        return [self.p.joints[k].name for k in np.flatnonzero(r > 1e-6 * max(r.max(), 1e-300))
+                if self.p.joints[k].name != self.p.input]
 
     def _gap_joint(self, z, q):
         F = self.sys.phi(z[None], q)[0]

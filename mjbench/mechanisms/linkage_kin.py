@@ -367,8 +367,11 @@ class PlanarSystem:
                     continue
                 if square:
                     sg = self._det_sign(zn)
-                    if sg != sign0:
-                        raise SolveError("singular", q=q + h, kind="singular", z=z)
+                    if sg != sign0:  # crossed a singular configuration: locate it by the signed σ_min
+                        s1 = sign0 * self.singular_values(z[None])[0, -1]
+                        s2 = sg * self.singular_values(zn[None])[0, -1]
+                        qs_ = q + h * s1 / (s1 - s2) if s1 != s2 else q + h
+                        raise SolveError("singular", q=qs_, kind="singular", z=z)
                 z, q = zn, q + h
                 vv, aa = self.kinematics(z[None])
                 vz, az = vv[0], aa[0]
