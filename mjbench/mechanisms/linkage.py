@@ -876,6 +876,13 @@ class Linkage(Mechanism):
             return self._tab1(q, 4)
         return self._tab(q, [4])[..., 0]
 
+    def reduced_viscous(self, q):
+        """D(q) when the external torque is viscous only (no point loads): the reduced backends
+        then tabulate it with J; None with loads (external_torque is called at every stage)."""
+        if self._loads:
+            return None
+        return self.damping_factor(q)
+
     def external_torque(self, q, qd, t):
         """Viscous friction of joints and dampers, −D(q)·q̇, plus the point loads F(s)·ds/dq
         [N·m] (a gated load acts where ds/dq has the sign of its stroke, see LoadSpec)."""

@@ -461,6 +461,8 @@ class MjcfMechanism(Mechanism):
         t = mdl.table
         self._tab3, self._tab1, self._tab = t.scalar3, t.scalar, t
         self._damped = mdl.damped
+        if not mdl.hinge:  # a slide input is not periodic: the reduced backends use our table directly
+            self.reduced_period = None
 
     @classmethod
     def from_params(cls, p):
@@ -483,6 +485,10 @@ class MjcfMechanism(Mechanism):
         if isinstance(q, float):
             return self._tab1(q, 3)
         return self._tab(q, [3])[..., 0]
+
+    def reduced_viscous(self, q):
+        """D(q): the file's viscous joint and tendon damping reduced to the input."""
+        return self._tab1(q, 4) if isinstance(q, float) else self._tab(q, [4])[..., 0]
 
     def external_torque(self, q, qd, t):
         """Viscous friction of the file's joints and tendons reduced to the input, −D(q)·q̇."""
