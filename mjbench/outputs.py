@@ -3,7 +3,7 @@
 Staged folders (docs/outputs.md)
 --------------------------------
 :func:`staged_dir` is used by every command that writes an output folder (``run``, ``reproduce``,
-``demo``, ``optimize-law``, ``design``, ``tune``, ``calibrate``, ``identify``)::
+``demo``, ``optimize-law``, ``design``, ``tune``, ``calibrate``, ``identify``, ``analyze``)::
 
     with staged_dir(args.out, force=args.force) as tmp:   # checks --out, creates the staging folder
         ...write every file into tmp...

@@ -460,6 +460,8 @@ class MechanismView:
         m, d = self.model, self.data
         d.qpos[:] = self.mech.initial_qpos(m, float(q))
         mujoco.mj_kinematics(m, d)
+        if m.ntendon:  # springs drawn as spatial tendons: their paths come from mj_tendon
+            mujoco.mj_tendon(m, d)
         self.renderer.update_scene(d, camera=self.camera, scene_option=self.opt)
         self.set_flags(self.renderer.scene)
         self._add_static(self.renderer.scene)

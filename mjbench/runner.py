@@ -45,12 +45,26 @@ def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False) -> d
     return out
 
 
+def reduced_source(scn) -> str:
+    """Where the scenario's reduced model comes from (``Mechanism.reduced_source``)."""
+    from . import mechanisms
+
+    cls = mechanisms.get(scn.mechanism.type)
+    return getattr(cls, "reduced_source", "") if cls is not None else ""
+
+
+def mujoco_derived(scn) -> bool:
+    """True if the reduced model is derived from the MJCF (not an independent check)."""
+    return reduced_source(scn).startswith("MuJoCo-derived")
+
+
 def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     """Metrics of every backend, their cross-comparison and the paper comparison rows."""
     mt = scn.metrics
     res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
                                                    steady_from=mt.steady_start)
                                       for b, tr in trajs.items()}}
+    res["reduced_model"] = reduced_source(scn)
     if scn.law is not None and S.make_mechanism(scn).internal:
         # a motion law run by a real motor + servo (seeds 001/003 machines): residual vibration
         from .vibration import residual_from_trajectory
@@ -73,6 +87,9 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
+        if mujoco_derived(scn):
+            res["multibody_vs_reduced"]["note"] = ("reduced model MuJoCo-derived (from the same MJCF): "
+                                                   "not an independent check")
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 
@@ -133,13 +150,15 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
         tr.write_csv(out / name)
     write_json(out / "metrics.json", res)
     write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(backends),
+                                                            "reduced_model": res["reduced_model"],
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
     if figure:
         from .plots import fig4
         chi_txt = chi_text(res)
+        tag = " [reduced model MuJoCo-derived]" if mujoco_derived(scn) and "reduced" in trajs else ""
         fig4({mode: trajs}, out / "fig4.png", setpoint=setpoint(scn, mode),
-             title=f"{scn.scenario.title or scn.name} — {mode}",
+             title=f"{scn.scenario.title or scn.name} — {mode}{tag}",
              chi={mode: chi_txt} if chi_txt else None)
     return res
 

@@ -73,7 +73,22 @@ def from_raw(raw: dict, source: str = "", overrides=()) -> Scenario:
     """Validate raw tables (a dict as parsed from TOML) with ``key=value`` overrides applied."""
     raw = copy.deepcopy(raw)
     applied = apply_overrides(raw, overrides)
+    _resolve_paths(raw, source)
     return validate(raw, source, applied)
+
+
+def _resolve_paths(raw: dict, source: str) -> None:
+    """Let the mechanism class make file paths of its table absolute (relative to the scenario
+    file; ``mjcf``: the model file), so a manifest re-runs from anywhere."""
+    table = raw.get("mechanism")
+    if not isinstance(table, dict) or not isinstance(table.get("type"), str):
+        return
+    from . import mechanisms
+
+    cls = mechanisms.get(table["type"])
+    hook = getattr(cls, "resolve_paths", None) if cls is not None else None
+    if hook is not None:
+        hook(table, source)
 
 
 def with_overrides(scn: Scenario, overrides) -> Scenario:

@@ -12,7 +12,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 # file → (scenario, mode)
 TARGETS = {"fourbar.xml": ("incerti2012", "open"), "quickreturn.xml": ("yigit2023", "open"),
-           "belt_platform.xml": ("incerti-belt", "servo"), "elastic_platform.xml": ("incerti-bezier", "servo")}
+           "belt_platform.xml": ("incerti-belt", "servo"), "elastic_platform.xml": ("incerti-bezier", "servo"),
+           "press_slidercrank.xml": ("press-slidercrank", "pi"), "sixbar_watt2.xml": ("sixbar-watt2", "pi"),
+           "toggle_press.xml": ("toggle-press", "pi")}
 
 
 def render(fname):

@@ -59,6 +59,7 @@ def _y(t, q, qd, qdd, z=1.0):
 def test_pid_is_eq16_with_time_varying_gain():
     c = PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True)
     c.reset()
+    c(0.0, _y(0.0, 0.0, 0.0, 0.0))  # first sample at rest at φ = 0: φ_ref = ω₀·t
     t, q, qd, qdd = 0.4, 10.0, 28.0, 5.0
     V = c(t, _y(t, q, qd, qdd))
     assert V == pytest.approx(80 * t * (30 - qd) + 32 * (30 * t - q) + 0.015 * (0 - qdd))
@@ -148,3 +149,15 @@ def test_controller_errors_are_product_errors():
         PID(float("nan"), 1.0, 0.0, omega0=1.0)
     with pytest.raises(ScenarioError, match="type = 'pidd'"):
         controllers.from_dict({"type": "pidd"})
+
+
+def test_pid_reference_starts_at_the_initial_angle():
+    """A machine started at q0 ≠ 0 gets no initial position error (no start-up kick)."""
+    from mjbench import scenario as S
+    from mjbench.backends import reduced
+
+    tr0 = reduced.simulate(S.make_machine(S.load("incerti2012"), "pid"), 0.05, record_dt=1e-4)
+    tr1 = reduced.simulate(S.make_machine(S.load("incerti2012", ["initial.q0=0.0"]), "pid"), 0.05, record_dt=1e-4)
+    np.testing.assert_array_equal(tr0.voltage, tr1.voltage)
+    tr2 = reduced.simulate(S.make_machine(S.load("incerti2012", ["initial.q0=1.0"]), "pid"), 0.05, record_dt=1e-4)
+    assert abs(tr2.voltage[0]) < 1e-12  # at rest, on the reference: no kick

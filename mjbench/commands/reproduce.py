@@ -36,7 +36,7 @@ def list_cases():
 
     for c in R.load_cases():
         extra = f" modes {','.join(c.modes)}" if c.modes else ""
-        print(f"{c.name:<30s} {c.scenario:<20s} {c.kind:<13s}{extra}  {c.title}")
+        print(f"{c.name:<28s} {c.paper:<18s} {c.scenario:<22s} {c.kind:<12s}{extra}  {c.title}")
     return 0
 
 

@@ -94,6 +94,10 @@ def _summary_text(res):
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")
+        if c.get("note"):
+            lines.append(f"  {'':<40s} ({c['note']})")
+    if str(res.get("reduced_model", "")).startswith("MuJoCo-derived"):
+        lines.append(f"  reduced model: {res['reduced_model']}")
     for row in res.get("paper", []):
         ours = "   ".join(f"{b}: {v:.4g}" for b, v in row["ours"].items() if v is not None)
         unit = "" if row.get("unit") in ("", "1", None) else f" {row['unit']}"

@@ -17,7 +17,8 @@ from .base import Mechanism
 
 #: built-in type names → module (imported lazily)
 BUILTIN = {"fourbar": "mjbench.mechanisms.fourbar", "quickreturn": "mjbench.mechanisms.quickreturn",
-           "platform": "mjbench.mechanisms.platform"}
+           "platform": "mjbench.mechanisms.platform", "linkage": "mjbench.mechanisms.linkage",
+           "mjcf": "mjbench.mechanisms.mjcf"}
 
 _REGISTRY: dict[str, type[Mechanism]] = {}
 

@@ -99,6 +99,9 @@ class Mechanism(abc.ABC):
     #: one turn, 2π); the reduced backends tabulate rigid mechanisms over it.  None: not periodic
     #: (the closed forms are evaluated at every step).
     reduced_period: ClassVar[float | None] = 2.0 * np.pi
+    #: where the reduced model comes from; printed next to every multibody-vs-reduced figure.  A
+    #: model derived from the MJCF itself (``mjcf``) must start with "MuJoCo-derived".
+    reduced_source: ClassVar[str] = "independent: hand-derived closed form"
 
     # --- construction ------------------------------------------------------------------------
     @classmethod

@@ -26,6 +26,7 @@ MODULES = {
     "incerti-platforms": "mjbench.papers.incerti_platforms",
     "hulako2025": "mjbench.papers.hulako2025",
     "yigit2023": "mjbench.papers.yigit2023",
+    "examples": "mjbench.papers.examples",
 }
 
 
