@@ -3,7 +3,7 @@
 Cases: the offset slider-crank press, the Watt II six-bar, the knuckle-joint toggle press (each a
 ``[mechanism] type = "linkage"`` scenario: its reduced model comes from our own kinematics, an
 independent check of the MuJoCo run) and the user's MJCF four-bar (``type = "mjcf"``: reduced model
-MuJoCo-derived, cross-checked here against the seed-000 closed form of the same geometry).
+MuJoCo-derived, cross-checked here against the Incerti 2012 closed form of the same geometry).
 
 Report rows: what a designer looks at, from :func:`mjbench.analyze.analyze` at the run's set-point
 speed — stroke, time ratio, swing, transmission-angle range, peak and RMS input torque, peak motor
@@ -34,7 +34,7 @@ CASES = [
          title="Knuckle-joint toggle press, 20 kN coining load, flywheel, PI speed control (40 SPM)",
          modes=["pi"], backend="both", video=True, video_t_end=3.0),
     Case(name="example-mjcf-fourbar", scenario="mjcf-fourbar",
-         title="A user's MJCF four-bar (reduced model MuJoCo-derived), PID K_p·t of seed 000",
+         title="A user's MJCF four-bar (reduced model MuJoCo-derived), PID K_p·t of Incerti 2012",
          modes=["open", "pid"], backend="both", video=True, video_mode="pid", video_t_end=2.0),
 ]
 
@@ -99,7 +99,7 @@ def rows(ctx) -> list:
 
 def _mjcf_vs_closed_form(ctx) -> list:
     """The MuJoCo-derived J, J', E_p' of the user's MJCF four-bar against FourBar.reduced (the
-    file holds the seed-000 geometry of incerti2012.toml)."""
+    file holds the Incerti 2012 geometry of incerti2012.toml)."""
     from mjbench import scenario as S
 
     mech = ctx.machines[ctx.case.modes[-1]].mechanism
@@ -109,7 +109,7 @@ def _mjcf_vs_closed_form(ctx) -> list:
     out = []
     for i, nm in enumerate(("J", "J'", "E_p'")):
         err = float(np.max(np.abs(a[i] - b[i])) / np.max(np.abs(a[i])))
-        out.append({"name": f"MuJoCo-derived {nm}(q) vs the seed-000 closed form, max |Δ|/max", "unit": "1",
+        out.append({"name": f"MuJoCo-derived {nm}(q) vs the Incerti 2012 closed form, max |Δ|/max", "unit": "1",
                     "paper": None, "ours": {"analysis": err},
                     "reason": "accuracy of the MJCF route (1024-node table; J' spectral) on a known geometry"})
     return out
