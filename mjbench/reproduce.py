@@ -316,6 +316,8 @@ def _counts(r):
 
 def _count_text(c):
     judged = c["meet"] + c["differ"] + c["fitted"]
+    if not judged:
+        return "—"
     txt = f"{c['meet'] + c['fitted']}/{judged}"
     return txt + (f" ({c['fitted']} fitted)" if c["fitted"] else "")
 
