@@ -19,16 +19,22 @@ unconditionally stable for any h (no stiffness limit from L/R) and accurate to �
 0.1 ms step for the seed-000 motor.  L = 0 gives the algebraic current I = I_ss.
 
 Every method accepts scalars or NumPy arrays of shape (nsim,) alike (parameters too).
+
+The real drive train (PWM amplifier, encoder and speed estimation, sampling delay, gear backlash
+and efficiency, dry friction, current loop) is optional: sub-tables of ``[drive]``
+(:mod:`mjbench.drivetrain`), held in ``DCMotorDrive.train`` (None = the ideal drive above).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
+from .drivetrain.params import (CurrentLoopParams, EncoderParams, FrictionParams, GearParams, PWMParams,
+                                SensorParams, SUBTABLES)
 from .errors import ParameterError
 from .schema import Q, Strict
 
@@ -52,9 +58,34 @@ class DriveParams(Strict):
     lam: Q("rot_damping", ge=0.0) = Field(description="viscous friction λ on the motor shaft")
     v_max: Q("voltage", gt=0.0, finite=False) = Field(math.inf, description="voltage limiter ±v_max (inf: none)")
     i_max: Q("current", gt=0.0, finite=False) = Field(math.inf, description="amplifier current limit ±i_max (inf: none)")
+    # optional drive-train elements (docs/drivetrain.md); None = ideal
+    pwm: PWMParams | None = Field(None, description="PWM H-bridge amplifier (none: ideal voltage source)")
+    encoder: EncoderParams | None = Field(None, description="incremental encoder (none: exact angle)")
+    sensor: SensorParams | None = Field(None, description="speed estimation, noise, computation delay")
+    gear: GearParams | None = Field(None, description="backlash, mesh stiffness, efficiency (none: rigid, lossless)")
+    friction: FrictionParams | None = Field(None, description="dry friction on the motor and on joints")
+    current_loop: CurrentLoopParams | None = Field(None, description="inner PI current loop (mode output = current reference)")
 
     def build(self) -> "DCMotorDrive":
-        return DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive)})
+        from .drivetrain import DriveTrain
+
+        d = DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive) if f.name != "train"})
+        d.train = DriveTrain.from_params(self, d)
+        return d
+
+    def model_dump(self, **kw):
+        """As pydantic's, without the drive-train tables that are off (manifests stay as before)."""
+        out = super().model_dump(**kw)
+        for k in SUBTABLES:
+            if out.get(k, 0) is None:
+                del out[k]
+        return out
+
+    def check_against(self, scn) -> list[str]:
+        """Cross-checks of the drive-train tables against the scenario's modes and step."""
+        from .drivetrain.params import check_against
+
+        return check_against(self, scn)
 
 
 @dataclass
@@ -79,6 +110,8 @@ class DCMotorDrive:
     lam: float = 0.08
     v_max: float = math.inf
     i_max: float = math.inf
+    #: optional drive-train elements (:class:`mjbench.drivetrain.DriveTrain`), None = ideal
+    train: object = field(default=None, compare=False, repr=False)
 
     def __post_init__(self):
         self.validate()
@@ -96,6 +129,8 @@ class DCMotorDrive:
             raise ParameterError(f"drive.{name} = {getattr(self, name)!r}: {why}")
 
         for f in fields(self):
+            if f.name == "train":
+                continue
             v = np.asarray(getattr(self, f.name), dtype=float)
             if not np.all(np.isfinite(v)) and f.name not in ("v_max", "i_max"):
                 bad(f.name, "must be finite")
@@ -202,7 +237,10 @@ class DCMotorDrive:
         return self.k_m * I * omega_m
 
     def as_dict(self):
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "train"}
+        if self.train is not None:
+            d["train"] = self.train.describe()
+        return d
 
 
 def _sign(x):

@@ -17,6 +17,13 @@ happens here, once, in this order, for a single run (Python floats) or a batch o
 6. I_{n+1} by the drive's exact exponential update with the mean of φ̇_n and φ̇_{n+1}
    (:meth:`DCMotorDrive.current_step`, amplifier current limit included).
 
+Drive-train hooks: when the drive has optional drive-train elements (``drive.train``, see
+:mod:`mjbench.drivetrain`: PWM, encoder/sensor, delay, gear, current loop) the train binds, before
+the loop, up to three functions that replace steps 1-2 (``sample``: sensor → controller → limiter
+→ delay), 4-6 (``step``: current loop → amplifier → torque → plant step → current) and add its
+recorded columns (``write``).  A hook the elements do not need is None and the kernel runs the
+inline code above, so the ideal drive costs exactly what it did.
+
 Plants (``mjbench.backends``): ``MultibodyPlant`` (one ``mj_step``), ``BatchMultibodyPlant``
 (``mujoco.batch``), ``ReducedPlant`` (RK4 or ``solve_ivp`` on the reduced model, rigid or with
 internal elastic coordinates).  Because the drive, the controller and the order of operations
@@ -91,16 +98,22 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
     controller.reset()
     drive.prepare(h)
     plant.start()
+    z = drive.z
+    y = Measurement(z=z)
+    # drive-train hooks (None: the ideal drive's inline code below)
+    train = getattr(drive, "train", None)
+    hooks = train.bind(plant, drive, controller, h, every, plant.nsim, y) if train is not None else None
+    sample = hooks.sample if hooks is not None else None
+    dstep = hooks.step if hooks is not None else None
+    dwrite = hooks.write if hooks is not None else None
 
     nsteps = int(round(t_end / h))
     decim = max(1, int(round(record_dt / h)))
     nrec = nsteps // decim + 1
     extra_cols = tuple(plant.extra_columns)
-    columns = NAMES + extra_cols
+    columns = NAMES + extra_cols + (hooks.columns if hooks is not None else ())
     ncol = len(columns)
     data = np.full((nsim, nrec, ncol) if batch else (nrec, ncol), np.nan)
-    z = drive.z
-    y = Measurement(z=z)
     torque, cur_mean, cur_step, limit = drive.crank_torque, drive.current_mean, drive.current_step, drive.limit
     k_m = drive.k_m
     read, advance = plant.read, plant.advance
@@ -129,7 +142,10 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
             q, qd = read()
             qdd = (qd - qd_prev) * inv_h  # backward difference, as a digital controller sees it
             if n % every == 0:
-                V = limit(controller(t, y.set(t, q, qd, qdd, I)))
+                if sample is None:
+                    V = limit(controller(t, y.set(t, q, qd, qdd, I)))
+                else:
+                    V = sample(t, q, qd, qdd, I)
                 if batch and np.ndim(V) == 0:
                     V = zeros + V
             if n % decim == 0:
@@ -162,6 +178,8 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
                     r[:, 10] = closure()
                     if extra_cols:
                         extra(r[:, NCORE:].T)
+                    if dwrite is not None:
+                        dwrite(r)
                     if any_dead:
                         r[~alive] = np.nan
                     nrows[alive] = k + 1
@@ -170,19 +188,27 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
                     r[6] = V; r[7] = torque(I, qd); r[8] = k_m * I * om; r[9] = V * I; r[10] = closure()  # noqa: E702
                     if extra_cols:
                         extra(r[NCORE:])
+                    if dwrite is not None:
+                        dwrite(r)
                 k += 1
                 if tick is not None:
                     tick(decim)
             if n == nsteps:
                 break
             # ---- drive torque over the step, plant step, current update
-            qd1 = advance(torque(cur_mean(I, V, z * qd, h), qd, False), t)
-            qd_prev = qd
-            I = cur_step(I, V, 0.5 * z * (qd + qd1), h)
+            if dstep is None:
+                qd1 = advance(torque(cur_mean(I, V, z * qd, h), qd, False), t)
+                qd_prev = qd
+                I = cur_step(I, V, 0.5 * z * (qd + qd1), h)
+            else:
+                I = dstep(t, I, V, qd)
+                qd_prev = qd
 
     if not batch:
         nrows[0] = k
     meta = {"dt": h, "record_dt": decim * h, "control_period": every * h, **plant.meta}
+    if train is not None:
+        meta["drivetrain"] = train.describe()
     if batch:
         meta["nsim"] = nsim
     return Record(data, columns, nrows, diverged, t_div, messages, meta)

@@ -24,5 +24,11 @@ class Machine:
     x0: tuple | None = None
     xd0: tuple | None = None
 
+    def __post_init__(self):
+        # the drive train's mechanical elements (compliant gear, friction) belong to the plant's model
+        train = getattr(self.drive, "train", None)
+        if train is not None:
+            self.mechanism = train.wrap(self.mechanism, self.drive)
+
     def reset(self):
         self.controller.reset()

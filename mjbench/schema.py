@@ -524,6 +524,8 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
         for alias, target in scn.aliases.items():
             if not _path_exists(raw, target, scn):
                 problems.append(f"aliases.{alias}: target {target!r} is not a key of this scenario")
+        if mech is not None and drive is not None:
+            problems += drive.check_against(scn)  # drive-train tables vs modes and step
     if problems:
         where = f" ({source})" if source else ""
         name = (raw.get("scenario") or {}).get("name", "?") if isinstance(raw.get("scenario"), dict) else "?"

@@ -38,7 +38,7 @@ from .. import kernel
 from ..errors import ParameterError
 from ..mechanisms.base import Mechanism
 from ..trajectory import Trajectory
-from .multibody import DEFAULT_OPTIONS, _extra_names, build_model, integrator_name
+from .multibody import DEFAULT_OPTIONS, _extra_names, build_model, drive_joint, integrator_name
 
 
 # ================================================================= stacking per-simulation objects
@@ -205,6 +205,7 @@ class BatchMultibodyPlant:
         self.mechs = [mc.mechanism for mc in self.machines]
         jnt = m0.joint(mech.input_joint)
         self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
+        self._vd = int(m0.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
         self._load = _load_function(self.mechs, models)
         self._pairs = _connect_sites(m0) if closure else []
         self._internal = mech.internal_state if mech.internal else None
@@ -235,7 +236,7 @@ class BatchMultibodyPlant:
         return self._qvel[:, self._va]
 
     def advance(self, tau, t):
-        self._qfrc[:, self._va] = tau
+        self._qfrc[:, self._vd] = tau
         if self._load is not None:
             self._load(self._qpos, self._qvel, self._qfrc, t, self._alive)
         self.b.step(self._ids)

@@ -54,7 +54,7 @@ def build_model(machine, options=None, native_dcmotor=False):
         _add_dcmotor(spec, drive, mech.input_joint)
     else:
         spec = mech.build_spec(armature=float(drive.J_eq), options=o)
-        j = spec.joint(mech.input_joint)
+        j = spec.joint(drive_joint(mech))
         # the drive's reflected viscous friction adds to whatever the mechanism put on the joint
         j.damping = [float(j.damping[0]) + float(drive.crank_damping), 0.0, 0.0]
     return spec, spec.compile()
@@ -73,6 +73,12 @@ def _add_dcmotor(spec, drive, joint):
     act.armature = float(drive.J_m + drive.J_a)
     act.damping = [float(drive.lam), 0.0, 0.0]
     return act
+
+
+def drive_joint(mech) -> str:
+    """The joint the drive torque acts on: the input joint, or the motor's own hinge when the
+    drive train has a compliant gear (:mod:`mjbench.drivetrain.gear`)."""
+    return getattr(mech, "drive_joint", mech.input_joint)
 
 
 def integrator_name(i):
@@ -95,6 +101,7 @@ class MultibodyPlant:
         mech = machine.mechanism
         jnt = m.joint(mech.input_joint)
         self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
+        self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
         self._qpos, self._qvel, self._qfrc = d.qpos, d.qvel, d.qfrc_applied
         self._load = mech.multibody_load if mech.has_multibody_load() else None
         self._closure = mech.closure_error
@@ -110,7 +117,7 @@ class MultibodyPlant:
         d.qvel[:] = mc.mechanism.initial_qvel(m, mc.q0, mc.qd0, mc.x0, mc.xd0)
         mujoco.mj_forward(m, d)
         # hot-path functions with everything bound as locals (no attribute lookups per step)
-        qpos, qvel, qfrc, qa, va = self._qpos, self._qvel, self._qfrc, self._qa, self._va
+        qpos, qvel, qfrc, qa, va, vd = self._qpos, self._qvel, self._qfrc, self._qa, self._va, self._vd
         load, step = self._load, mujoco.mj_step
 
         def read():
@@ -118,12 +125,12 @@ class MultibodyPlant:
 
         if load is None:
             def advance(tau, t):
-                qfrc[va] = tau
+                qfrc[vd] = tau
                 step(m, d)
                 return float(qvel[va])
         else:
             def advance(tau, t):
-                qfrc[va] = tau
+                qfrc[vd] = tau
                 load(m, d, t)
                 step(m, d)
                 return float(qvel[va])

@@ -18,7 +18,7 @@ from .base import Mechanism
 #: built-in type names → module (imported lazily)
 BUILTIN = {"fourbar": "mjbench.mechanisms.fourbar", "quickreturn": "mjbench.mechanisms.quickreturn",
            "platform": "mjbench.mechanisms.platform", "linkage": "mjbench.mechanisms.linkage",
-           "mjcf": "mjbench.mechanisms.mjcf"}
+           "mjcf": "mjbench.mechanisms.mjcf", "rotor": "mjbench.mechanisms.rotor"}
 
 _REGISTRY: dict[str, type[Mechanism]] = {}
 
