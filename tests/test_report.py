@@ -38,7 +38,8 @@ def test_registry_covers_every_paper():
     assert {c.paper for c in cases} == set(papers.MODULES)
     assert {c.scenario for c in cases} == set(__import__("mjbench.scenario").scenario.builtin_names())
     assert len({c.name for c in cases}) == len(cases)
-    assert [c.name for c in R.select(cases, "incerti2012")] == ["incerti2012-fig4"]
+    assert [c.name for c in R.select(cases, "incerti2012")] == ["incerti2012-fig4", "incerti2012-realdrive"]
+    assert [c.name for c in R.select(cases, "incerti2012-fig4")] == ["incerti2012-fig4"]
 
 
 def test_files_written(report):

@@ -116,17 +116,7 @@ class DriveTrain:
         rates = None
         nx = len(mech.internal) if mech is not None else 0
         if compliant:
-            buf = np.zeros((2 * nx, nsim)) if batch else np.zeros(2 * nx)
-            extra = plant.extra
-            ix, iv = nx - 1, 2 * nx - 1
-            if batch:
-                def rates():
-                    extra(buf)
-                    return buf[ix].copy(), buf[iv].copy()
-            else:
-                def rates():
-                    extra(buf)
-                    return float(buf[ix]), float(buf[iv])
+            rates = _rates_reader(plant, mech, nx, nsim)
 
         columns = []
         cl, amp, sen = self.current_loop, self.pwm, self.sensor
@@ -285,4 +275,38 @@ class DriveTrain:
 
 def _sign(x):
     return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+
+def _rates_reader(plant, mech, nx, nsim):
+    """() → (δ, δ̇): the compliant gear's deflection and rate in the plant's current state.
+
+    Direct reads for the built-in plants (MuJoCo data / the reduced state), else the generic
+    plant protocol (``extra``: every internal coordinate)."""
+    from ..backends.multibody import MultibodyPlant
+    from ..backends.reduced import ReducedPlant
+
+    if type(plant) is MultibodyPlant:
+        ids = mech._ids(plant.model)
+        qpos, qvel = plant.data.qpos, plant.data.qvel
+        qm, qc, vm, vc = ids["qm"], ids["qc"], ids["vm"], ids["vc"]
+
+        def rates():
+            return float(qpos[qm] - qpos[qc]), float(qvel[vm] - qvel[vc])
+        return rates
+    if type(plant) is ReducedPlant and nsim is None:
+        def rates():
+            return plant.x[-1], plant.xd[-1]
+        return rates
+    buf = np.zeros((2 * nx, nsim)) if nsim is not None else np.zeros(2 * nx)
+    extra = plant.extra
+    ix, iv = nx - 1, 2 * nx - 1
+    if nsim is not None:
+        def rates():
+            extra(buf)
+            return buf[ix].copy(), buf[iv].copy()
+    else:
+        def rates():
+            extra(buf)
+            return float(buf[ix]), float(buf[iv])
+    return rates
 

@@ -22,7 +22,8 @@ compliant gear the motor coordinate itself; output: the crank angle α):
     standstill the estimate decays as Δ/(t − t_edge);
   - ``true``: the exact speed;
 * **acceleration** for D terms: (ω̂_k − ω̂_k−1)/T (observer: its own estimate; ``true``: the
-  kernel's backward difference of the exact speed);
+  kernel's backward difference of the exact speed, or, for the motor of a compliant gear, the
+  difference of its exact speed over the sample period);
 * **noise** (Gaussian, ``seed``): on the angle before quantisation, on the speed estimate and on
   the current.
 
@@ -154,7 +155,11 @@ class Sensor:
                 w, a = _mt(st, t, T, c, th, w_true, D, n, batch)
             else:  # true
                 w = w_true
-                a = zz * qdd
+                if use_rates:  # the motor's own speed: its difference over the sample period
+                    a = (w - st["wt"]) * inv_T if n > 0 else 0.0 * w
+                    st["wt"] = w
+                else:
+                    a = zz * qdd
             if ns:
                 w = w + noise(ss)
             st["n"] = n + 1
@@ -176,6 +181,8 @@ class Sensor:
 
 def _mt(st, t, T, c, th, w_true, D, n, batch):
     """M/T speed estimate (see the module docstring) on the measured shaft; updates ``st``."""
+    if not batch:
+        return _mt_scalar(st, t, T, c, th, w_true, D, n)
     w_prev = st["w"]
     if n == 0:
         st["c"], st["te"], st["the"] = c, None, None
@@ -207,6 +214,32 @@ def _mt(st, t, T, c, th, w_true, D, n, batch):
     if not batch:
         w, a = float(w), float(a)
     return w, a
+
+
+def _mt_scalar(st, t, T, c, th, w_true, D, n):
+    """:func:`_mt` for one run (Python floats)."""
+    w_prev = st["w"]
+    if n == 0:
+        st["c"], st["te"], st["the"] = c, None, None
+        return 0.0, 0.0
+    c_prev = st["c"]
+    te_last = st["te"]
+    if c != c_prev:
+        s = 1.0 if c > c_prev else -1.0
+        the = (c - 0.5 * s) * D
+        back = (th - the) / w_true if w_true * s > 0 else 0.0
+        te = t - (0.0 if back < 0.0 else (T if back > T else back))
+        w = w_prev
+        if te_last is not None and te > te_last:
+            w = (the - st["the"]) / (te - te_last)
+        st["c"], st["te"], st["the"] = c, te, the
+    elif te_last is not None:
+        bound = D / max(t - te_last, 1e-300)
+        w = w_prev if abs(w_prev) <= bound else math.copysign(bound, w_prev)
+    else:
+        w = w_prev
+    a = (w - w_prev) / T if n > 1 else 0.0
+    return float(w), float(a)
 
 
 def _plain(v):

@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from mjbench.papers import Case
+from mjbench.papers import drivetrain_study as DT
 
 KEY = "incerti2012"
 CITATION = "Incerti 2012"
@@ -36,6 +37,10 @@ CASES = [
     Case(name="incerti2012-calibrated-fig4", scenario="incerti2012-calibrated",
          title="Fig. 4 with the missing Table I values FITTED to the paper's χ (not a prediction)",
          modes=["open", "pid"], backend="both", t_end=2.0, video=True, video_mode="pid", video_t_end=2.0),
+    Case(name="incerti2012-realdrive", scenario="incerti2012", overrides=DT.realistic("incerti2012"),
+         title="the PID of Fig. 4 on a realistic drive: 20 kHz PWM, 2000-line encoder, 0.1 ms sampling, "
+               "0.1° backlash, Coulomb friction (docs/drivetrain.md)",
+         modes=["pid"], backend="both", t_end=2.0, video=False),
 ]
 
 #: the limiter variants of the closed-loop χ: label → scenario values
@@ -75,7 +80,10 @@ def _span(m, key):
 
 def rows(ctx) -> list:
     """χ rows (the other last-cycle reading, the limiter what-ifs, time at the limit), then the
-    linear loop rows."""
+    linear loop rows; the realistic-drive case: χ, speed error and chattering next to the ideal
+    drive (:mod:`mjbench.papers.drivetrain_study`)."""
+    if ctx.case.name.endswith("-realdrive"):
+        return DT.report_rows(ctx, "incerti2012")
     return _chi_rows(ctx) + linear_rows(ctx)
 
 
@@ -206,6 +214,8 @@ def figures(ctx) -> list:
     from mjbench.reproduce import default_figures
 
     figs = default_figures(ctx)
+    if ctx.case.name.endswith("-realdrive"):
+        return figs + DT.report_figures(ctx, "incerti2012")
     lin = _families(ctx)
     if lin is not None:
         t = 0.5

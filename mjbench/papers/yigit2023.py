@@ -21,6 +21,7 @@ import numpy as np
 
 from mjbench import scenario as S
 from mjbench.papers import Case
+from mjbench.papers import drivetrain_study as DT
 
 KEY = "yigit2023"
 CITATION = "Yiğit & Şen 2023"
@@ -32,6 +33,10 @@ CASES = [
          modes=["open", "smc"], backend="both", video=True, video_mode="smc", video_t_end=4.0),
     Case(name="yigit2023-design", scenario="yigit2023", kind="study", video=False,
          title="Optimum design (Eqs 1-2): Table I against our optimum, two readings of constraint c4"),
+    Case(name="yigit2023-realdrive", scenario="yigit2023", overrides=DT.realistic("yigit2023"),
+         title="the SMC on a realistic drive: 20 kHz PWM, 2000-line encoder, 0.1 ms sampling (Ts), "
+               "0.1° backlash, Coulomb friction (docs/drivetrain.md)",
+         modes=["smc"], backend="both", t_end=3.0, video=False),
 ]
 
 TS_STUDY = (1e-4, 2e-4, 3e-4, 5e-4, 1e-3, 2e-3)  #: control periods of the SMC study [s] (multiples of simulation.dt)
@@ -211,6 +216,8 @@ def _design_rows(ctx) -> list:
 def rows(ctx) -> list:
     if ctx.case.kind == "study":
         return _design_rows(ctx)
+    if ctx.case.name.endswith("-realdrive"):  # the SMC on a realistic drive, next to the ideal one
+        return DT.report_rows(ctx, "yigit2023")
     return _fig6_rows(ctx)
 
 
@@ -230,6 +237,8 @@ def figures(ctx) -> list:
         return [PQ.design_comparison(designs, str(ctx.out / "designs.png"),
                                      title=f"{ctx.case.name}: Table I and our optimum designs at one scale "
                                            "(swing ends solid, mid-swing dotted)")]
+    if ctx.case.name.endswith("-realdrive"):
+        return DT.report_figures(ctx, "yigit2023")
     pap = ctx.scn.paper
     runs = {f"{mode} ({b})": tr for mode, trs in ctx.runs.items() for b, tr in trs.items()}
     band = (pap["open_speed_min"], pap["open_speed_max"]) if "open_speed_min" in pap else None

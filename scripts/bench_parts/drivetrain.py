@@ -1,0 +1,53 @@
+"""Drive-train elements (issue 15): CPU cost per co-simulation step of each element, as a ratio to the
+ideal drive on the same backend (seed-000 PID, 1 s at 0.1 ms, both backends)."""
+
+import time
+
+from mjbench import scenario as S
+from mjbench.backends import multibody, reduced
+
+#: element → --set overrides (each alone on top of the ideal seed-000 scenario)
+ELEMENTS = {
+    "pwm_averaged": ['drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48", 'drive.pwm.dead_time="1 us"'],
+    "pwm_switching": ['drive.pwm.model="switching"', 'drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48",
+                      'drive.pwm.dead_time="1 us"'],
+    "encoder_difference": ["drive.encoder.lines=2000"],
+    "encoder_observer": ["drive.encoder.lines=2000", 'drive.sensor.speed="observer"'],
+    "encoder_mt": ["drive.encoder.lines=2000", 'drive.sensor.speed="mt"'],
+    "noise": ['drive.sensor.speed="true"', 'drive.sensor.noise_speed=0.1', 'drive.sensor.noise_current=0.05'],
+    "delay": ['drive.sensor.speed="true"', "drive.sensor.delay=true"],
+    "backlash": ['drive.gear.backlash="0.1 deg"'],
+    "efficiency": ["drive.gear.efficiency=0.9", "drive.gear.efficiency_back=0.8"],
+    "friction_coulomb": ['drive.friction.coulomb="0.05 N*m"'],
+    "friction_stribeck": ['drive.friction.coulomb="0.05 N*m"', 'drive.friction.breakaway="0.08 N*m"',
+                          'drive.friction.stribeck_speed="1 rad/s"'],
+    "current_loop": ['drive.current_loop.bandwidth="1 kHz"'],
+}
+ALL = [s for k in ("pwm_switching", "encoder_observer", "backlash", "friction_coulomb") for s in ELEMENTS[k]]
+
+
+def run(args):
+    t_end, h = 1.0, 1e-4
+    n = int(round(t_end / h))
+    configs = {"ideal": [], **ELEMENTS, "realistic_all": ALL}
+    scns = {k: S.load("incerti2012", v) for k, v in configs.items()}
+    mods = {"multibody": multibody, "reduced": reduced}
+    best = {(k, b): float("inf") for k in configs for b in mods}
+    for _ in range(max(1, args.repeat)):
+        for k in configs:  # interleaved: machine-load drift affects every element alike
+            for b, mod in mods.items():
+                m = S.make_machine(scns[k], "pid")
+                t0 = time.process_time()
+                mod.simulate(m, t_end, dt=h, record_dt=1e-3)
+                best[k, b] = min(best[k, b], time.process_time() - t0)
+    rows = []
+    for b in mods:
+        ideal = best["ideal", b]
+        rows.append((f"drivetrain_{b}_ideal_us_per_step", 1e6 * ideal / n,
+                     f"ideal drive, {b}: CPU per 0.1 ms co-step [µs]"))
+        for k in configs:
+            if k == "ideal":
+                continue
+            rows.append((f"drivetrain_{b}_{k}_over_ideal", best[k, b] / ideal,
+                         f"{k} alone ({b}) / ideal drive, CPU per step"))
+    return rows
