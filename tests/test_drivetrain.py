@@ -388,3 +388,15 @@ def test_realistic_drive_runs_on_both_backends_and_in_batch():
         single = multibody.simulate(S.make_machine(S.load("incerti2012", sets + [f"drive.encoder.lines={n}"]), "pid"), 0.1)
         # vectorised (np.exp) vs scalar (math.exp) arithmetic: equal to the last digits (q̈ amplifies them)
         np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)
+
+
+def test_study_chattering_metrics_on_known_signals():
+    from mjbench.papers import drivetrain_study as DT
+
+    t = np.arange(0, 1.0, 1e-4)
+    square = 48.0 * np.sign(np.sin(2 * math.pi * 50.0 * t + 0.1))
+    assert DT.switching_frequency(t, square, 0.96) == pytest.approx(50.0, rel=0.01)
+    jitter = 25.0 + 0.5 * np.sign(np.sin(2 * math.pi * 800.0 * t))  # below the ±2 % v_max band
+    assert DT.switching_frequency(t, jitter, 0.96) == 0.0
+    assert DT.breakdown("yigit2023", {"steady_error": 0.02}, {}) and not DT.breakdown("yigit2023", {"steady_error": 0.002}, {})
+    assert DT.breakdown("incerti2012", {"diverged": True}, {})

@@ -172,7 +172,7 @@ class DriveTrain:
         z, k_m, R = drive.z, drive.k_m, drive.R
         T0 = drive.T_0
         has_T0 = bool(np.any(np.asarray(T0) != 0))
-        advance, speed = plant.advance, plant.speed
+        advance = plant.advance  # one step; returns the input speed at its end
         cm, cs = drive.current_mean, drive.current_step
         amp, cl = self.pwm, self.current_loop
         avg = sw = None
@@ -218,11 +218,11 @@ class DriveTrain:
                 Tm = Tm - T0 * sign(w0)
             if eff is not None:
                 Tm = eff(Tm, w0)
-            advance(z * Tm, t)
+            qd1 = advance(z * Tm, t)
             if compliant:
-                w1 = z * (speed() + rates()[1])
+                w1 = z * (qd1 + rates()[1])
             else:
-                w1 = z * speed()
+                w1 = z * qd1
             wm = 0.5 * (w0 + w1)
             if sw is not None:
                 I = Iend - corr * (wm - w0)

@@ -12,7 +12,9 @@ output (default: the motor inertia against the lighter output side resonates at
 mode).  Multibody: a hinge ``drive_motor`` carrying the motor inertia (J_m + J_a)·z² and z²λ, and
 a MuJoCo fixed tendon L = θ_m − α with a **dead-band spring** (``springlength = [−β/2, β/2]``,
 ``stiffness = k``); the contact damping is the tendon's ``damping``, switched on while in contact
-(state at the start of the step; always on if β = 0).  Reduced model: the same law in the
+(state at the start of the step; always on if β = 0).  In a batch the per-step edits reach each
+simulation's own model through the single-run ``multibody_load`` (``describe()`` makes the models
+distinct, so the batch calls it per simulation).  Reduced model: the same law in the
 right-hand side (the internal coordinate ``gear_deflection``), contact evaluated at every RK4
 stage.  The crank keeps J_b.
 
@@ -182,7 +184,6 @@ class DrivenMechanism(Mechanism):
                     self._joint_laws[name] = (*law, visc)
         self._h = None
         self._mj = {}
-        self._peers = None
 
     # ------------------------------------------------------------------ delegation
     def __getattr__(self, name):
@@ -477,28 +478,6 @@ class DrivenMechanism(Mechanism):
             self.inner.multibody_load(model, data, t)
         if self.needs_model_edits:
             self._edit_model(model, data.qpos, data.qvel)
-
-    # batch (mujoco.batch): one call for every simulation, each with its own model when edited
-    def bind_batch(self, mechs, models):
-        from ..backends.batch import _load_function
-
-        self._peers = list(mechs)
-        inner = [m.inner if isinstance(m, DrivenMechanism) else m for m in mechs]
-        self._inner_load = _load_function(inner, models) if self.inner.has_multibody_load() else None
-        self._alive_all = np.ones(len(mechs), dtype=bool)
-        if self.needs_model_edits and len({id(m) for m in models}) < len(models):
-            raise ParameterError("batch: Stribeck friction or backlash contact damping needs one model per "
-                                 "simulation (models are edited at every step)")
-
-    def multibody_load_batch(self, models, qpos, qvel, qfrc, t):
-        if self.compliant:
-            qfrc[:, self._ids(models[0])["vc"]] = 0.0
-        if self._inner_load is not None:
-            self._inner_load(qpos, qvel, qfrc, t, self._alive_all)
-        if self.needs_model_edits:
-            for i, (mech, m) in enumerate(zip(self._peers, models)):
-                if np.isfinite(qpos[i, 0]):
-                    mech._edit_model(m, qpos[i], qvel[i])
 
 
 def _min_inertia(mech) -> float:
