@@ -46,7 +46,7 @@ class CurrentLoop:
                                  f"the co-simulation step {h:g} s")
         Tc = every * h
         kp, kiT = self.kp, self.ki * Tc
-        st = self.state = {"n": 0, "x": 0.0 if nsim is None else np.zeros(nsim), "V": 0.0}
+        st = self._state = {"n": 0, "x": 0.0 if nsim is None else np.zeros(nsim), "V": 0.0}
         batch = nsim is not None
         unlimited = bool(np.all(np.isinf(vmax)))
         if not batch:

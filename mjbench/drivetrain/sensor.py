@@ -110,7 +110,7 @@ class Sensor:
         use_rates = rates is not None and motor
         rnd = np.rint if batch else round
         st = self._state = {"n": 0, "th": None, "w": 0.0, "a": 0.0, "te": None, "the": None, "c": None}
-        last = self.last = [0.0, 0.0, 0.0]  # crank-side angle, speed, acceleration the controller saw
+        last = self._last = [0.0, 0.0, 0.0]  # crank-side angle, speed, acceleration the controller saw
         if method == "observer":
             alpha, beta = self.observer_gains(T)
 
@@ -175,8 +175,18 @@ class Sensor:
             """A current-loop sample of the measured current."""
             return I + noise(sc) if nc else I
 
-        self.measure_current = current
+        self._measure_current = current
         return measure
+
+    # per-run state lives in private attributes (a batch stacks only the public parameters)
+    @property
+    def last(self):
+        """(angle, speed, acceleration) the controller saw at the last sample, crank side."""
+        return self._last
+
+    def measure_current(self, I):
+        """A current-loop sample of the measured current (after :meth:`bind`)."""
+        return self._measure_current(I)
 
 
 def _mt(st, t, T, c, th, w_true, D, n, batch):
