@@ -82,6 +82,9 @@ def test_set_accepts_every_element_with_units():
     assert d.sensor.bandwidth == 200.0 and d.encoder.lines == 2000
     tr = S.make_machine(scn, "pid").drive.train
     assert tr.current_loop.kp == pytest.approx(9e-3 * 2 * math.pi * 1e3)
+    # the speed estimate defaults to the difference with an encoder, to the exact speed without
+    assert S.load("incerti2012", ["drive.sensor.delay=true"]).drive.build().train.sensor.speed == "true"
+    assert S.load("incerti2012", ["drive.encoder.lines=100"]).drive.build().train.sensor.speed == "difference"
 
 
 @pytest.mark.parametrize("sets,path", [

@@ -59,8 +59,9 @@ class DriveTrain:
             kw = {}
             if e is not None:
                 kw.update(lines=e.lines, side=e.side, edges=e.edges)
+            kw["speed"] = (s.speed if s is not None else None) or ("difference" if e is not None else "true")
             if s is not None:
-                kw.update(speed=s.speed, bandwidth=s.bandwidth, noise_angle=s.noise_angle, noise_speed=s.noise_speed,
+                kw.update(bandwidth=s.bandwidth, noise_angle=s.noise_angle, noise_speed=s.noise_speed,
                           noise_current=s.noise_current, seed=s.seed, delay=s.delay)
             sensor = Sensor(**kw)
         if p.gear is not None:
@@ -126,6 +127,8 @@ class DriveTrain:
         if sen is not None:
             measure = sen.bind(z, T, nsim, rates if compliant else None)
             columns += ["angle_meas_rad", "speed_est_rad_s", "accel_est_rad_s2"]
+            if sen.exact and not compliant:  # only the delay: the exact measurement, as the kernel's
+                measure = None
         if cl is not None:
             imax = drive.i_max
             if drive._no_ilimit:
@@ -142,7 +145,7 @@ class DriveTrain:
         else:
             ulimit = drive.limit
         delay = sen is not None and sen.delay
-        if measure is not None or cl is not None:
+        if measure is not None or cl is not None or delay:
             pend = [0.0 if not batch else np.zeros(nsim)]
 
             def sample(t, q, qd, qdd, I):
@@ -164,7 +167,7 @@ class DriveTrain:
         # ---------------------------------------------------------- write
         write = None
         if columns or compliant:
-            write = self._writer(drive, nx, compliant, last, columns, batch)
+            write = self._writer(drive, nx, compliant, last, columns, batch, y)
         return Hooks(sample, step, write, columns)
 
     def _step(self, plant, drive, h, nsim, compliant, rates, eff, last, columns):
@@ -235,7 +238,7 @@ class DriveTrain:
 
         return step
 
-    def _writer(self, drive, nx, compliant, last, columns, batch):
+    def _writer(self, drive, nx, compliant, last, columns, batch, yv):
         from ..trajectory import NAMES
 
         z, k_m, lam, T0 = drive.z, drive.k_m, drive.lam, drive.T_0
@@ -244,6 +247,7 @@ class DriveTrain:
         iv = len(NAMES) + 2 * nx - 1 if compliant else None
         names = list(columns)
         sen = self.sensor
+        exact = sen is not None and sen.exact and not compliant
         cl = self.current_loop is not None
         idx = {n: base + i for i, n in enumerate(names)}
 
@@ -255,10 +259,15 @@ class DriveTrain:
                 r[..., 7] = z * (k_m * I - T0 * sign(w) - lam * w)
                 r[..., 8] = k_m * I * w
             if sen is not None:
-                lv = sen.last
-                r[..., idx["angle_meas_rad"]] = lv[0]
-                r[..., idx["speed_est_rad_s"]] = lv[1]
-                r[..., idx["accel_est_rad_s2"]] = lv[2]
+                if exact:  # what the controller saw: the kernel's exact measurement
+                    r[..., idx["angle_meas_rad"]] = yv.q
+                    r[..., idx["speed_est_rad_s"]] = yv.qd
+                    r[..., idx["accel_est_rad_s2"]] = yv.qdd
+                else:
+                    lv = sen.last
+                    r[..., idx["angle_meas_rad"]] = lv[0]
+                    r[..., idx["speed_est_rad_s"]] = lv[1]
+                    r[..., idx["accel_est_rad_s2"]] = lv[2]
             if "voltage_bridge_V" in idx:
                 r[..., idx["voltage_bridge_V"]] = last["V"]
             if "current_mean_A" in idx:

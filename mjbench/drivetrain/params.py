@@ -79,8 +79,8 @@ class EncoderParams(Strict):
 class SensorParams(Strict):
     """``[drive.sensor]``: what the controller sees at each control sample.
 
-    ``speed``: ``"difference"`` (backward difference of the measured angle over the sample
-    period), ``"observer"`` (type-2 tracking observer / PLL of bandwidth ``bandwidth``: zero
+    ``speed`` (default: ``"difference"`` with an encoder, ``"true"`` without): ``"difference"``
+    (backward difference of the measured angle over the sample period), ``"observer"`` (type-2 tracking observer / PLL of bandwidth ``bandwidth``: zero
     steady error on a constant-speed ramp), ``"mt"`` (M/T method: counts over the time between
     the latest encoder edges, for low speeds; needs an encoder) or ``"true"`` (the exact speed).
     The acceleration (D terms) is the difference of successive speed estimates (the observer's
@@ -88,7 +88,8 @@ class SensorParams(Strict):
     shaft (the encoder's side, motor by default).  ``delay``: one-sample computation delay (the
     output computed at sample k is applied at sample k+1)."""
 
-    speed: Literal["difference", "observer", "mt", "true"] = "difference"
+    speed: Literal["difference", "observer", "mt", "true"] | None = Field(
+        None, description="speed estimate (default: difference with an encoder, else the exact speed)")
     bandwidth: OptQ("frequency", gt=0.0, plausible=False) = Field(
         None, description="observer natural frequency (default: sample rate / 20)")
     noise_angle: Q("angle", ge=0.0) = Field(0.0, description="angle noise, standard deviation")

@@ -69,6 +69,12 @@ class Sensor:
                 "noise_current_A": _plain(self.noise_current), "seed": self.seed, "delay": self.delay}
 
     @property
+    def exact(self) -> bool:
+        """No encoder, no noise, the exact speed: the kernel's own measurement (only the delay left)."""
+        return (self.speed == "true" and not np.any(np.asarray(self.lines) > 0)
+                and not any(np.any(np.asarray(v) > 0) for v in (self.noise_angle, self.noise_speed, self.noise_current)))
+
+    @property
     def resolution(self):
         """Count width Δ = 2π/(lines·edges) [rad] on the measured shaft (0: no encoder)."""
         if not np.any(np.asarray(self.lines) > 0):
