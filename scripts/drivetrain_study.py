@@ -15,7 +15,8 @@ Writes into --out:
 
 Usage: python scripts/drivetrain_study.py [--out results/drivetrain] [--quick]
        [--lines 250 1000 2000 8000 32000] [--periods 0.1 0.2 0.5 1 2] [--estimators difference mt]
-(--quick: a 3 × 3 sweep, table on the reduced backend only; ≈ 2 min.  Full: ≈ 15-25 min on 2 cores.)
+(--quick: a 3 × 3 sweep, table on the reduced backend only; ≈ 9 min.  Full: ≈ 15 min on 2 cores;
+--replot: redraw the sweep figures from study.json.)
 """
 import argparse
 import json
@@ -79,9 +80,18 @@ def main():
     ap.add_argument("--periods", type=float, nargs="*", default=None, help="sample periods [ms]")
     ap.add_argument("--estimators", nargs="*", default=["difference", "mt"])
     ap.add_argument("--sweep-backend", default="reduced", choices=["reduced", "multibody"])
+    ap.add_argument("--replot", action="store_true", help="redraw the sweep figures from <out>/study.json")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    if args.replot:
+        res = json.loads((out / "study.json").read_text())
+        for est in sorted({sw["estimator"] for sw in res["sweeps"]}):
+            sws = [sw for sw in res["sweeps"] if sw["estimator"] == est]
+            print("wrote", DT.figure_sweep(sws, out / f"sweep_{est}.png",
+                                           title=f"where each controller breaks down — speed by {est} "
+                                                 f"(rest of the drive realistic, {sws[0]['backend']} backend)"))
+        return
     lines = args.lines or ([500, 2000, 8000] if args.quick else [250, 1000, 2000, 8000, 32000])
     periods = [p * 1e-3 for p in (args.periods or ([0.1, 0.5, 2.0] if args.quick else [0.1, 0.2, 0.5, 1.0, 2.0]))]
     t0 = time.perf_counter()

@@ -97,7 +97,7 @@ def chatter(tr, t0, t1, v_max=48.0) -> dict:
     if tr.has("current_max_A"):
         # row r holds the extremes of the step ending at t_r: minus that step's net change (the
         # control's own current slope), what remains is the PWM ripple
-        pp = (tr["current_max_A"] - tr["current_min_A"])[1:] - np.abs(np.diff(tr.current))
+        pp = np.maximum((tr["current_max_A"] - tr["current_min_A"])[1:] - np.abs(np.diff(tr.current)), 0.0)
         rip = float(np.mean(pp[k[1:]]))
     return {"switch_freq_Hz": switching_frequency(t, v, 0.02 * v_max),
             "current_ripple_A": rip,
@@ -265,14 +265,19 @@ def figure_sweep(sweeps: list, path, title=""):
         ax.set_yticks(range(len(sw["lines"])), [str(n) for n in sw["lines"]])
         ax.set_xlabel(ps.label("control sample period", "ms"))
         ax.set_ylabel("encoder lines per revolution (×4)")
+        from matplotlib.patches import Rectangle
+
         for i, row in enumerate(sw["grid"]):
             for j, m in enumerate(row):
                 bad = breakdown(name, m, sw["ideal"][j])
                 txt = "div." if m.get("diverged") else f"{m[key]:.2g}"
-                ax.text(j, i, txt, ha="center", va="center", fontsize=7,
-                        color="w" if not bad else "r", fontweight="bold" if bad else "normal")
+                light = bool(np.isfinite(Z[i, j]) and norm is not None and norm(Z[i, j]) > 0.6)
+                ax.text(j, i, txt, ha="center", va="center", fontsize=8, color="k" if light else "w",
+                        fontweight="bold" if bad else "normal")
+                if bad:
+                    ax.add_patch(Rectangle((j - 0.46, i - 0.46), 0.92, 0.92, fill=False, ec="red", lw=2.0))
         ax.set_title(f"{name} ({'PID: mean χ of the steady cycles' if name == 'incerti2012' else 'SMC: steady error'}), "
-                     f"speed by {sw['estimator']}\nred: broken down", fontsize=9)
+                     f"speed by {sw['estimator']}\nred frame: broken down", fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.85)
     ps.finish(fig, title)
     return save(fig, path)
