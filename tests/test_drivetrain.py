@@ -403,3 +403,32 @@ def test_study_chattering_metrics_on_known_signals():
     assert DT.switching_frequency(t, jitter, 0.96) == 0.0
     assert DT.breakdown("yigit2023", {"steady_error": 0.02}, {}) and not DT.breakdown("yigit2023", {"steady_error": 0.002}, {})
     assert DT.breakdown("incerti2012", {"diverged": True}, {})
+
+
+@pytest.mark.parametrize("model", ["averaged", "switching"])
+def test_amplifier_current_limit_holds_the_current_at_i_max(model):
+    d = drive(pwm=Amplifier(model, 20e3, 48.0))
+    d.i_max = 5.0
+    d._flags()
+    m = Machine(Rotor(1e3), d, ConstantVoltage(48.0))  # stalled: 24 A without the limit
+    tr = reduced.simulate(m, 0.05, dt=1e-4, record_dt=1e-4)
+    assert np.max(tr.current) <= 5.0 + 1e-9
+    assert tr.current[-1] == pytest.approx(5.0, rel=1e-3)
+    assert tr["voltage_bridge_V"][-1] == pytest.approx(R * 5.0 + KM * tr.qd[-1], rel=2e-3)  # the bridge's mean
+
+
+def test_every_vectorised_element_in_a_batch_equals_its_single_runs():
+    """Array code paths (observer, M/T, current loop, averaged PWM, efficiency, Stribeck friction with
+    per-simulation model edits, delay) against the scalar ones."""
+    common = ['drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48", 'drive.pwm.dead_time="1 us"',
+              "drive.gear.efficiency=0.9", "drive.gear.efficiency_back=0.7", 'drive.friction.coulomb="0.03 N*m"',
+              'drive.friction.breakaway="0.05 N*m"', 'drive.friction.stribeck_speed="2 rad/s"',
+              "drive.sensor.delay=true", 'drive.current_loop.bandwidth="500 Hz"', "modes.open.voltage=4"]
+    # one batch = one estimator and one encoder side (strings must agree); lines differ per simulation
+    for extra in (['drive.sensor.speed="observer"'], ['drive.sensor.speed="mt"', 'drive.encoder.side="output"',
+                                                      'drive.gear.backlash="0.2 deg"']):
+        scns = [S.load("incerti2012", common + extra + [f"drive.encoder.lines={n}"]) for n in (1000, 3000)]
+        res = batch.simulate([S.make_machine(s, "open") for s in scns], 0.05, record_dt=1e-3)
+        for i, s in enumerate(scns):
+            single = multibody.simulate(S.make_machine(s, "open"), 0.05)
+            np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)

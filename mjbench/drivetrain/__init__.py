@@ -102,7 +102,7 @@ class DriveTrain:
 
     # ------------------------------------------------------------------ kernel hooks
     def bind(self, plant, drive, controller, h, every, nsim, y) -> Hooks:
-        """The hooks of one run (plant started afterwards by the kernel).  ``every``: co-steps per
+        """The hooks of one run (called by the kernel after ``plant.start()``).  ``every``: co-steps per
         control sample; ``nsim``: None for a single run; ``y``: the kernel's Measurement."""
         batch = nsim is not None
         T = every * h

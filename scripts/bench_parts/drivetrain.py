@@ -6,6 +6,7 @@ the trajectory stays (nearly) the same, so the ratio is the element's own cost, 
 MuJoCo's constraint-solver effort along a different closed-loop motion (which the PID would add).
 scripts/drivetrain_callgrind.py counts instructions for the same configurations."""
 
+import gc
 import statistics
 import time
 
@@ -42,6 +43,7 @@ def run(args):
 
     def cpu(k, mod):
         m = S.make_machine(scns[k], MODE)
+        gc.collect()
         t0 = time.process_time()
         mod.simulate(m, t_end, dt=h, record_dt=1e-3)
         return time.process_time() - t0
@@ -50,12 +52,20 @@ def run(args):
     # median over the repetitions
     ratios = {(k, b): [] for k in configs for b in mods}
     ideal = {b: [] for b in mods}
-    for _ in range(max(1, args.repeat)):
-        for k in configs:
-            for b, mod in mods.items():
-                ti = cpu("ideal", mod)
-                ideal[b].append(ti)
-                ratios[k, b].append(cpu(k, mod) / ti)
+    for mod in mods.values():  # warm-up (lazy initialisations of the first run)
+        cpu("ideal", mod)
+    # full GC collections scan the whole start-up heap: freeze it, so none lands in one run only
+    gc.collect()
+    gc.freeze()
+    try:
+        for _ in range(max(1, args.repeat)):
+            for k in configs:
+                for b, mod in mods.items():
+                    ti = cpu("ideal", mod)
+                    ideal[b].append(ti)
+                    ratios[k, b].append(cpu(k, mod) / ti)
+    finally:
+        gc.unfreeze()
     rows = []
     for b in mods:
         rows.append((f"drivetrain_{b}_ideal_us_per_step", 1e6 * min(ideal[b]) / n,
