@@ -432,3 +432,20 @@ def test_every_vectorised_element_in_a_batch_equals_its_single_runs():
         for i, s in enumerate(scns):
             single = multibody.simulate(S.make_machine(s, "open"), 0.05)
             np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)
+
+
+@pytest.mark.parametrize("model", ["table", "closed"])
+def test_reduced_batch_runs_the_drive_train_like_single_runs(model):
+    """The batched reduced backend (tabulated or closed rigid model, and the compliant gear's extra
+    coordinate) through the same hooks: each simulation equals its single reduced run."""
+    from mjbench.backends import reduced_batch
+
+    common = ['drive.pwm.model="switching"', 'drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48",
+              "drive.gear.efficiency=0.9", 'drive.friction.coulomb="0.03 N*m"', 'drive.sensor.speed="mt"']
+    for extra in ([], ['drive.gear.backlash="0.2 deg"']):
+        scns = [S.load("incerti2012", common + extra + [f"drive.encoder.lines={n}"]) for n in (500, 1000, 3000)]
+        res = reduced_batch.simulate([S.make_machine(s, "pid") for s in scns], 0.05, dt=1e-4,
+                                     options={"model": model}, single_fast_path=False)
+        for i, s in enumerate(scns):
+            single = reduced.simulate(S.make_machine(s, "pid"), 0.05, dt=1e-4, options={"model": model})
+            np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)

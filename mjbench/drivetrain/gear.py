@@ -152,6 +152,9 @@ class DrivenMechanism(Mechanism):
         self.compliant = gear is not None and gear.compliant
         self.drive_joint = MOTOR_JOINT if self.compliant else inner.input_joint
         self.internal = tuple(inner.internal) + ((DEFLECTION,) if self.compliant else ())
+        # the tabulated reduced model (mjbench.backends.table) tabulates J, J', E_p' (periodic in q) and
+        # calls external_torque (the friction law) at every stage; no viscous-only D (reduced_viscous: None)
+        self.reduced_period = getattr(inner, "reduced_period", None)
         self.z = float(drive.z)
         self.J_b = float(drive.J_b)
         self.J_mo = float(drive.J_eq) - self.J_b  # motor + pinion inertia at the output
