@@ -19,3 +19,33 @@ def apply_fast_multibody(args, overrides):
 
     print(f"mjbench: fast multibody mode: {accuracy_note(fast)}")
     return [*overrides, f"multibody.integrator={fast}"]
+
+
+def parse_numbers(items, option, keys, suffix=""):
+    """``["k=v,k=v", ...]`` of a repeatable CLI option → {key: float}.  ``keys`` are the allowed
+    names (a list of (name, unit help) pairs); ``suffix`` characters (units such as "VA") may end a
+    value.  Malformed, unknown or non-finite values raise ParameterError (exit 2) naming ``option``."""
+    import math
+
+    from ..errors import ParameterError
+
+    allowed = dict(keys)
+    choices = ", ".join(f"{k} [{u}]" if u else k for k, u in keys)
+    out = {}
+    for item in items:
+        for part in item.split(","):
+            if not part.strip():
+                continue
+            if "=" not in part:
+                raise ParameterError(f"{option} {part!r}: expected KEY=VALUE with KEY in {choices}")
+            k, v = (s.strip() for s in part.split("=", 1))
+            if k not in allowed:
+                raise ParameterError(f"{option} {k!r}: choose {choices}")
+            try:
+                x = float(v.rstrip(suffix) if suffix else v)
+            except ValueError:
+                raise ParameterError(f"{option} {part!r}: {v!r} is not a number") from None
+            if not math.isfinite(x):
+                raise ParameterError(f"{option} {part!r}: must be finite")
+            out[k] = x
+    return out

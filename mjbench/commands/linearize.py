@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 
 from ..outputs import add_force_option, staged_dir, write_json
+from . import parse_numbers
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -32,26 +33,9 @@ def register(sub):
 
 
 def parse_at(items) -> dict:
-    from ..errors import ParameterError
-
-    out = {}
-    for item in items:
-        for part in item.split(","):
-            if not part.strip():
-                continue
-            if "=" not in part:
-                raise ParameterError(f"--at {part!r}: expected KEY=VALUE with KEY in q, omega, I, t")
-            k, v = (s.strip() for s in part.split("=", 1))
-            if k not in AT_KEYS:
-                raise ParameterError(f"--at {k!r}: choose q [rad], omega [rad/s], I [A] or t [s]")
-            try:
-                x = float(v)
-            except ValueError:
-                raise ParameterError(f"--at {part!r}: {v!r} is not a number") from None
-            if x != x or x in (float("inf"), float("-inf")):
-                raise ParameterError(f"--at {part!r}: must be finite")
-            out[AT_KEYS[k]] = x
-    return out
+    """``--at q=..,omega=..,I=..,t=..`` → {q, qd, I, t} (floats, SI)."""
+    got = parse_numbers(items, "--at", [("q", "rad"), ("omega", "rad/s"), ("qd", "rad/s"), ("I", "A"), ("t", "s")])
+    return {AT_KEYS[k]: v for k, v in got.items()}
 
 
 def cmd_linearize(args):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 
-from . import add_fast_multibody, apply_fast_multibody
+from . import add_fast_multibody, apply_fast_multibody, parse_numbers
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir, write_json
 
@@ -54,24 +54,13 @@ def register(sub):
 
 
 def parse_limits(items):
+    """``--limit voltage=48V,current=30A`` → {"voltage": 48.0, "current": 30.0} (each > 0)."""
     from ..errors import ParameterError
 
-    out = {}
-    for item in items:
-        for part in item.split(","):
-            if not part.strip():
-                continue
-            if "=" not in part:
-                raise ParameterError(f"--limit {part!r}: expected voltage=V or current=A")
-            k, v = (s.strip() for s in part.split("=", 1))
-            if k not in ("voltage", "current"):
-                raise ParameterError(f"--limit {k!r}: choose voltage or current")
-            try:
-                out[k] = float(v.rstrip("VA"))
-            except ValueError:
-                raise ParameterError(f"--limit {part!r}: {v!r} is not a number") from None
-            if out[k] <= 0:
-                raise ParameterError(f"--limit {part!r}: must be > 0")
+    out = parse_numbers(items, "--limit", [("voltage", "V"), ("current", "A")], suffix="VA")
+    for k, v in out.items():
+        if v <= 0:
+            raise ParameterError(f"--limit {k}={v:g}: must be > 0")
     return out
 
 
