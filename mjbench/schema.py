@@ -143,7 +143,7 @@ class MultibodyOptions(Strict):
     faster but less accurate (docs/validation.md)."""
 
     integrator: Literal["RK4", "Euler", "implicit", "implicitfast"] = "RK4"
-    solref: tuple[float, float] | None = Field(None, description="loop-closure solref (default: 2·dt, 1)")
+    solref: tuple[float, float] | None = Field(None, description="loop-closure solref (default: 3·dt, 1; mechanisms/base.py)")
     solimp: tuple[float, float, float, float, float] | None = None
     iterations: int = Field(100, ge=1)
     tolerance: float = Field(1e-12, gt=0.0)

@@ -33,7 +33,7 @@ def default_runs(scn):
 
 @pytest.mark.parametrize("mode", ["open", "pid"])
 def test_multibody_matches_reduced_default_settings(default_runs, mode):
-    """Issue requirement ≤ 0.5 %; measured 2.8e-5 (open) and 1.9e-5 (PID) with RK4 at 0.1 ms."""
+    """Issue requirement ≤ 0.5 %; measured 1.3e-5 (open) and 5.1e-6 (PID) with RK4 at 0.1 ms."""
     mb, red = default_runs[mode]
     mx, rms = M.rel_difference(red.t, red.qd, mb.t, mb.qd)
     assert mx < 1e-4, mx

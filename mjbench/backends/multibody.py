@@ -26,9 +26,9 @@ DEFAULT_OPTIONS = {"integrator": "RK4", "timestep": 1e-4}
 #: 2 s, crank speed vs the reduced model with the closed forms, relative to the peak speed; largest
 #: loop-closure residual; CPU cost per step relative to RK4, scripts/bench.py --only reduced)
 FAST_ACCURACY = {
-    "RK4": {"pid": 1.9e-5, "open": 4.9e-5, "closure_m": 3.6e-8, "cost": 1.0},
-    "implicitfast": {"pid": 3.6e-3, "open": 8.1e-2, "closure_m": 5.0e-6, "cost": 0.53},
-    "Euler": {"pid": 3.6e-3, "open": 8.1e-2, "closure_m": 5.0e-6, "cost": 0.55},
+    "RK4": {"pid": 5.1e-6, "open": 1.3e-5, "closure_m": 1.6e-8, "cost": 1.0},
+    "implicitfast": {"pid": 3.6e-3, "open": 8.1e-2, "closure_m": 7.5e-6, "cost": 0.53},
+    "Euler": {"pid": 3.6e-3, "open": 8.1e-2, "closure_m": 7.5e-6, "cost": 0.55},
 }
 
 

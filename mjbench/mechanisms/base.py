@@ -54,6 +54,27 @@ def integrator_enum(name):
         raise ParameterError(f"multibody.integrator = {name!r}: choose one of {list(INTEGRATORS)}") from None
 
 
+# Loop-closure equalities of every built-in MJCF (four-bar, quick-return, generic linkage, a
+# user's MJCF): solref = (timeconst, dampratio) with timeconst = CLOSURE_TIMECONST_STEPS · h and
+# impedance 0.9999 (MuJoCo's maximum).  The constraint acceleration is the Baumgarte reference
+# a* = −b·ṙ − k·r.  3·h, not MuJoCo's floor 2·h: measured multibody-vs-reduced crank speed (max/peak,
+# RK4, h = 0.1 ms) at 2h / 3h / 4h: seed-000 four-bar open loop 4.9e-5 / 1.3e-5 / 5.1e-6, PID 1.9e-5 /
+# 5.1e-6 / 2.0e-6; the other machines stay ≤ 1.5e-6 at 3h (sixbar 7.1e-7 → 1.5e-6, toggle press
+# 3.0e-7 → 5.9e-7) while 4h lets the toggle press's closure exceed 1e-7 m.  3h minimises the worst
+# case with every closure ≤ 6.3e-8 m.  A scenario's ``multibody.solref`` overrides it.
+CLOSURE_TIMECONST_STEPS = 3.0
+CLOSURE_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
+
+
+def closure_solref(options, h):
+    """Loop-closure (solref, solimp) for step ``h`` [s]: the options' ``solref``/``solimp`` when given
+    (a negative time constant means the default), else (CLOSURE_TIMECONST_STEPS·h, 1) and CLOSURE_SOLIMP."""
+    solref = list(options.get("solref") or (-1.0, 0.0))
+    if solref[0] < 0:
+        solref = [CLOSURE_TIMECONST_STEPS * h, 1.0]
+    return solref, list(options.get("solimp") or CLOSURE_SOLIMP)
+
+
 def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 1080)):
     """An MjSpec with the options every mjbench model shares.
 

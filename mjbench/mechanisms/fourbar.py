@@ -23,17 +23,11 @@ from pydantic import Field, field_validator
 from ..errors import GeometryError, ParameterError
 from ..schema import Q, Strict
 from . import register
-from .base import INPUT_JOINT, Mechanism, new_spec
+from .base import INPUT_JOINT, Mechanism, closure_solref, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo: paper angles are counter-clockwise in (x, z)
 
-# Loop-closure equality: solref (timeconst, dampratio) and solimp.  timeconst = 2·h (the
-# smallest MuJoCo accepts) with impedance 0.9999 makes the closure nearly hard: the constraint
-# acceleration is the reference a* = −b·ṙ − k·r with (1−d)/d ≈ 1e-4 regularisation.  Measured
-# closure residual < 1e-6 m (tests/test_fourbar_multibody.py).
-DEFAULT_SOLREF = (-1.0, 0.0)  # < 0: replaced by (2·timestep, 1) when the model is built
-DEFAULT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 
 def _xp(x):
@@ -462,10 +456,7 @@ class FourBar(Mechanism):
         pt = self.coupler_point
         coupler.add_site(name="coupler_point", pos=[pt.f * math.cos(pt.theta), 0, pt.f * math.sin(pt.theta)],
                          size=[1.6 * rad, 0, 0], rgba=[1, 0.8, 0.1, 1])
-        solref = list(o.get("solref", DEFAULT_SOLREF))
-        if solref[0] < 0:
-            solref = [2.0 * h, 1.0]
-        solimp = list(o.get("solimp", DEFAULT_SOLIMP))
+        solref, solimp = closure_solref(o, h)  # loop closure at C (base.py: 3·h, impedance 0.9999)
         spec.add_equality(name="loop_closure", type=mujoco.mjtEq.mjEQ_CONNECT,
                           objtype=mujoco.mjtObj.mjOBJ_SITE, name1="B_end", name2="C_end",
                           solref=solref, solimp=solimp)

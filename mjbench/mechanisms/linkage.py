@@ -50,13 +50,11 @@ from pydantic_core import PydanticCustomError
 from ..errors import GeometryError
 from ..schema import OptQ, Q, Strict
 from . import register
-from .base import Mechanism, new_spec
+from .base import Mechanism, closure_solref, new_spec
 from .linkage_kin import KJoint, PeriodicTable, PlanarSystem, SolveError, TWO_PI
 
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo: description angles are counter-clockwise in (x, z)
 GROUND = "ground"
-DEFAULT_SOLREF = (-1.0, 0.0)  # < 0: replaced by (2·timestep, 1) when the model is built (as fourbar.py)
-DEFAULT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 COARSE_STEPS = 90  #: continuation steps over one turn (subdivided automatically where needed)
 TABLE_NODES = (2048, 4096, 8192, 16384)  #: grid sizes tried until the table is accurate enough
 TABLE_TARGET = 1e-10  #: target relative interpolation error of J, J', E_p' (max over a turn / max |·|)
@@ -1143,10 +1141,7 @@ class Linkage(Mechanism):
             lk, pt = _ref(ref)
             v = c.pts[lk][pt]
             bodies[lk].add_site(name="trace", pos=[v[0], 0.0, v[1]], size=[1.6 * rad, 0, 0], rgba=[1, 0.8, 0.1, 1])
-        solref = list(o.get("solref", DEFAULT_SOLREF))
-        if solref[0] < 0:
-            solref = [2.0 * h, 1.0]
-        solimp = list(o.get("solimp", DEFAULT_SOLIMP))
+        solref, solimp = closure_solref(o, h)
         for k in c.closures:
             j = p.joints[k]
             if j.type != "revolute":

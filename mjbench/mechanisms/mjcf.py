@@ -37,10 +37,8 @@ from pydantic import Field
 from ..errors import GeometryError, ParameterError
 from ..schema import Bool, OptQ, Strict
 from . import register
-from .base import Mechanism, integrator_enum
+from .base import Mechanism, closure_solref, integrator_enum
 from .linkage_kin import TWO_PI, PeriodicTable
-
-DEFAULT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 
 class MjcfParams(Strict):
@@ -168,10 +166,7 @@ class _Model:
         opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
         if not self.p.keep_solref:
             h = opt.timestep
-            solref = list(o.get("solref") or [2.0 * h, 1.0])
-            if solref[0] < 0:
-                solref = [2.0 * h, 1.0]
-            solimp = list(o.get("solimp") or DEFAULT_SOLIMP)
+            solref, solimp = closure_solref(o, h)
             for eq in spec.equalities:
                 eq.solref = solref
                 eq.solimp = solimp

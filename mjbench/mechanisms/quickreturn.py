@@ -45,15 +45,11 @@ from pydantic import Field
 from ..errors import GeometryError, ParameterError
 from ..schema import OptQ, Q, Strict
 from . import register
-from .base import INPUT_JOINT, Mechanism, new_spec
+from .base import INPUT_JOINT, Mechanism, closure_solref, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²]
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo (paper angles counter-clockwise in (x, z))
 
-# Loop closures (two site ``connect`` equalities), as in fourbar.py: timeconst = 2·h, impedance
-# 0.9999 → nearly hard; closure residual measured in tests/test_quickreturn.py.
-DEFAULT_SOLREF = (-1.0, 0.0)  # < 0: replaced by (2·timestep, 1) when the model is built
-DEFAULT_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 
 CUT_PROFILES = ("stroke", "window", "sine", "none")
 
@@ -412,10 +408,7 @@ class QuickReturn(Mechanism):
         slider.add_site(name="slider_pin", pos=[0, 0, 0], size=[1.2 * rad, 0, 0])
         slider.add_site(name="trace", pos=[0, 0, 0], size=[1.6 * rad, 0, 0], rgba=[1, 0.8, 0.1, 1])
 
-        solref = list(o.get("solref", DEFAULT_SOLREF))
-        if solref[0] < 0:
-            solref = [2.0 * h, 1.0]
-        solimp = list(o.get("solimp", DEFAULT_SOLIMP))
+        solref, solimp = closure_solref(o, h)  # two site connects (base.py: 3·h, impedance 0.9999)
         for nm, s1, s2 in (("slot_closure", "crank_pin", "block_pin"), ("slider_closure", "rod_end", "slider_pin")):
             spec.add_equality(name=nm, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_SITE,
                               name1=s1, name2=s2, solref=solref, solimp=solimp)
