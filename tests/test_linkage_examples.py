@@ -1,8 +1,8 @@
 """The shipped generic-linkage examples: multibody vs reduced, loop closure, passive energy, and
 their geometry against closed forms written here (circle intersections), not the product's code.
 
-Measured (docs/linkages.md §4): multibody vs reduced crank speed 2.8e-7 (press), 7.1e-7 (six-bar),
-2.9e-7 (toggle press) of the peak over 4/3/4 s PI runs.
+Measured (docs/linkages.md §4): multibody vs reduced crank speed 1.9e-7 (press), 1.5e-6 (six-bar),
+5.9e-7 (toggle press) of the peak over 4/3/4 s PI runs.
 """
 import copy
 import math
