@@ -32,10 +32,18 @@ def _tree(folder):
     return out
 
 
+def _default_signals():
+    """In the child, before exec: SIGINT/SIGTERM at their defaults, as in a run started from a
+    terminal.  A suite started in the background (``cmd &`` in a non-interactive shell) inherits
+    SIGINT ignored, which mjbench rightly respects, and the kill tests would then see no interrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _mjbench(args, cwd=None, env=None, **kw):
     e = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), **(env or {})}
     return subprocess.run([sys.executable, "-m", "mjbench.cli", *args], cwd=cwd or ROOT, env=e,
-                          capture_output=True, text=True, timeout=300, **kw)
+                          capture_output=True, text=True, timeout=300, preexec_fn=_default_signals, **kw)
 
 
 # ============================================================================ staged_dir
@@ -177,7 +185,8 @@ def test_sigterm_from_outside_while_simulating(old_run, tmp_path):
     old = _tree(out)
     env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     p = subprocess.Popen([sys.executable, "-m", "mjbench.cli", "run", "incerti2012", "--t-end", "30", "--quiet",
-                          "--out", str(out), "--force"], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True)
+                          "--out", str(out), "--force"], cwd=ROOT, env=env, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=_default_signals)
     try:
         deadline = time.monotonic() + 120
         while not any(n.startswith(".out.staging-") for n in os.listdir(tmp_path)):  # simulating now
