@@ -405,6 +405,25 @@ def test_study_chattering_metrics_on_known_signals():
     assert DT.breakdown("incerti2012", {"diverged": True}, {})
 
 
+def test_realdrive_cases_record_every_step_and_decimated_records_are_refused():
+    """The chattering metrics of the report's *-realdrive cases come from the case's own runs:
+    those must be recorded every co-step (a 1 ms record aliased the switching frequency, 277 Hz
+    instead of 2.1 kHz, and read the control's current change as PWM ripple)."""
+    from mjbench.papers import drivetrain_study as DT
+
+    for name in ("incerti2012", "yigit2023"):
+        assert S.load(name, DT.case_overrides(name)).simulation.record_dt == DT.DT
+    m = S.make_machine(S.load("incerti2012", DT.realistic("incerti2012")), "pid")
+    fine = reduced.simulate(m, 0.03, dt=DT.DT, record_dt=DT.DT)
+    coarse = reduced.simulate(S.make_machine(S.load("incerti2012", DT.realistic("incerti2012")), "pid"), 0.03,
+                              dt=DT.DT, record_dt=1e-3)
+    c = DT.chatter(fine, 0.01, 0.03)
+    # the PWM ripple cannot exceed the 50 %-duty ripple V_bus/(4 L f) of the unipolar bridge
+    assert 0.0 < c["current_ripple_A"] <= ripple_formula(48.0, float(m.drive.L), 20e3) * (1 + 1e-6), c
+    with pytest.raises(ValueError, match="record_dt"):
+        DT.chatter(coarse, 0.01, 0.03)
+
+
 @pytest.mark.parametrize("model", ["averaged", "switching"])
 def test_amplifier_current_limit_holds_the_current_at_i_max(model):
     d = drive(pwm=Amplifier(model, 20e3, 48.0))

@@ -61,6 +61,13 @@ def realistic(name, estimator="difference", lines=2000, period=DT) -> list:
     return out
 
 
+def case_overrides(name, estimator="difference") -> list:
+    """Overrides of a ``*-realdrive`` reproduce case: the realistic drive, recorded at every step
+    (the chattering metrics need the 0.1 ms samples: a decimated record aliases the switching
+    frequency and turns the PWM ripple into the control's own current change)."""
+    return realistic(name, estimator) + [f"simulation.record_dt={DT!r}"]
+
+
 def simulate(name, overrides, backend="reduced", t_end=None):
     """One run of the machine's studied mode: (Trajectory or None, divergence message or "")."""
     from mjbench.backends import simulate as sim
@@ -90,6 +97,10 @@ def chatter(tr, t0, t1, v_max=48.0) -> dict:
     """Chattering metrics of a trajectory over [t0, t1] (see the module docstring)."""
     k = (tr.t >= t0 - 1e-12) & (tr.t <= t1 + 1e-12)
     t, v, i = tr.t[k], tr.voltage[k], tr.current[k]
+    spacing = float(np.median(np.diff(t))) if len(t) > 1 else DT
+    if abs(spacing - DT) > 1e-9 * DT:
+        raise ValueError(f"chattering metrics need a trajectory recorded every {DT:g} s (one co-step); this one is "
+                         f"recorded every {spacing:g} s: set simulation.record_dt = {DT:g}")
     n = max(1, int(round(5e-3 / DT)))
     mov = np.convolve(i, np.ones(n) / n, mode="same")
     core = slice(n, len(i) - n) if len(i) > 3 * n else slice(None)

@@ -37,7 +37,7 @@ CASES = [
     Case(name="incerti2012-calibrated-fig4", scenario="incerti2012-calibrated",
          title="Fig. 4 with the missing Table I values FITTED to the paper's χ (not a prediction)",
          modes=["open", "pid"], backend="both", t_end=2.0, video=True, video_mode="pid", video_t_end=2.0),
-    Case(name="incerti2012-realdrive", scenario="incerti2012", overrides=DT.realistic("incerti2012"),
+    Case(name="incerti2012-realdrive", scenario="incerti2012", overrides=DT.case_overrides("incerti2012"),
          title="the PID of Fig. 4 on a realistic drive: 20 kHz PWM, 2000-line encoder, 0.1 ms sampling, "
                "0.1° backlash, Coulomb friction (docs/drivetrain.md)",
          modes=["pid"], backend="both", t_end=2.0, video=False),

@@ -33,7 +33,7 @@ CASES = [
          modes=["open", "smc"], backend="both", video=True, video_mode="smc", video_t_end=4.0),
     Case(name="yigit2023-design", scenario="yigit2023", kind="study", video=False,
          title="Optimum design (Eqs 1-2): Table I against our optimum, two readings of constraint c4"),
-    Case(name="yigit2023-realdrive", scenario="yigit2023", overrides=DT.realistic("yigit2023"),
+    Case(name="yigit2023-realdrive", scenario="yigit2023", overrides=DT.case_overrides("yigit2023"),
          title="the SMC on a realistic drive: 20 kHz PWM, 2000-line encoder, 0.1 ms sampling (Ts), "
                "0.1° backlash, Coulomb friction (docs/drivetrain.md)",
          modes=["smc"], backend="both", t_end=3.0, video=False),
