@@ -132,17 +132,25 @@ class PID(Controller):
         phi_r, omega_r, acc_r = self.reference(t, y)
         e = omega_r - y.omega
         epos = phi_r - y.phi
-        if self.epos_prev is None:
-            self.epos_prev = epos
-        u = (self.gain_p(t) * e + self.ki * (epos - self.offset)
-             + self.kd * (acc_r - y.omega_dot))
+        prev = self.epos_prev
+        if prev is None:
+            prev = epos
+        if not self.kp_ramp:
+            kp = self.kp
+        elif self._tm_array:
+            kp = self.gain_p(t)
+        else:  # gain_p(t) inlined (the per-step hot path of a single run)
+            tm = self.t_ramp_max
+            kp = self.kp * (t if t < tm else tm)
+        ki = self.ki
+        u = kp * e + ki * (epos - self.offset) + self.kd * (acc_r - y.omega_dot)
         vl = self.v_limit
         if vl is not None:
-            d = epos - self.epos_prev
+            d = epos - prev
             if isinstance(u, float):
                 if (u > vl and d > 0) or (u < -vl and d < 0):
                     self.offset += d
-                    u -= self.ki * d
+                    u -= ki * d
                 u = vl if u > vl else (-vl if u < -vl else u)
             else:
                 # else freezing and clipping are no-ops (the common case); fmax ignores NaN rows
