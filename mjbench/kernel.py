@@ -10,7 +10,7 @@ happens here, once, in this order, for a single run (Python floats) or a batch o
    step), output held in between, then the drive's voltage limiter → V;
 3. divergence check and recording, every ``record_dt`` (preallocated arrays, no allocation);
 4. input torque τ = z·(k_m·Ī − T_0·sgn φ̇) with Ī the exact mean current over the step (V held,
-   φ̇_n) (:meth:`DCMotorDrive.current_mean`, through :meth:`DCMotorDrive.step_functions`); the viscous z²λ and the reflected inertia J_eq are
+   φ̇_n) (:meth:`DCMotorDrive.current_mean`, through :meth:`DCMotorDrive.step_torque`); the viscous z²λ and the reflected inertia J_eq are
    the plant's (joint damping and armature in MuJoCo, the same terms in the reduced model), so
    they are integrated inside the step;
 5. one plant step (``plant.advance``);
@@ -114,8 +114,8 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
     columns = NAMES + extra_cols + (hooks.columns if hooks is not None else ())
     ncol = len(columns)
     data = np.full((nsim, nrec, ncol) if batch else (nrec, ncol), np.nan)
-    torque, limit = drive.crank_torque, drive.limit
-    step_torque, step_current = drive.step_functions(h, scalar=not batch)
+    torque, cur_step, limit = drive.crank_torque, drive.current_step, drive.limit
+    step_torque = drive.step_torque(h, scalar=not batch)
     k_m = drive.k_m
     read, advance = plant.read, plant.advance
     closure, unstable, extra = plant.closure, plant.unstable, plant.extra
@@ -200,7 +200,7 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
             if dstep is None:
                 qd1 = advance(step_torque(I, V, qd), t)
                 qd_prev = qd
-                I = step_current(I, V, qd, qd1)
+                I = cur_step(I, V, 0.5 * z * (qd + qd1), h)
             else:
                 I = dstep(t, I, V, qd)
                 qd_prev = qd

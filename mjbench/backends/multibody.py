@@ -17,7 +17,6 @@ import mujoco
 import numpy as np
 
 from .. import kernel
-from ..mechanisms.base import Mechanism
 from ..errors import ParameterError
 from ..trajectory import Trajectory
 
@@ -105,8 +104,6 @@ class MultibodyPlant:
         self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
         self._qpos, self._qvel, self._qfrc = d.qpos, d.qvel, d.qfrc_applied
         self._load = mech.multibody_load if mech.has_multibody_load() else None
-        # the base-class residual (equality rows of efc_pos) is read here without NumPy reductions
-        self._efc_closure = type(mech).closure_error is Mechanism.closure_error
         self._closure = mech.closure_error
         self._bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
         self._internal = mech.internal_state if mech.internal else None
@@ -139,21 +136,15 @@ class MultibodyPlant:
                 return float(qvel[va])
 
         self.read, self.advance = read, advance
-        if self._efc_closure:  # max |efc_pos[:ne]|, the same value as Mechanism.closure_error
-            def closure():
-                ne = d.ne
-                return max(map(abs, d.efc_pos[:ne].tolist())) if ne else 0.0
-        else:
-            closure_error = self._closure
-
-            def closure():
-                return closure_error(m, d)
         warn = d.warning[self._bad]  # a live view of MuJoCo's counter
 
         def unstable():
             return warn.number != 0
 
-        self.closure, self.unstable = closure, unstable
+        self.unstable = unstable
+
+    def closure(self):
+        return self._closure(self.model, self.data)
 
     def extra(self, out):
         x, xd = self._internal(self.model, self.data.qpos, self.data.qvel)
