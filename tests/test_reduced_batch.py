@@ -76,6 +76,7 @@ def test_numpy_and_compiled_steps_give_the_same_bits(monkeypatch):
     if not _jit.AVAILABLE:
         pytest.skip("numba not installed (pip install mjbench[fast])")
     machines = [_machine(o) for o in VARIANTS]
+    monkeypatch.setenv("MJBENCH_FUSED", "0")  # the compiled plant step in the Python kernel (fused loop: test_fused.py)
     monkeypatch.setenv("MJBENCH_JIT", "1")  # small job: forced (by default only from 2e6 run-steps)
     res_jit = reduced_batch.simulate(machines, 0.05, single_fast_path=False)
     monkeypatch.setenv("MJBENCH_JIT", "0")

@@ -24,14 +24,16 @@ import numpy as np
 AVAILABLE = importlib.util.find_spec("numba") is not None
 MIN_RUN_STEPS = 2_000_000
 _kernel = None
+_fused = None
 
 
-def wanted(run_steps: float) -> bool:
-    """Whether a batch of ``run_steps`` (N × steps) should use the compiled step."""
+def wanted(run_steps: float, threshold: float = MIN_RUN_STEPS) -> bool:
+    """Whether a job of ``run_steps`` (N × steps) should use compiled code that saves enough per
+    run-step to pay for loading numba from ``threshold`` run-steps on."""
     mode = os.environ.get("MJBENCH_JIT", "")
     if mode == "0" or not AVAILABLE:
         return False
-    return mode == "1" or "numba" in sys.modules or run_steps >= MIN_RUN_STEPS
+    return mode == "1" or "numba" in sys.modules or run_steps >= threshold
 
 
 def rk4_table(*args):
@@ -40,6 +42,16 @@ def rk4_table(*args):
     if _kernel is None:
         _kernel = _build()
     return _kernel(*args)
+
+
+def fused_kernel():
+    """The compiled co-step loop (:mod:`mjbench.backends.fused`), loaded on first use."""
+    global _fused
+    if _fused is None:
+        from ._jit_kernels import run_pid  # imports numba
+
+        _fused = run_pid
+    return _fused
 
 
 def _build():

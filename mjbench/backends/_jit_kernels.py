@@ -39,3 +39,136 @@ def step(q, v, tau, CT, base, nn, kk, Ja, c, h, m, viscous):
         a4 = _acc(qi + h * v3, v4, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
         q[i] = qi + h6 * (vi + 2.0 * v2 + 2.0 * v3 + v4)
         v[i] = vi + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+
+
+@numba.njit(cache=True)
+def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
+            R, k_m, z, T_0, lam, w, decay, v_max, i_max,
+            kind, kp, ki, kd, ramp, tm, v_lim, omega0, phi0, volt, t_ramp, every,
+            h, nsteps, decim, max_speed, max_current, out, nrows, t_div, state):
+    """The co-step kernel (:func:`mjbench.kernel.run`) for an ideal drive, the speed PID with a
+    constant-speed reference (:class:`controllers.pid.PID`, ``kind`` 0) or the open-loop voltage
+    (:class:`controllers.openloop.ConstantVoltage`, ``kind`` 1) and the tabulated rigid reduced plant,
+    compiled: every simulation i runs its whole loop here (see :mod:`mjbench.backends.fused`).
+    Each line mirrors, operation for operation and in the same order, the Python code named in
+    its comment, so the record is the same bits as ``kernel.run`` (tests/test_fused.py).
+    ``v_max``/``i_max``/``v_lim`` = inf: no limit; ``phi0`` NaN: reference started from the first
+    measurement.  Outputs: ``out`` (N, nrec, 11) rows, ``nrows``, ``t_div`` (NaN: no divergence)
+    and ``state`` (N, 4) = q, q̇, I, V at the divergence."""
+    inv_h = 1.0 / h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    for i in range(q0.shape[0]):
+        Jai, ci, ki_, ni, bi = Ja[i], c[i], kk[i], nn[i], base[i]
+        Ri, kmi, zi, T0i, lami, wi, di = R[i], k_m[i], z[i], T_0[i], lam[i], w[i], decay[i]
+        vmax, imax, vl = v_max[i], i_max[i], v_lim[i]
+        kpi, kii, kdi, tmi, om0, ev = kp[i], ki[i], kd[i], tm[i], omega0[i], every[i]
+        q = q0[i]
+        qd = qd0[i]
+        I = I0[i]
+        qd_prev = qd
+        V = 0.0
+        offset = 0.0
+        eprev = 0.0
+        have_prev = False
+        phi_start = phi0[i]
+        k = 0
+        for n in range(nsteps + 1):
+            t = n * h
+            qdd = (qd - qd_prev) * inv_h
+            if n % ev == 0 and kind[i] == 1:
+                # ConstantVoltage.__call__
+                tr = t_ramp[i]
+                u = volt[i] * (t / tr) if (tr > 0 and t < tr) else volt[i]
+                # DCMotorDrive.limit
+                if vmax != math.inf:
+                    u = -vmax if u < -vmax else (vmax if u > vmax else u)
+                V = u
+            elif n % ev == 0:
+                # Measurement.set
+                phi = zi * q
+                omega = zi * qd
+                omega_dot = zi * qdd
+                # ConstantSpeed.__call__
+                if math.isnan(phi_start):
+                    phi_start = phi - om0 * t
+                phi_r = phi_start + om0 * t
+                acc_r = 0.0 * om0
+                # PID.__call__
+                e = om0 - omega
+                epos = phi_r - phi
+                prev = eprev if have_prev else epos
+                if ramp[i]:
+                    kpt = kpi * (t if t < tmi else tmi)
+                else:
+                    kpt = kpi
+                u = kpt * e + kii * (epos - offset) + kdi * (acc_r - omega_dot)
+                if vl != math.inf:
+                    d = epos - prev
+                    if (u > vl and d > 0) or (u < -vl and d < 0):
+                        offset += d
+                        u -= kii * d
+                    u = vl if u > vl else (-vl if u < -vl else u)
+                eprev = epos
+                have_prev = True
+                # DCMotorDrive.limit
+                if vmax != math.inf:
+                    u = -vmax if u < -vmax else (vmax if u > vmax else u)
+                V = u
+            if n % decim == 0:
+                if not (abs(qd) < max_speed and abs(I) < max_current and math.isfinite(V) and math.isfinite(q)):
+                    t_div[i] = t
+                    state[i, 0] = q
+                    state[i, 1] = qd
+                    state[i, 2] = I
+                    state[i, 3] = V
+                    break
+                om = zi * qd
+                s = 1.0 if om > 0 else (-1.0 if om < 0 else 0.0)
+                r = out[i, k]
+                r[0] = t
+                r[1] = q
+                r[2] = qd
+                r[3] = qdd
+                r[4] = om
+                r[5] = I
+                r[6] = V
+                r[7] = zi * (kmi * I - (T0i * s + lami * om))  # DCMotorDrive.crank_torque
+                r[8] = kmi * I * om
+                r[9] = V * I
+                r[10] = 0.0
+                k += 1
+            if n == nsteps:
+                break
+            # DCMotorDrive.step_torque: z·(k_m·Ī − T_0·sgn(z·q̇)), Ī the step-mean current
+            om = zi * qd
+            i_ss = (V - kmi * om) / Ri
+            if T0i == 0.0:
+                tau = zi * (kmi * (i_ss + (I - i_ss) * wi))
+            else:
+                s = 1.0 if om > 0 else (-1.0 if om < 0 else 0.0)
+                tau = zi * (kmi * (i_ss + (I - i_ss) * wi) - T0i * s)
+            # ReducedPlant.advance (the table's RK4 step, as `step` above)
+            if math.isfinite(q) and math.isfinite(qd):
+                a1 = _acc(q, qd, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
+                v2 = qd + h2 * a1
+                a2 = _acc(q + h2 * qd, v2, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
+                v3 = qd + h2 * a2
+                a3 = _acc(q + h2 * v2, v3, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
+                v4 = qd + h * a3
+                a4 = _acc(q + h * v3, v4, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
+                q1 = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
+                qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+            else:
+                q1 = math.nan
+                qd1 = math.nan
+            qd_prev = qd
+            # DCMotorDrive.current_step with the mean of φ̇_n and φ̇_{n+1}
+            om = 0.5 * zi * (qd + qd1)
+            i_ss = (V - kmi * om) / Ri
+            I = i_ss + (I - i_ss) * di
+            if imax != math.inf:
+                I = -imax if I < -imax else (imax if I > imax else I)
+            q = q1
+            qd = qd1
+        nrows[i] = k

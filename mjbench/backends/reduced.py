@@ -214,6 +214,16 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
+    if method == "rk4" and model == "table":
+        from . import fused
+        if fused.usable([machine], float(dt), t_end, progress):  # the compiled loop: the same bits
+            meta = {"method": method, "model": "closed", **_table.table_for(machine.mechanism).describe()}
+            rec = fused.run([machine], t_end, float(dt), record_dt, meta=meta)
+            if not rec.diverged[0]:
+                meta = {k: v for k, v in rec.meta.items() if k != "nsim"}
+                return Trajectory.from_record(kernel.Record(rec.data[0], rec.columns, rec.nrows, rec.diverged,
+                                                            rec.t_diverged, rec.messages, meta), "reduced")
+            # diverged: the Python kernel below raises SimulationDiverged with its message
     plant = ReducedPlant(machine, dt, method, rtol, atol, model)
     rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
                      backend="reduced")

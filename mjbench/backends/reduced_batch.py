@@ -329,6 +329,10 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
                              "(solve_ivp: run the simulations one by one)")
     model = model or o.get("model", "table")
     kernel.check_times(t_end, h, record_dt)
+    if model == "table":
+        from . import fused
+        if fused.usable(machines, h, t_end, progress):  # the compiled loop: the same bits, every N
+            return BatchResult(fused.run(machines, t_end, h, record_dt))
     if len(machines) < SINGLES_BELOW and single_fast_path:
         return _singles(machines, t_end, h, record_dt, model, progress)
     drive = stack_drives([mc.drive for mc in machines])

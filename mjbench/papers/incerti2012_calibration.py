@@ -506,6 +506,7 @@ def _fit_one(prob, u0, max_nfev, newton=8):
 def _worker(args):
     scn, names, dt, u0, max_nfev, backend = args
     prob = Problem(scn, names, dt=dt, backend=backend)
+    _preload(backend, max_nfev * (len(names) + 1), dt)
     return _fit_one(prob, np.asarray(u0), max_nfev)
 
 
@@ -545,6 +546,14 @@ def pick_starts(scored, k, min_dist=0.15):
     return chosen
 
 
+def _preload(backend, evaluations, dt):
+    """Load the compiled co-step (numba; same bits) when the planned reduced-model work pays for it:
+    every evaluation is an open-loop and a PID run of ≥ 0.5 s each."""
+    if backend == "reduced":
+        from mjbench.backends import fused
+        fused.preload(evaluations * 2 * 0.5 / dt)
+
+
 def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0, n_screen=256,
               polish=True, polish_nfev=4, jobs=1, progress=True, accept=1.0, select="closest",
               backend="reduced"):
@@ -561,6 +570,7 @@ def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0,
     names = check_params(list(names), scn)
     prob = Problem(scn, names, dt=dt, backend=backend)
     n = len(names)
+    _preload(backend, (n_screen + starts * max_nfev * (n + 1)), dt)
     prob.bar = _bar(progress, n_screen, "calibrate: screening")
     scored = screen(prob, max(n_screen, starts), seed=seed)
     if prob.bar is not None:

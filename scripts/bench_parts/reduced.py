@@ -12,6 +12,9 @@ difference of two run lengths (set-up — model compilation, tables, stacking �
   pure-NumPy step at N = 256);
 * growth with t_end: whole-call cost (set-up included) of the reduced batch at N = 256 for
   t_end = 0.05, 0.2, 0.8 s, per run-step;
+* the compiled co-step (:mod:`mjbench.backends.fused`, numba: kernel loop, PID, drive and table
+  plant in one function, the same bits): single run and N = 256, with their ratios to MuJoCo;
+  every other reduced figure is the Python kernel's (``MJBENCH_FUSED=0``);
 * the fast multibody mode: Euler / implicitfast vs RK4 co-simulation cost (accuracy: docs/performance.md).
 """
 import os
@@ -47,6 +50,7 @@ def _per_step(make, n1, n2, repeat, nsim=1):
 
 def run(args):
     repeat = max(3, getattr(args, "repeat", 3))
+    os.environ["MJBENCH_FUSED"] = "0"  # the kernel's figures (Python loop, + compiled plant step in batches)
     scn = S.load("incerti2012")
     machine = S.make_machine(scn, "pid")
     _, model = multibody.build_model(machine)
@@ -126,7 +130,21 @@ def run(args):
     rows.append(("reduced_batch_N256_over_single_reduced", red_us[256] / singles["reduced"],
                  "reduced batch at N = 256 / single reduced run, per run-step"))
 
+    # ---------------------------------------------------------------- the compiled co-step (backends/fused.py)
+    if _jit.AVAILABLE:  # MJBENCH_JIT=1 is set: the kernel's loop, PID, drive and plant compiled (same bits)
+        os.environ["MJBENCH_FUSED"] = "1"
+        fs = _per_step(red, 2000, 10000, repeat)
+        rows.append(("single_reduced_fused_us", fs, "reduced model on the compiled co-step, single run, µs per step"))
+        rows.append(("reduced_fused_single_over_multibody_single", fs / singles["multibody"],
+                     "compiled single reduced run / single multibody co-simulation"))
+        f256 = _per_step(red_batch(256), 400, 2000, repeat, 256)
+        rows.append(("reduced_fused_batch_us_per_run_step_N256", f256,
+                     "compiled co-step, N = 256: CPU µs per run-step"))
+        rows.append(("reduced_fused_batch_over_multibody_batch_N256", f256 / mb256,
+                     "compiled co-step batch / multibody batch per run-step at N = 256"))
+
     # ---------------------------------------------------------------- growth with t_end (set-up included)
+    os.environ["MJBENCH_FUSED"] = "0"  # the kernel's figure
     machines = [S.make_machine(scn, "pid") for _ in range(256)]
     for t_end in (0.05, 0.2, 0.8):
         t = _cpu(lambda: reduced_batch.simulate(machines, t_end, record_dt=5e-4, single_fast_path=False),
@@ -135,6 +153,7 @@ def run(args):
                      f"reduced batch N = 256, t_end = {t_end:g} s, whole call incl. set-up: CPU µs per run-step"))
 
     os.environ.pop("MJBENCH_JIT", None)
+    os.environ.pop("MJBENCH_FUSED", None)
 
     # ---------------------------------------------------------------- fast multibody mode (opt-in)
     for integ in ("Euler", "implicitfast"):

@@ -1,0 +1,186 @@
+"""The compiled co-step for the design loops: the kernel's loop, drive, PID and tabulated reduced plant in one numba function.
+
+Why: a single reduced run of the Python kernel costs ≈ 3 µs per co-step, nearly all of it Python
+calls (kernel, PID, drive, plant); a batch amortises them only from N ≈ 100.  ``tune``'s local
+Nelder–Mead stage is sequential (80 single runs), so the design loop was bound by the Python
+per-step cost.  Here the whole loop of one run — measurement, PID at its period, limiter,
+divergence check, decimated record, step-mean torque, RK4 step on the table, exact current
+update with the amplifier limit — is one compiled function
+(:func:`mjbench.backends._jit_kernels.run_pid`), ≈ 0.1 µs per co-step.
+
+It is not a second model: every line mirrors, operation for operation and in the same order, the
+Python code of :func:`mjbench.kernel.run`, :class:`controllers.pid.PID`,
+:class:`controllers.openloop.ConstantVoltage`,
+:class:`controllers.reference.ConstantSpeed`, :class:`mjbench.drive.DCMotorDrive` and the tabulated
+:class:`~mjbench.backends.reduced.ReducedPlant`, without fast-math or fused multiply-add, so its
+record is the same bits as the Python kernel's (tests/test_fused.py, over gains, K_p·t ramps and
+their bound, anti-windup, voltage and current limits, Coulomb friction, hinge friction, control
+periods, open-loop ramps, per-run mechanisms and divergence).  The Python kernel stays the reference and the
+path of everything else.
+
+Used, by ``reduced.simulate`` and ``reduced_batch.simulate``, when all of these hold:
+* numba is installed (``pip install mjbench[fast]``) and wanted (:func:`mjbench.backends._jit.wanted`:
+  numba already loaded, ``MJBENCH_JIT=1``, or a large job — loading numba and the compiled
+  function costs ≈ 0.5 s once per process; the design loops load it up front when their planned
+  work pays for it, :func:`preload`);
+* the drive is ideal (no drive-train elements) with scalar constants;
+* the controller is the speed PID with a constant-speed reference (``omega0``) or the open-loop
+  voltage (``type = "open"``), scalar parameters;
+* the mechanism is rigid and tabulated (:mod:`mjbench.backends.table`) with no untabulated
+  external torque; RK4 (``method = "rk4"``, ``model = "table"``); no progress bar.
+Anything else runs the Python kernel, with the same numbers; ``MJBENCH_FUSED=0`` always runs the
+Python kernel (``MJBENCH_JIT=0`` too, which also turns off the batch's compiled plant step).
+
+A single run that diverges is re-run by the Python kernel, which raises the usual
+:class:`~mjbench.errors.SimulationDiverged` with its message; in a batch the diverged run's
+message is built from the state the compiled loop stopped at.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from .. import kernel
+from . import _jit
+from . import table as _table
+
+#: below this many run-steps (N × steps) the compiled loop is not worth loading numba for
+#: (≈ 0.5 s of loading against ≈ 3 µs saved per run-step)
+MIN_RUN_STEPS = 200_000
+
+
+def preload(run_steps: float) -> bool:
+    """Load numba and the compiled loop now when a design loop plans ``run_steps`` (N × steps
+    over all its simulations) and that pays for the loading; returns whether it is loaded."""
+    if _jit.wanted(run_steps, MIN_RUN_STEPS):
+        _jit.fused_kernel()
+        return True
+    return False
+
+
+def supported(machine, h: float) -> bool:
+    """Whether ``machine`` can run on the compiled loop at step h (see the module doc)."""
+    drive, ctrl, mech = machine.drive, machine.controller, machine.mechanism
+    if getattr(drive, "train", None) is not None or _kind(ctrl) is None:
+        return False
+    scal = (drive.R, drive.L, drive.k_m, drive.J_m, drive.J_a, drive.J_b, drive.z, drive.T_0, drive.lam,
+            drive.v_max, drive.i_max, machine.q0, machine.qd0, machine.I0)
+    if _kind(ctrl) == 0:
+        scal += (ctrl.kp, ctrl.ki, ctrl.kd, ctrl.t_ramp_max, ctrl.reference.omega0,
+                 0.0 if ctrl.v_limit is None else ctrl.v_limit, 0.0 if ctrl.reference.phi0 is None else ctrl.reference.phi0)
+        if ctrl.reference.phi0 is not None and math.isnan(ctrl.reference.phi0):
+            return False
+    else:
+        scal += (ctrl.voltage, ctrl.t_ramp)
+    if any(np.ndim(v) != 0 for v in scal) or machine.x0 or machine.xd0:
+        return False
+    if mech.internal or not _table.supports(mech):
+        return False
+    if mech.has_external_torque() and mech.reduced_viscous(0.0) is None:  # an untabulated torque
+        return False
+    try:
+        kernel.control_every(ctrl, h)
+    except Exception:  # the Python kernel raises the readable error
+        return False
+    return True
+
+
+def _kind(ctrl):
+    """0: the speed PID with a constant-speed reference, 1: the open-loop voltage, None: other."""
+    from controllers.openloop import ConstantVoltage
+    from controllers.pid import PID
+    from controllers.reference import ConstantSpeed
+
+    if type(ctrl) is PID and type(ctrl.reference) is ConstantSpeed:
+        return 0
+    if type(ctrl) is ConstantVoltage:
+        return 1
+    return None
+
+
+def usable(machines, h: float, t_end: float, progress=None) -> bool:
+    """Whether these runs go to the compiled loop (installed, wanted, supported)."""
+    if progress is not None or not _jit.AVAILABLE or os.environ.get("MJBENCH_FUSED", "") == "0":
+        return False
+    if not _jit.wanted(len(machines) * t_end / h, MIN_RUN_STEPS):
+        return False
+    return all(supported(mc, h) for mc in machines)
+
+
+class _NoPID:  # the PID columns of an open-loop run (unused by the compiled loop)
+    kp = ki = kd = 0.0
+    kp_ramp = False
+    t_ramp_max = math.inf
+    v_limit = None
+
+    class reference:
+        omega0 = 0.0
+        phi0 = None
+
+
+_NO_PID = _NoPID()
+
+
+def run(machines, t_end: float, h: float, record_dt: float, backend: str = "reduced", meta=None) -> kernel.Record:
+    """Run the machines on the compiled loop → the (N, nrec, ncol) :class:`~mjbench.kernel.Record`
+    of ``kernel.run`` on the batched reduced plant (same columns, rows and flags; ``meta``: the
+    plant's meta to report instead of the batched plant's)."""
+    from .reduced_batch import BatchReducedPlant
+
+    kernel.check_times(t_end, h, record_dt)
+    machines = list(machines)
+    N = len(machines)
+    plant = BatchReducedPlant(machines, h, "table", jit=True)  # the stacked tables of the compiled step
+    plant.start()
+    CT, base, nn, kk, Ja, c = plant._jit
+    f8 = np.float64
+
+    def col(vals, dtype=f8):
+        return np.array(vals, dtype=dtype)
+
+    drives = [mc.drive for mc in machines]
+    for d in drives:
+        d.prepare(h)
+    ctrls = [mc.controller for mc in machines]
+    if N > 1:  # the Python batch's rules: the same machines are accepted (or refused) with or without numba
+        from .batch import stack_objects
+        kernel.control_every(stack_objects(ctrls), h)
+    for ct in ctrls:
+        ct.reset()
+    inf = math.inf
+    kinds = [_kind(ct) for ct in ctrls]
+    pids = [ct if k == 0 else _NO_PID for ct, k in zip(ctrls, kinds)]
+    args = (plant.q.copy(), plant.qd.copy(), col([float(mc.I0) for mc in machines]), CT, base, nn, kk, Ja, c,
+            int(plant.m), bool(plant.viscous),
+            col([d.R for d in drives]), col([d.k_m for d in drives]), col([d.z for d in drives]),
+            col([d.T_0 for d in drives]), col([d.lam for d in drives]), col([d._w for d in drives]),
+            col([d._decay for d in drives]), col([d.v_max for d in drives]), col([d.i_max for d in drives]),
+            col(kinds, np.int64), col([p.kp for p in pids]), col([p.ki for p in pids]), col([p.kd for p in pids]),
+            col([p.kp_ramp for p in pids], np.bool_), col([p.t_ramp_max for p in pids]),
+            col([inf if p.v_limit is None else p.v_limit for p in pids]),
+            col([p.reference.omega0 for p in pids]),
+            col([math.nan if p.reference.phi0 is None else p.reference.phi0 for p in pids]),
+            col([getattr(ct, "voltage", 0.0) for ct in ctrls]), col([getattr(ct, "t_ramp", 0.0) for ct in ctrls]),
+            col([kernel.control_every(ct, h) for ct in ctrls], np.int64))
+    nsteps = int(round(t_end / h))
+    decim = max(1, int(round(record_dt / h)))
+    nrec = nsteps // decim + 1
+    data = np.full((N, nrec, kernel.NCORE), np.nan)
+    nrows = np.zeros(N, dtype=np.int64)
+    t_div = np.full(N, np.nan)
+    state = np.zeros((N, 4))
+    _jit.fused_kernel()(*args, h, nsteps, decim, kernel.MAX_SPEED, kernel.MAX_CURRENT, data, nrows, t_div, state)
+    diverged = ~np.isnan(t_div)
+    messages = [""] * N
+    for i in np.flatnonzero(diverged):
+        q, qd, I, V = state[i]
+        hint_fn = getattr(ctrls[i], "divergence_hint", None)
+        hint = hint_fn(float(t_div[i]), h) if hint_fn is not None else ""
+        messages[i] = kernel._message(backend, float(t_div[i]), q, qd, I, V, hint)
+    every = args[-1]
+    meta = {"dt": h, "record_dt": decim * h, "control_period": int(every[0]) * h, **(plant.meta if meta is None else meta),
+            "jit": "numba-fused"}
+    meta["nsim"] = N
+    return kernel.Record(data, kernel.NAMES, nrows.astype(int), diverged, t_div, messages, meta)
