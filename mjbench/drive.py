@@ -162,6 +162,21 @@ class DCMotorDrive:
             return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
         return np.minimum(np.maximum(V, -self.v_max), self.v_max)  # = np.clip, several times faster
 
+    def step_limit(self, scalar: bool):
+        """The kernel's per-sample limiter: None when there is no limit (v_max = inf), else
+        :meth:`limit` — for a single run (``scalar``) as a closure with ±v_max bound, the same
+        comparisons (0.07 µs less per co-step)."""
+        if self._no_vlimit:
+            return None
+        if not (scalar and np.ndim(self.v_max) == 0):
+            return self.limit
+        vm = float(self.v_max)
+        nvm = -vm
+
+        def limit(V):
+            return nvm if V < nvm else (vm if V > vm else V)
+        return limit
+
     def di_dt(self, I, V, omega_m):
         """dI/dt of Eq 7 [A/s] for motor speed ``omega_m`` = φ̇ [rad/s]."""
         return (V - self.R * I - self.k_m * omega_m) / self.L
@@ -238,6 +253,32 @@ class DCMotorDrive:
                 s = z * qd
                 return z * (k_m * (i_ss + (I - i_ss) * w) - T_0 * (1.0 if s > 0 else (-1.0 if s < 0 else 0.0)))
         return torque
+
+    def step_current(self, h: float, scalar: bool):
+        """The kernel's per-step current update for a fixed step h [s]: ``current(I, V, omega_m_mean)``
+        = :meth:`current_step` (exact exponential, amplifier limit); for a single run (``scalar``)
+        a closure with the constants bound, the same operations in the same order."""
+        self.prepare(h)
+        if not (scalar and all(np.ndim(v) == 0 for v in (self.R, self.L, self.k_m, self.i_max))):
+            cs = self.current_step
+
+            def current(I, V, om):
+                return cs(I, V, om, h)
+            return current
+        R, k_m, decay = float(self.R), float(self.k_m), float(self._decay)
+        if self._no_ilimit:
+            def current(I, V, om):
+                i_ss = (V - k_m * om) / R
+                return i_ss + (I - i_ss) * decay
+            return current
+        im = float(self.i_max)
+        nim = -im
+
+        def current(I, V, om):
+            i_ss = (V - k_m * om) / R
+            I_new = i_ss + (I - i_ss) * decay
+            return nim if I_new < nim else (im if I_new > im else I_new)
+        return current
 
     def friction_torque_motor(self, omega_m):
         """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""

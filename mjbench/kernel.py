@@ -32,7 +32,8 @@ bit-identical to N single runs.
 
 Plant protocol (duck-typed, all arrays preallocated by the plant):
 ``nsim`` (None for a single run), ``h`` [s], ``start()``, ``read() -> (q, q̇)``,
-``advance(tau, t) -> q̇`` (one step; returns the speed at its end), ``closure()`` [m], ``unstable()`` (the
+``advance(tau, t) -> (q, q̇)`` (one step; returns the state at its end — a batch plant returns
+copies, as ``read``), ``closure()`` [m], ``unstable()`` (the
 engine's own instability flag, e.g. MuJoCo's bad-qacc warning), ``extra_columns`` (names of
 plant-specific recorded columns) and ``extra(out)`` writing them, ``retire(mask)`` (batch: stop
 stepping diverged runs).
@@ -114,8 +115,10 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
     columns = NAMES + extra_cols + (hooks.columns if hooks is not None else ())
     ncol = len(columns)
     data = np.full((nsim, nrec, ncol) if batch else (nrec, ncol), np.nan)
-    torque, cur_step, limit = drive.crank_torque, drive.current_step, drive.limit
+    torque = drive.crank_torque
     step_torque = drive.step_torque(h, scalar=not batch)
+    vlimit = drive.step_limit(scalar=not batch)  # None: no voltage limit
+    step_current = drive.step_current(h, scalar=not batch)
     k_m = drive.k_m
     read, advance = plant.read, plant.advance
     closure, unstable, extra = plant.closure, plant.unstable, plant.extra
@@ -139,12 +142,13 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
 
     with np.errstate(all="ignore"):
         for n in range(nsteps + 1):
-            t = n * h
-            q, qd = read()
+            t = n * h  # q, qd: the plant's state at t (read before the loop, then returned by each step)
             qdd = (qd - qd_prev) * inv_h  # backward difference, as a digital controller sees it
             if n % every == 0:
                 if sample is None:
-                    V = limit(controller(t, y.set(t, q, qd, qdd, I)))
+                    V = controller(t, y.set(t, q, qd, qdd, I))
+                    if vlimit is not None:
+                        V = vlimit(V)
                 else:
                     V = sample(t, q, qd, qdd, I)
                 if batch and np.ndim(V) == 0:
@@ -198,12 +202,14 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
                 break
             # ---- drive torque over the step, plant step, current update
             if dstep is None:
-                qd1 = advance(step_torque(I, V, qd), t)
+                q, qd1 = advance(step_torque(I, V, qd), t)
                 qd_prev = qd
-                I = cur_step(I, V, 0.5 * z * (qd + qd1), h)
+                I = step_current(I, V, 0.5 * z * (qd + qd1))
+                qd = qd1
             else:
                 I = dstep(t, I, V, qd)
                 qd_prev = qd
+                q, qd = read()
 
     if not batch:
         nrows[0] = k

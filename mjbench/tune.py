@@ -418,7 +418,7 @@ def report(res: TuneResult) -> str:
     v = res.validation
     lines = [f"controller {res.controller} (mode {res.mode}), objective {res.objective}, search on the "
              f"{res.backend} backend; {res.history.get('evaluations', '?')} simulations in "
-             f"{res.history.get('seconds', 0):.1f} s (search {res.history.get('seconds_search', 0):.1f} s)",
+             f"{res.history.get('seconds', 0):.2f} s (search {res.history.get('seconds_search', 0):.2f} s)",
              f"  {'':<22s} {'scenario ctrl':>16s} {'tuned':>16s}"]
     for p in res.params:
         at = "  (at a search bound)" if p in res.history.get("at_bound", []) else ""

@@ -42,6 +42,50 @@ def test_kernel_step_torque_equals_the_drive_methods(kw):
     assert n == 64
 
 
+@pytest.mark.parametrize("kw", [dict(), dict(i_max=5.0, v_max=24.0, z=3.0), dict(L=0.0, i_max=2.0, v_max=1.0)])
+def test_kernel_current_and_limit_closures_equal_the_drive_methods(kw):
+    """The kernel's bound current update and voltage limiter (closures for a single run) give the
+    same bits as current_step / limit, limits active or not (L = 0: algebraic current)."""
+    h = 1e-4
+    d = DCMotorDrive(R=2.0, **kw)
+    cur, generic = d.step_current(h, scalar=True), d.step_current(h, scalar=False)
+    lim = d.step_limit(scalar=True)
+    assert (lim is None) == (d.v_max == math.inf)
+    for I in (-7.0, 0.0, 0.3, 12.0):
+        for V in (-48.0, -1.0, 0.0, 5.0, 48.0):
+            for w in (-60.0, 0.0, 1e-9, 99.0):
+                assert cur(I, V, w) == d.current_step(I, V, w, h) == generic(I, V, w)
+            if lim is not None:
+                assert lim(V) == d.limit(V)
+    if "i_max" in kw:  # the limit was active somewhere in the grid
+        assert cur(12.0, 48.0, -60.0) == kw["i_max"]
+
+
+def test_pid_inlined_constant_speed_reference_equals_the_reference_call():
+    """PID inlines ConstantSpeed (hot path); any other reference goes through its __call__ — a
+    subclass that only forwards must give the same bits, scalar and (nsim,) arrays."""
+    from controllers.base import Measurement
+    from controllers.pid import PID
+    from controllers.reference import ConstantSpeed
+
+    class Forwarding(ConstantSpeed):
+        pass
+
+    for kp in (80.0, np.array([80.0, 5.0, 300.0])):
+        a = PID(kp, 32.0, 0.015, reference=ConstantSpeed(30.0), kp_ramp=True, v_limit=48.0)
+        b = PID(kp, 32.0, 0.015, reference=Forwarding(30.0), kp_ramp=True, v_limit=48.0)
+        assert a._const_ref and not b._const_ref
+        y = Measurement(z=2.0)
+        rng = np.random.default_rng(3)
+        for n in range(200):
+            t = n * 1e-3
+            q, qd, qdd, I = (rng.normal(size=np.shape(kp)) * s + 0.0 for s in (3.0, 20.0, 500.0, 5.0))
+            y.set(t, q, qd, qdd, I)
+            np.testing.assert_array_equal(a(t, y), b(t, y))
+        np.testing.assert_array_equal(a.offset, b.offset)
+        assert a.reference.phi_start is not None
+
+
 def test_drive_accepts_arrays_like_scalars():
     R = np.array([1.0, 2.0, 3.0])
     da = DCMotorDrive(R=R)

@@ -240,7 +240,7 @@ class BatchMultibodyPlant:
         if self._load is not None:
             self._load(self._qpos, self._qvel, self._qfrc, t, self._alive)
         self.b.step(self._ids)
-        return self._qvel[:, self._va]
+        return self._qpos[:, self._qa].copy(), self._qvel[:, self._va].copy()
 
     def closure(self):
         if not self._pairs:

@@ -117,23 +117,26 @@ class MultibodyPlant:
         d.qvel[:] = mc.mechanism.initial_qvel(m, mc.q0, mc.qd0, mc.x0, mc.xd0)
         mujoco.mj_forward(m, d)
         # hot-path functions with everything bound as locals (no attribute lookups per step)
-        qpos, qvel, qfrc, qa, va, vd = self._qpos, self._qvel, self._qfrc, self._qa, self._va, self._vd
+        # memoryviews of MuJoCo's arrays: an element reads as a Python float and is written from one
+        # without a NumPy scalar (≈ 0.1 µs less per access than ndarray indexing)
+        qpos, qvel, qfrc = memoryview(self._qpos), memoryview(self._qvel), memoryview(self._qfrc)
+        qa, va, vd = self._qa, self._va, self._vd
         load, step = self._load, mujoco.mj_step
 
         def read():
-            return float(qpos[qa]), float(qvel[va])
+            return qpos[qa], qvel[va]
 
         if load is None:
             def advance(tau, t):
                 qfrc[vd] = tau
                 step(m, d)
-                return float(qvel[va])
+                return qpos[qa], qvel[va]
         else:
             def advance(tau, t):
                 qfrc[vd] = tau
                 load(m, d, t)
                 step(m, d)
-                return float(qvel[va])
+                return qpos[qa], qvel[va]
 
         self.read, self.advance = read, advance
         warn = d.warning[self._bad]  # a live view of MuJoCo's counter

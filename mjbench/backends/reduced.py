@@ -125,10 +125,10 @@ class ReducedPlant:
                 a4 = f(t + h, q + h * v3, v4, tau)
             except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged
                 self.q = self.qd = math.nan
-                return self.qd
+                return self.q, self.qd
             self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
             self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-            return self.qd
+            return self.q, self.qd
         acc = self._mech.reduced_accel
         Ja, c = self._Ja, self._c
         x, xd = self.x, self.xd
@@ -143,7 +143,7 @@ class ReducedPlant:
         self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         self.x = tuple(p + h6 * (u + 2.0 * s2 + 2.0 * s3 + s4) for p, u, s2, s3, s4 in zip(x, xd, w2, w3, w4))
         self.xd = tuple(u + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4) for u, c1, c2, c3, c4 in zip(xd, b1, b2, b3, b4))
-        return self.qd
+        return self.q, self.qd
 
     def _advance_ivp(self, tau, t):
         nx = self._nx
@@ -163,7 +163,7 @@ class ReducedPlant:
         self.q, self.qd = float(u[0]), float(u[1])
         self.x = tuple(float(v) for v in u[2:2 + nx])
         self.xd = tuple(float(v) for v in u[2 + nx:])
-        return self.qd
+        return self.q, self.qd
 
 
 def _table_advance(plant, tab, Ja, c, ext):
@@ -194,9 +194,9 @@ def _table_advance(plant, tab, Ja, c, ext):
            + stage(3, "q + h2 * v2", "v3", "t + h2") + "        v4 = qd + h * a3\n"
            + stage(4, "q + h * v3", "v4", "t + h")
            + "    except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged\n"
-             "        P.q = P.qd = nan\n        return nan\n"
-             "    P.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)\n"
-             "    P.qd = qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)\n    return qd1\n")
+             "        P.q = P.qd = nan\n        return nan, nan\n"
+             "    P.q = q1 = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)\n"
+             "    P.qd = qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)\n    return q1, qd1\n")
     h = plant.h
     env = {"P": plant, "rows": tab.rows, "n": tab.n, "k": tab.k, "Ja": Ja, "c": c, "ext": ext, "floor": math.floor,
            "nan": math.nan, "h": h, "h2": 0.5 * h, "h6": h / 6.0}

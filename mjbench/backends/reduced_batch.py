@@ -286,7 +286,7 @@ class BatchReducedPlant:
             self.qd[self._dead] = 0.0
             for a in getattr(self, "x", ()) + getattr(self, "xd", ()):
                 a[self._dead] = 0.0
-        return self.qd
+        return self.q.copy(), self.qd.copy()
 
     def closure(self):
         return self._zeros

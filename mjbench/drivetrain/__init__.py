@@ -175,7 +175,7 @@ class DriveTrain:
         z, k_m, R = drive.z, drive.k_m, drive.R
         T0 = drive.T_0
         has_T0 = bool(np.any(np.asarray(T0) != 0))
-        advance = plant.advance  # one step; returns the input speed at its end
+        advance = plant.advance  # one step; returns the input angle and speed at its end
         cm, cs = drive.current_mean, drive.current_step
         amp, cl = self.pwm, self.current_loop
         avg = sw = None
@@ -221,7 +221,7 @@ class DriveTrain:
                 Tm = Tm - T0 * sign(w0)
             if eff is not None:
                 Tm = eff(Tm, w0)
-            qd1 = advance(z * Tm, t)
+            qd1 = advance(z * Tm, t)[1]
             if compliant:
                 w1 = z * (qd1 + rates()[1])
             else:
