@@ -280,6 +280,18 @@ class DCMotorDrive:
             return nim if I_new < nim else (im if I_new > im else I_new)
         return current
 
+    def torque_function(self, scalar: bool):
+        """``torque(I, crank_speed)`` = :meth:`crank_torque` (viscous part included), for a single
+        run (``scalar``) as a closure with the constants bound: the same operations in the same order."""
+        if not (scalar and all(np.ndim(v) == 0 for v in (self.z, self.k_m, self.T_0, self.lam))):
+            return self.crank_torque
+        z, k_m, T_0, lam = float(self.z), float(self.k_m), float(self.T_0), float(self.lam)
+
+        def torque(I, crank_speed):
+            om = z * crank_speed
+            return z * (k_m * I - (T_0 * (1.0 if om > 0 else (-1.0 if om < 0 else 0.0)) + lam * om))
+        return torque
+
     def friction_torque_motor(self, omega_m):
         """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""
         return self.T_0 * _sign(omega_m) + self.lam * omega_m

@@ -115,7 +115,8 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
     columns = NAMES + extra_cols + (hooks.columns if hooks is not None else ())
     ncol = len(columns)
     data = np.full((nsim, nrec, ncol) if batch else (nrec, ncol), np.nan)
-    torque = drive.crank_torque
+    flat = None if batch else memoryview(data.reshape(-1))  # a view of data (C-contiguous)
+    torque = drive.crank_torque if batch else drive.torque_function(scalar=True)  # recorded τ (viscous part included)
     step_torque = drive.step_torque(h, scalar=not batch)
     vlimit = drive.step_limit(scalar=not batch)  # None: no voltage limit
     step_current = drive.step_current(h, scalar=not batch)
@@ -175,9 +176,9 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
                         _message(backend, t, q, qd, I, V, hint(t, h) if hint is not None else ""),
                         t=t, state={"q": q, "qd": qd, "I": I, "V": V})
                 # ---- record
-                r = data[:, k] if batch else data[k]
                 om = z * qd
                 if batch:
+                    r = data[:, k]
                     r[:, 0] = t; r[:, 1] = q; r[:, 2] = qd; r[:, 3] = qdd; r[:, 4] = om; r[:, 5] = I  # noqa: E702
                     r[:, 6] = V; r[:, 7] = torque(I, qd); r[:, 8] = k_m * I * om; r[:, 9] = V * I  # noqa: E702
                     r[:, 10] = closure()
@@ -188,13 +189,17 @@ def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0,
                     if any_dead:
                         r[~alive] = np.nan
                     nrows[alive] = k + 1
-                else:
-                    r[0] = t; r[1] = q; r[2] = qd; r[3] = qdd; r[4] = om; r[5] = I  # noqa: E702
-                    r[6] = V; r[7] = torque(I, qd); r[8] = k_m * I * om; r[9] = V * I; r[10] = closure()  # noqa: E702
-                    if extra_cols:
-                        extra(r[NCORE:])
-                    if dwrite is not None:
-                        dwrite(r)
+                else:  # through a flat memoryview of the record: no NumPy row or scalar per sample
+                    b = k * ncol
+                    flat[b] = t; flat[b + 1] = q; flat[b + 2] = qd; flat[b + 3] = qdd  # noqa: E702
+                    flat[b + 4] = om; flat[b + 5] = I; flat[b + 6] = V; flat[b + 7] = torque(I, qd)  # noqa: E702
+                    flat[b + 8] = k_m * I * om; flat[b + 9] = V * I; flat[b + 10] = closure()  # noqa: E702
+                    if extra_cols or dwrite is not None:
+                        r = data[k]
+                        if extra_cols:
+                            extra(r[NCORE:])
+                        if dwrite is not None:
+                            dwrite(r)
                 k += 1
                 if tick is not None:
                     tick(decim)

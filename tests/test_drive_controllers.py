@@ -42,19 +42,23 @@ def test_kernel_step_torque_equals_the_drive_methods(kw):
     assert n == 64
 
 
-@pytest.mark.parametrize("kw", [dict(), dict(i_max=5.0, v_max=24.0, z=3.0), dict(L=0.0, i_max=2.0, v_max=1.0)])
+@pytest.mark.parametrize("kw", [dict(), dict(i_max=5.0, v_max=24.0, z=3.0, T_0=0.05),
+                                dict(L=0.0, i_max=2.0, v_max=1.0, lam=0.0)])
 def test_kernel_current_and_limit_closures_equal_the_drive_methods(kw):
-    """The kernel's bound current update and voltage limiter (closures for a single run) give the
-    same bits as current_step / limit, limits active or not (L = 0: algebraic current)."""
+    """The kernel's bound current update, voltage limiter and recorded torque (closures for a
+    single run) give the same bits as current_step / limit / crank_torque, limits active or not
+    (L = 0: algebraic current; T_0 > 0: Coulomb friction, stalled and reversing speeds)."""
     h = 1e-4
     d = DCMotorDrive(R=2.0, **kw)
     cur, generic = d.step_current(h, scalar=True), d.step_current(h, scalar=False)
     lim = d.step_limit(scalar=True)
+    tq = d.torque_function(scalar=True)  # the recorded torque column
     assert (lim is None) == (d.v_max == math.inf)
     for I in (-7.0, 0.0, 0.3, 12.0):
         for V in (-48.0, -1.0, 0.0, 5.0, 48.0):
             for w in (-60.0, 0.0, 1e-9, 99.0):
                 assert cur(I, V, w) == d.current_step(I, V, w, h) == generic(I, V, w)
+                assert tq(I, w) == d.crank_torque(I, w)
             if lim is not None:
                 assert lim(V) == d.limit(V)
     if "i_max" in kw:  # the limit was active somewhere in the grid

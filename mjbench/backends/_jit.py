@@ -11,6 +11,8 @@ batch uses it only for work of at least :data:`MIN_RUN_STEPS` run-steps (N × st
 of 0.4 µs saved per run-step) or once numba is loaded anyway.  ``MJBENCH_JIT=0`` never uses it,
 ``MJBENCH_JIT=1`` always (when installed).  Compiled once and cached on disk (``cache=True``).
 Mechanisms with an untabulated external torque (a Python method) stay on the NumPy path.
+The whole co-step loop compiled (not only the plant step) is :mod:`mjbench.backends.fused`
+(:func:`fused_kernel`).
 """
 from __future__ import annotations
 
