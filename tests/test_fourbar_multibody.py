@@ -53,6 +53,28 @@ def test_loop_closure_stays_below_a_micrometre(default_runs):
         assert np.max(mb.closure) < 1e-6
 
 
+@pytest.mark.parametrize("name,mode,npairs", [("incerti2012", "pid", 1), ("sixbar-watt2", None, 2),
+                                               ("toggle-press", None, 2)])
+def test_plant_closure_from_sites_equals_the_constraint_residual(name, mode, npairs):
+    """The single plant reads the loop-closure residual from the connect sites' positions; the
+    independent path is MuJoCo's own constraint residual (Mechanism.closure_error on efc_pos),
+    compared after every step of a driven run, one and two loops."""
+    from mjbench.mechanisms.base import Mechanism
+
+    scn_ = S.load(name)
+    mc = S.make_machine(scn_, mode or sorted(scn_.modes)[0])
+    plant = multibody.MultibodyPlant(mc)
+    assert plant._site_pairs is not None and len(plant._site_pairs) == 3 * npairs
+    plant.start()
+    worst, seen = 0.0, 0.0
+    for n in range(400):
+        plant.advance(5.0 if n < 200 else -5.0, n * plant.h)
+        ref = Mechanism.closure_error(mc.mechanism, plant.model, plant.data)
+        worst = max(worst, abs(plant.closure() - ref))
+        seen = max(seen, ref)
+    assert seen > 0.0 and worst <= 1e-15, (seen, worst)
+
+
 def test_models_use_dense_jacobian(scn):
     """MuJoCo 4.0.0's sparse Cholesky is wrong on closed chains (upstream #3767): force dense."""
     _, m = multibody.build_model(S.make_machine(scn, "open"))
