@@ -56,15 +56,16 @@ def test_loop_closure_stays_below_a_micrometre(default_runs):
 @pytest.mark.parametrize("name,mode,npairs", [("incerti2012", "pid", 1), ("sixbar-watt2", None, 2),
                                                ("toggle-press", None, 2)])
 def test_plant_closure_from_sites_equals_the_constraint_residual(name, mode, npairs):
-    """The single plant reads the loop-closure residual from the connect sites' positions; the
-    independent path is MuJoCo's own constraint residual (Mechanism.closure_error on efc_pos),
-    compared after every step of a driven run, one and two loops."""
-    from mjbench.mechanisms.base import Mechanism
+    """The single plant reads the loop-closure residual from the connect sites' positions
+    (Mechanism.closure_reader); the independent path is MuJoCo's own constraint residual
+    (Mechanism.closure_error on efc_pos), compared after every step of a driven run, one and two
+    loops; the quick-return, which defines its own closure_error, keeps it."""
+    from mjbench.mechanisms.base import Mechanism, connect_site_pairs
 
     scn_ = S.load(name)
     mc = S.make_machine(scn_, mode or sorted(scn_.modes)[0])
     plant = multibody.MultibodyPlant(mc)
-    assert plant._site_pairs is not None and len(plant._site_pairs) == 3 * npairs
+    assert len(connect_site_pairs(plant.model)) == npairs and plant.closure.__name__ == "closure"  # the site reader
     plant.start()
     worst, seen = 0.0, 0.0
     for n in range(400):
@@ -73,6 +74,9 @@ def test_plant_closure_from_sites_equals_the_constraint_residual(name, mode, npa
         worst = max(worst, abs(plant.closure() - ref))
         seen = max(seen, ref)
     assert seen > 0.0 and worst <= 1e-15, (seen, worst)
+    qr = multibody.MultibodyPlant(S.make_machine(S.load("yigit2023"), "smc"))
+    qr.start()
+    assert qr.closure() == qr.machine.mechanism.closure_error(qr.model, qr.data)
 
 
 def test_models_use_dense_jacobian(scn):

@@ -36,7 +36,7 @@ from mujoco import batch as mjbatch
 
 from .. import kernel
 from ..errors import ParameterError
-from ..mechanisms.base import Mechanism
+from ..mechanisms.base import Mechanism, connect_site_pairs
 from ..trajectory import Trajectory
 from .multibody import DEFAULT_OPTIONS, _extra_names, build_model, drive_joint, integrator_name
 
@@ -179,14 +179,6 @@ def build_models(machines, options=None):
     return models
 
 
-def _connect_sites(m):
-    pairs = []
-    for i in range(m.neq):
-        if m.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT and m.eq_objtype[i] == mujoco.mjtObj.mjOBJ_SITE:
-            pairs.append((int(m.eq_obj1id[i]), int(m.eq_obj2id[i])))
-    return pairs
-
-
 # ================================================================= the plant
 class BatchMultibodyPlant:
     """N machines on ``mujoco.batch``; see the kernel's plant protocol (arrays of shape (nsim,))."""
@@ -207,7 +199,7 @@ class BatchMultibodyPlant:
         self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
         self._vd = int(m0.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
         self._load = _load_function(self.mechs, models)
-        self._pairs = _connect_sites(m0) if closure else []
+        self._pairs = connect_site_pairs(m0) if closure else []
         self._internal = mech.internal_state if mech.internal else None
         self.extra_columns = _extra_names(mech)
         self._bad = int(mujoco.mjtWarning.mjWARN_BADQACC)

@@ -64,11 +64,12 @@ def preload(run_steps: float) -> bool:
 def supported(machine, h: float) -> bool:
     """Whether ``machine`` can run on the compiled loop at step h (see the module doc)."""
     drive, ctrl, mech = machine.drive, machine.controller, machine.mechanism
-    if getattr(drive, "train", None) is not None or _kind(ctrl) is None:
+    kind = _kind(ctrl)
+    if getattr(drive, "train", None) is not None or kind is None:
         return False
     scal = (drive.R, drive.L, drive.k_m, drive.J_m, drive.J_a, drive.J_b, drive.z, drive.T_0, drive.lam,
             drive.v_max, drive.i_max, machine.q0, machine.qd0, machine.I0)
-    if _kind(ctrl) == 0:
+    if kind == 0:
         scal += (ctrl.kp, ctrl.ki, ctrl.kd, ctrl.t_ramp_max, ctrl.reference.omega0,
                  0.0 if ctrl.v_limit is None else ctrl.v_limit, 0.0 if ctrl.reference.phi0 is None else ctrl.reference.phi0)
         if ctrl.reference.phi0 is not None and math.isnan(ctrl.reference.phi0):

@@ -18,7 +18,6 @@ import numpy as np
 
 from .. import kernel
 from ..errors import ParameterError
-from ..mechanisms.base import Mechanism
 from ..trajectory import Trajectory
 
 DEFAULT_OPTIONS = {"integrator": "RK4", "timestep": 1e-4}
@@ -105,20 +104,9 @@ class MultibodyPlant:
         self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
         self._qpos, self._qvel, self._qfrc = d.qpos, d.qvel, d.qfrc_applied
         self._load = mech.multibody_load if mech.has_multibody_load() else None
-        self._closure = mech.closure_error
-        # the loop-closure residual from the connect sites' positions (a fixed MuJoCo array) rather
-        # than from efc_pos (re-allocated every step, 0.67 µs per read): the same quantity — the
-        # connect constraint's residual is the difference of its two sites' positions, computed in
-        # the same position stage — when the mechanism keeps the base definition and every
-        # equality is a site connect (tests/test_fourbar_multibody.py)
-        self._site_pairs = None
-        if type(mech).closure_error is Mechanism.closure_error and m.neq > 0 and all(
-                m.eq_type[i] == mujoco.mjtEq.mjEQ_CONNECT and m.eq_objtype[i] == mujoco.mjtObj.mjOBJ_SITE
-                for i in range(m.neq)):
-            self._site_pairs = tuple((3 * int(m.eq_obj1id[i]) + j, 3 * int(m.eq_obj2id[i]) + j)
-                                     for i in range(m.neq) for j in range(3))
         self._bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
         self._internal = mech.internal_state if mech.internal else None
+        self.closure = mech.closure_reader(m, d)  # closure() → the loop-closure residual [m]
         self.extra_columns = _extra_names(mech)
         self.meta = {"integrator": integrator_name(m.opt.integrator)}
 
@@ -157,21 +145,6 @@ class MultibodyPlant:
             return warn.number != 0
 
         self.unstable = unstable
-        if self._site_pairs is not None:
-            sx, pairs = memoryview(d.site_xpos.reshape(-1)), self._site_pairs  # a view of MuJoCo's array
-
-            def closure():
-                r = 0.0
-                for i, j in pairs:
-                    v = abs(sx[i] - sx[j])
-                    if v > r:
-                        r = v
-                return r
-
-            self.closure = closure
-
-    def closure(self):
-        return self._closure(self.model, self.data)
 
     def extra(self, out):
         x, xd = self._internal(self.model, self.data.qpos, self.data.qvel)
