@@ -19,26 +19,30 @@ def _acc(qs, vv, ti, Jai, ci, ki, ni, bi, C, m, viscous):
         return (ti - (ci + D) * vv - E - H * vv * vv) / (Jai + J)
     return (ti - ci * vv - E - H * vv * vv) / (Jai + J)
 
+
+@numba.njit(cache=True, inline="always")
+def _rk4(qi, vi, ti, Jai, ci, ki, ni, bi, CT, m, viscous, h):
+    """One RK4 step of one simulation with the torque ti held → (q, q̇); NaN for a non-finite
+    state (as the NumPy path and the scalar path's failed table lookup)."""
+    if not (math.isfinite(qi) and math.isfinite(vi)):
+        return math.nan, math.nan
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    a1 = _acc(qi, vi, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
+    v2 = vi + h2 * a1
+    a2 = _acc(qi + h2 * vi, v2, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
+    v3 = vi + h2 * a2
+    a3 = _acc(qi + h2 * v2, v3, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
+    v4 = vi + h * a3
+    a4 = _acc(qi + h * v3, v4, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
+    return qi + h6 * (vi + 2.0 * v2 + 2.0 * v3 + v4), vi + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+
+
 @numba.njit(cache=True)
 def step(q, v, tau, CT, base, nn, kk, Ja, c, h, m, viscous):
     """Advance every simulation one RK4 step in place (see the module docstring)."""
-    h2 = 0.5 * h
-    h6 = h / 6.0
     for i in range(q.shape[0]):
-        qi, vi, ti, Jai, ci, ki, ni, bi = q[i], v[i], tau[i], Ja[i], c[i], kk[i], nn[i], base[i]
-        if not (math.isfinite(qi) and math.isfinite(vi)):  # diverged: NaN, as the NumPy path
-            q[i] = math.nan
-            v[i] = math.nan
-            continue
-        a1 = _acc(qi, vi, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
-        v2 = vi + h2 * a1
-        a2 = _acc(qi + h2 * vi, v2, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
-        v3 = vi + h2 * a2
-        a3 = _acc(qi + h2 * v2, v3, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
-        v4 = vi + h * a3
-        a4 = _acc(qi + h * v3, v4, ti, Jai, ci, ki, ni, bi, CT, m, viscous)
-        q[i] = qi + h6 * (vi + 2.0 * v2 + 2.0 * v3 + v4)
-        v[i] = vi + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        q[i], v[i] = _rk4(q[i], v[i], tau[i], Ja[i], c[i], kk[i], nn[i], base[i], CT, m, viscous, h)
 
 
 @numba.njit(cache=True)
@@ -56,8 +60,6 @@ def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
     measurement.  Outputs: ``out`` (N, nrec, 11) rows, ``nrows``, ``t_div`` (NaN: no divergence)
     and ``state`` (N, 4) = q, q̇, I, V at the divergence."""
     inv_h = 1.0 / h
-    h2 = 0.5 * h
-    h6 = h / 6.0
     for i in range(q0.shape[0]):
         Jai, ci, ki_, ni, bi = Ja[i], c[i], kk[i], nn[i], base[i]
         Ri, kmi, zi, T0i, lami, wi, di = R[i], k_m[i], z[i], T_0[i], lam[i], w[i], decay[i]
@@ -149,19 +151,7 @@ def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
                 s = 1.0 if om > 0 else (-1.0 if om < 0 else 0.0)
                 tau = zi * (kmi * (i_ss + (I - i_ss) * wi) - T0i * s)
             # ReducedPlant.advance (the table's RK4 step, as `step` above)
-            if math.isfinite(q) and math.isfinite(qd):
-                a1 = _acc(q, qd, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
-                v2 = qd + h2 * a1
-                a2 = _acc(q + h2 * qd, v2, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
-                v3 = qd + h2 * a2
-                a3 = _acc(q + h2 * v2, v3, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
-                v4 = qd + h * a3
-                a4 = _acc(q + h * v3, v4, tau, Jai, ci, ki_, ni, bi, CT, m, viscous)
-                q1 = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
-                qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-            else:
-                q1 = math.nan
-                qd1 = math.nan
+            q1, qd1 = _rk4(q, qd, tau, Jai, ci, ki_, ni, bi, CT, m, viscous, h)
             qd_prev = qd
             # DCMotorDrive.current_step with the mean of φ̇_n and φ̇_{n+1}
             om = 0.5 * zi * (qd + qd1)
