@@ -28,7 +28,10 @@ Plants (``mjbench.backends``): ``MultibodyPlant`` (one ``mj_step``), ``BatchMult
 (``mujoco.batch``), ``ReducedPlant`` (RK4 or ``solve_ivp`` on the reduced model, rigid or with
 internal elastic coordinates).  Because the drive, the controller and the order of operations
 are the same, the difference between backends is the mechanics alone, and a batch of N runs is
-bit-identical to N single runs.
+bit-identical to N single runs.  The common case (ideal drive, speed PID or open-loop voltage,
+rigid mechanism) also exists compiled, line for line, on the tabulated reduced plant and around
+MuJoCo's own ``mj_step`` (:mod:`mjbench.backends.fused`): the same bits, used once numba is loaded
+or for long jobs; this loop stays the reference.
 
 Plant protocol (duck-typed, all arrays preallocated by the plant):
 ``nsim`` (None for a single run), ``h`` [s], ``start()``, ``read() -> (q, q̇)``,

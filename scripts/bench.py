@@ -4,9 +4,14 @@
 Each module in scripts/bench_parts/ defines ``run(args) -> list[(name, value, description)]``.
 Prints a human-readable table, then one machine-readable ``name=value`` line per figure.
 Usage: python scripts/bench.py [--only PART ...] [--repeat N]
+
+Every figure is the Python co-step kernel's (``MJBENCH_FUSED=0``: the compiled co-step is used by
+default once numba is loaded, which would make a part's figures depend on the parts run before
+it); the rows named ``*fused*`` measure the compiled co-step (mjbench/backends/fused.py) explicitly.
 """
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 from pathlib import Path
@@ -25,6 +30,7 @@ def main():
     if args.only:
         names = [n for n in names if n in args.only]
     rows = []
+    os.environ["MJBENCH_FUSED"] = "0"  # see the module doc; parts switch it on for their *fused* rows only
     for n in names:
         mod = importlib.import_module(f"bench_parts.{n}")
         print(f"== {n}: {(mod.__doc__ or '').strip().splitlines()[0] if mod.__doc__ else ''}", flush=True)

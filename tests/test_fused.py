@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mjbench import scenario
-from mjbench.backends import _jit, fused, reduced, reduced_batch
+from mjbench.backends import _jit, fused, multibody, reduced, reduced_batch
 from mjbench.errors import SimulationDiverged
 
 pytestmark = pytest.mark.skipif(not _jit.AVAILABLE, reason="numba not installed (pip install mjbench[fast])")
@@ -119,3 +119,78 @@ def test_what_runs_on_the_python_kernel(python_kernel):
         assert "jit" not in reduced.simulate(mc, 0.02).meta
     assert fused.usable([_machine("pid", ())], h, 0.02)
     assert not fused.usable([_machine("pid", ())], h, 0.02, progress=object())
+
+
+# ---- the compiled loop around MuJoCo's own mj_step (a single multibody run)
+MB_VARIANTS = [  # (scenario, mode, overrides)
+    ("incerti2012", "pid", ()),                                            # K_p·t, anti-windup
+    ("incerti2012", "open", ("modes.open.t_ramp=0.05",)),                   # open-loop ramp
+    ("incerti2012", "pid", ("drive.T_0=0.05", "modes.pid.period=5e-4", "drive.i_max=8")),  # Coulomb, 2 kHz, I limit
+    ("incerti2012", "pid", ("mechanism.joint_damping=0.01", "initial.q0=1.0", "initial.qd0=3.0", "initial.I0=1.0")),
+    ("sixbar-watt2", "pi", ()),                                            # two loop closures
+    ("mjcf-fourbar", "pid", ()),                                           # the user's own MJCF
+]
+
+
+@pytest.mark.parametrize("name,mode,overrides", MB_VARIANTS)
+def test_multibody_single_run_same_bits(python_kernel, name, mode, overrides):
+    """The compiled loop calls the same mj_step on the same MjData as the Python kernel's plant:
+    the record (state, drive, closure residual read from the connect sites) is the same bits."""
+    ref = python_kernel(lambda: multibody.simulate(_machine(mode, overrides, name), T_END, record_dt=2e-4))
+    got = multibody.simulate(_machine(mode, overrides, name), T_END, record_dt=2e-4)
+    assert "jit" not in ref.meta and got.meta.pop("jit") == "numba-fused"
+    assert got.meta == ref.meta and got.columns == ref.columns and got.n == ref.n == round(T_END / 2e-4) + 1
+    np.testing.assert_array_equal(got.data, ref.data)
+    assert 0 < np.max(got["closure_error_m"]) < 1e-6  # the residual is read (RK4: ≈ 1e-8 m), not a zero column
+    if "drive.i_max=8" in overrides:
+        assert np.max(np.abs(got["current_A"])) == 8.0
+
+
+def test_multibody_divergence_same_message(python_kernel):
+    """A diverging multibody run raises the Python kernel's error, same time and text."""
+    bad = ("modes.pid.kp=20000", "modes.pid.v_limit=none", "drive.v_max=1e6")
+    with pytest.raises(SimulationDiverged) as ref:
+        python_kernel(lambda: multibody.simulate(_machine("pid", bad), 1.0, dt=1e-3, record_dt=1e-3))
+    with pytest.raises(SimulationDiverged) as got:
+        multibody.simulate(_machine("pid", bad), 1.0, dt=1e-3, record_dt=1e-3)
+    assert str(got.value) == str(ref.value) and got.value.t == ref.value.t and got.value.t > 0
+    assert str(got.value).startswith("multibody simulation diverged at t =")
+
+
+def test_multibody_what_runs_on_the_python_kernel(python_kernel):
+    """Multibody plants the compiled loop does not cover: the Python kernel (no 'jit' key)."""
+    def plant(name, mode, overrides=()):
+        return multibody.MultibodyPlant(_machine(mode, overrides, name))
+
+    assert fused.supported_multibody(plant("incerti2012", "pid"))
+    for name, mode, overrides in [("press-slidercrank", "pi", ()),   # a process load (multibody_load)
+                                  ("yigit2023", "smc", ()),          # SMC, cutting force, own closure residual
+                                  ("incerti-belt", "servo", ()),     # internal (elastic) coordinates
+                                  ("incerti2012", "pid", ("drive.pwm.frequency=20000", "drive.pwm.v_bus=48"))]:
+        p = plant(name, mode, overrides)
+        assert not fused.supported_multibody(p), name
+    mc = _machine("pid", ("drive.pwm.frequency=20000", "drive.pwm.v_bus=48"))
+    assert "jit" not in multibody.simulate(mc, 0.02).meta
+    # hinge C's viscous friction is a MuJoCo load on a four-bar: only then is the load hook called
+    fb = _machine("pid", ()).mechanism
+    assert not fb.has_multibody_load()
+    fb.damping_C = 1e-3
+    assert fb.has_multibody_load()
+    p = plant("incerti2012", "pid")
+    assert fused.usable_multibody(p, 0.02) and not fused.usable_multibody(p, 0.02, progress=object())
+
+
+def test_batch_of_one_multibody_run_on_the_compiled_loop(python_kernel):
+    """``batch.simulate`` of one machine (its single-run path) takes the compiled loop too: the same
+    record, and a diverging run flagged with the Python kernel's time and message."""
+    from mjbench.backends import batch
+
+    ref = python_kernel(lambda: batch.simulate([_machine("pid", ())], T_END, record_dt=5e-4))
+    got = batch.simulate([_machine("pid", ())], T_END, record_dt=5e-4)
+    assert got.meta.pop("jit") == "numba-fused" and "jit" not in ref.meta and got.meta == ref.meta
+    np.testing.assert_array_equal(got.data, ref.data)
+    bad = ("modes.pid.kp=20000", "modes.pid.v_limit=none", "drive.v_max=1e6")
+    ref = python_kernel(lambda: batch.simulate([_machine("pid", bad)], 1.0, dt=1e-3, record_dt=1e-3))
+    got = batch.simulate([_machine("pid", bad)], 1.0, dt=1e-3, record_dt=1e-3)
+    assert got.diverged.tolist() == ref.diverged.tolist() == [True]
+    assert got.t_diverged[0] == ref.t_diverged[0] > 0 and got.messages == ref.messages

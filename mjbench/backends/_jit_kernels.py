@@ -3,6 +3,24 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+
+@intrinsic
+def _call_pp(typingctx, fn, a, b):
+    """``fn(a, b)`` for a C function ``void fn(void*, void*)`` given by its address (MuJoCo's
+    ``mj_step(const mjModel*, mjData*)``): the addresses are run-time integers, so a function using
+    it is cached on disk like any other (a ctypes function object as an argument is not)."""
+    sig = types.void(types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, args):
+        vp = ir.IntType(8).as_pointer()
+        f = builder.inttoptr(args[0], ir.FunctionType(ir.VoidType(), [vp, vp]).as_pointer())
+        builder.call(f, [builder.inttoptr(args[1], vp), builder.inttoptr(args[2], vp)])
+        return context.get_dummy_value()
+    return sig, codegen
 
 
 @numba.njit(cache=True, inline="always")
@@ -49,11 +67,17 @@ def step(q, v, tau, CT, base, nn, kk, Ja, c, h, m, viscous):
 def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
             R, k_m, z, T_0, lam, w, decay, v_max, i_max,
             kind, kp, ki, kd, ramp, tm, v_lim, omega0, phi0, volt, t_ramp, every,
+            mj, mj_step, m_addr, d_addr, qpos, qvel, qfrc, qa, va, vd, sx, cidx, warn, bad,
             h, nsteps, decim, max_speed, max_current, out, nrows, t_div, state):
     """The co-step kernel (:func:`mjbench.kernel.run`) for an ideal drive, the speed PID with a
     constant-speed reference (:class:`controllers.pid.PID`, ``kind`` 0) or the open-loop voltage
     (:class:`controllers.openloop.ConstantVoltage`, ``kind`` 1) and the tabulated rigid reduced plant,
     compiled: every simulation i runs its whole loop here (see :mod:`mjbench.backends.fused`).
+    With ``mj`` the plant is instead one MuJoCo model (N = 1,
+    :class:`~mjbench.backends.multibody.MultibodyPlant`): the torque goes into ``qfrc[vd]``, the
+    step is MuJoCo's own ``mj_step`` (C address ``mj_step``, model and data addresses), the state is
+    read from ``qpos[qa]``, ``qvel[va]``, the loop closure from the connect sites' positions ``sx``
+    (index pairs ``cidx``) and the instability flag from MuJoCo's warning counters ``warn[bad]``.
     Each line mirrors, operation for operation and in the same order, the Python code named in
     its comment, so the record is the same bits as ``kernel.run`` (tests/test_fused.py).
     ``v_max``/``i_max``/``v_lim`` = inf: no limit; ``phi0`` NaN: reference started from the first
@@ -118,7 +142,8 @@ def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
                     u = -vmax if u < -vmax else (vmax if u > vmax else u)
                 V = u
             if n % decim == 0:
-                if not (abs(qd) < max_speed and abs(I) < max_current and math.isfinite(V) and math.isfinite(q)):
+                if not (abs(qd) < max_speed and abs(I) < max_current and math.isfinite(V)
+                        and math.isfinite(q)) or (mj and warn[bad] != 0):
                     t_div[i] = t
                     state[i, 0] = q
                     state[i, 1] = qd
@@ -138,7 +163,15 @@ def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
                 r[7] = zi * (kmi * I - (T0i * s + lami * om))  # DCMotorDrive.crank_torque
                 r[8] = kmi * I * om
                 r[9] = V * I
-                r[10] = 0.0
+                if mj:  # Mechanism.closure_reader: the largest connect-site offset [m]
+                    cl = 0.0
+                    for p in range(cidx.shape[0]):
+                        v = abs(sx[cidx[p, 0]] - sx[cidx[p, 1]])
+                        if v > cl:
+                            cl = v
+                    r[10] = cl
+                else:
+                    r[10] = 0.0
                 k += 1
             if n == nsteps:
                 break
@@ -150,8 +183,13 @@ def run_pid(q0, qd0, I0, CT, base, nn, kk, Ja, c, m, viscous,
             else:
                 s = 1.0 if om > 0 else (-1.0 if om < 0 else 0.0)
                 tau = zi * (kmi * (i_ss + (I - i_ss) * wi) - T0i * s)
-            # ReducedPlant.advance (the table's RK4 step, as `step` above)
-            q1, qd1 = _rk4(q, qd, tau, Jai, ci, ki_, ni, bi, CT, m, viscous, h)
+            if mj:  # MultibodyPlant.advance: the held torque on the drive joint, one mj_step
+                qfrc[vd] = tau
+                _call_pp(mj_step, m_addr, d_addr)
+                q1 = qpos[qa]
+                qd1 = qvel[va]
+            else:  # ReducedPlant.advance (the table's RK4 step, as `step` above)
+                q1, qd1 = _rk4(q, qd, tau, Jai, ci, ki_, ni, bi, CT, m, viscous, h)
             qd_prev = qd
             # DCMotorDrive.current_step with the mean of φ̇_n and φ̇_{n+1}
             om = 0.5 * zi * (qd + qd1)

@@ -299,12 +299,19 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
 
 
 def _single(machine, t_end, record_dt, o, model, progress):
+    from . import fused
     from .multibody import MultibodyPlant
 
     plant = MultibodyPlant(machine, o, model)
+    rec = None
+    if fused.usable_multibody(plant, t_end, progress):  # the compiled loop around mj_step: the same bits
+        rec = fused.run_multibody(plant, t_end, record_dt)
+        if rec.diverged[0]:
+            rec = None  # the Python kernel below gives the message
     try:
-        rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
-                         backend="")
+        if rec is None:
+            rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
+                             backend="")
     except kernel.SimulationDiverged as e:
         nrec = int(round(t_end / plant.h)) // max(1, int(round(record_dt / plant.h))) + 1
         cols = kernel.NAMES + plant.extra_columns

@@ -207,11 +207,10 @@ class Mechanism(abc.ABC):
         apart: tests/test_fourbar_multibody.py) — through a memoryview of ``site_xpos``, a fixed
         MuJoCo array (0.23 µs per read instead of 0.67: ``efc_pos`` is re-allocated every step, so
         each read builds a new NumPy view)."""
-        pairs = connect_site_pairs(model)
-        if type(self).closure_error is not Mechanism.closure_error or not pairs or len(pairs) != model.neq:
+        idx = self.closure_site_index(model)
+        if idx is None:
             return lambda: self.closure_error(model, data)
         sx = memoryview(data.site_xpos.reshape(-1))
-        idx = tuple((3 * a + j, 3 * c + j) for a, c in pairs for j in range(3))
 
         def closure():
             r = 0.0
@@ -221,6 +220,16 @@ class Mechanism(abc.ABC):
                     r = v
             return r
         return closure
+
+    def closure_site_index(self, model):
+        """The loop-closure residual as site coordinates: pairs (i, j) of indices into the flat
+        ``site_xpos`` whose largest |difference| is :meth:`closure_error` (x, y, z of each connect
+        pair; empty without equalities) — or None when it is not that (the mechanism defines its own
+        residual, or an equality is not a site ``connect``)."""
+        pairs = connect_site_pairs(model)
+        if type(self).closure_error is not Mechanism.closure_error or len(pairs) != model.neq:
+            return None
+        return tuple((3 * a + j, 3 * c + j) for a, c in pairs for j in range(3))
 
     def multibody_load(self, model, data, t: float) -> None:
         """Write external loads of the mechanism into ``data.qfrc_applied`` (default none).

@@ -365,6 +365,10 @@ class FourBar(Mechanism):
             return 0.0 * qd
         return -self.hinge_damping_factor(q) * qd
 
+    def has_multibody_load(self) -> bool:
+        """Only a damped hinge C loads the MuJoCo model (the other hinges are joint ``damping``)."""
+        return self.damping_C != 0.0
+
     def multibody_load(self, model, data, t: float) -> None:
         """Viscous friction of the loop-closing hinge C (coupler/rocker: a ``connect`` equality in
         MJCF, so no joint to carry ``damping``) as generalised forces, from the velocities at the

@@ -3,16 +3,15 @@
 import mujoco
 
 from mjbench import scenario as S
-from mjbench.backends import multibody, reduced
-from bench_parts import best_time
+from mjbench.backends import _jit, multibody, reduced
+from bench_parts import best_time, fused_on
 
 
 _best = best_time
 
 
 def run(args):
-    import os
-    os.environ["MJBENCH_FUSED"] = "0"  # the reduced figures here are the Python kernel's (compiled: part reduced)
+    # the figures are the Python kernel's (scripts/bench.py sets MJBENCH_FUSED=0), but for cosim_fused
     scn = S.load("incerti2012")
     t_end, h = 5.0, 1e-4
     machine = S.make_machine(scn, "pid")
@@ -29,6 +28,10 @@ def run(args):
     def cosim():
         multibody.simulate(machine, t_end, dt=h, record_dt=1e-3, model=model)
 
+    def cosim_fused():  # the compiled co-step around the same mj_step (mjbench/backends/fused.py)
+        with fused_on():
+            multibody.simulate(machine, t_end, dt=h, record_dt=1e-3, model=model)
+
     def red():
         reduced.simulate(S.make_machine(scn, "pid"), t_end, dt=h, record_dt=1e-3)
 
@@ -37,11 +40,16 @@ def run(args):
 
     r = args.repeat
     # interleave the measurements so that machine-load drift affects both alike
-    tb, tc, tr, tp = [], [], [], []
+    tb, tc, tr, tp, tf = [], [], [], [], []
+    if _jit.AVAILABLE:
+        cosim_fused()  # load numba and the compiled loop before timing
     for _ in range(r):
         tb.append(_best(bare, 1)); tc.append(_best(cosim, 1)); tr.append(_best(red, 1)); tp.append(_best(red_paper, 1))
+        if _jit.AVAILABLE:
+            tf.append(_best(cosim_fused, 1))
     tb, tc, tr, tp = min(tb), min(tc), min(tr), min(tp)
-    os.environ.pop("MJBENCH_FUSED", None)
+    fused_rows = [("cosim_fused_over_bare_step", min(tf) / tb,
+                   "co-simulation on the compiled co-step (numba around the same mj_step) / bare step loop")] if tf else []
     return [
         ("bare_mj_step_5s_s", tb, f"bare mj_step loop, {n} steps (RK4, dense Jacobian) [s]"),
         ("cosim_5s_s", tc, "multibody co-simulation incl. drive + PID + recording [s]"),
@@ -50,4 +58,4 @@ def run(args):
         ("reduced_over_bare_step", tr / tb, "reduced model (RK4, 0.1 ms) / bare step loop"),
         ("reduced_1ms_over_bare_step", tp / tb, "reduced model at the paper's 1 ms RK4 step / bare step loop"),
         ("realtime_factor_cosim", t_end / tc, "simulated seconds per wall-clock second (co-simulation)"),
-    ]
+    ] + fused_rows

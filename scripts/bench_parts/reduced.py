@@ -13,7 +13,8 @@ difference of two run lengths (set-up — model compilation, tables, stacking �
 * growth with t_end: whole-call cost (set-up included) of the reduced batch at N = 256 for
   t_end = 0.05, 0.2, 0.8 s, per run-step;
 * the compiled co-step (:mod:`mjbench.backends.fused`, numba: kernel loop, PID, drive and table
-  plant in one function, the same bits): single run and N = 256, with their ratios to MuJoCo;
+  plant in one function, the same bits): single run and N = 256, with their ratios to MuJoCo, and
+  the single multibody run on it (the same loop around MuJoCo's own ``mj_step``);
   every other reduced figure is the Python kernel's (``MJBENCH_FUSED=0``);
 * the fast multibody mode: Euler / implicitfast vs RK4 co-simulation cost (accuracy: docs/performance.md).
 """
@@ -137,6 +138,11 @@ def run(args):
         rows.append(("single_reduced_fused_us", fs, "reduced model on the compiled co-step, single run, µs per step"))
         rows.append(("reduced_fused_single_over_multibody_single", fs / singles["multibody"],
                      "compiled single reduced run / single multibody co-simulation"))
+        fm = _per_step(mb, 2000, 10000, repeat)  # the same loop around MuJoCo's own mj_step
+        rows.append(("single_multibody_fused_us", fm,
+                     "multibody co-simulation on the compiled co-step, single run, µs per step"))
+        rows.append(("multibody_fused_single_over_bare", fm / singles["bare"],
+                     "compiled multibody co-simulation / bare mj_step"))
         f256 = _per_step(red_batch(256), 400, 2000, repeat, 256)
         rows.append(("reduced_fused_batch_us_per_run_step_N256", f256,
                      "compiled co-step, N = 256: CPU µs per run-step"))
@@ -152,8 +158,7 @@ def run(args):
         rows.append((f"reduced_batch_N256_t{int(round(t_end * 1000))}ms_us_per_run_step", 1e6 * t / (256 * t_end / H),
                      f"reduced batch N = 256, t_end = {t_end:g} s, whole call incl. set-up: CPU µs per run-step"))
 
-    os.environ.pop("MJBENCH_JIT", None)
-    os.environ.pop("MJBENCH_FUSED", None)
+    os.environ.pop("MJBENCH_JIT", None)  # (MJBENCH_FUSED stays 0: the fast mode below is the Python kernel's)
 
     # ---------------------------------------------------------------- fast multibody mode (opt-in)
     for integ in ("Euler", "implicitfast"):
