@@ -303,11 +303,7 @@ def _single(machine, t_end, record_dt, o, model, progress):
     from .multibody import MultibodyPlant
 
     plant = MultibodyPlant(machine, o, model)
-    rec = None
-    if fused.usable_multibody(plant, t_end, progress):  # the compiled loop around mj_step: the same bits
-        rec = fused.run_multibody(plant, t_end, record_dt)
-        if rec.diverged[0]:
-            rec = None  # the Python kernel below gives the message
+    rec = fused.try_multibody(plant, t_end, record_dt, progress)  # the compiled loop around mj_step: the same bits
     try:
         if rec is None:
             rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,

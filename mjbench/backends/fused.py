@@ -198,6 +198,16 @@ def run_multibody(plant, t_end: float, record_dt: float) -> kernel.Record:
     return kernel.Record(rec.data[0], rec.columns, rec.nrows, rec.diverged, rec.t_diverged, rec.messages, meta)
 
 
+def try_multibody(plant, t_end: float, record_dt: float, progress=None):
+    """The record of :func:`run_multibody` when this run goes to the compiled loop
+    (:func:`usable_multibody`) and does not diverge; None otherwise: the caller runs the Python
+    kernel, which raises (or flags) a divergence with its own message."""
+    if not usable_multibody(plant, t_end, progress):
+        return None
+    rec = run_multibody(plant, t_end, record_dt)
+    return None if rec.diverged[0] else rec
+
+
 def supported_multibody(plant) -> bool:
     """Whether a single-run :class:`~mjbench.backends.multibody.MultibodyPlant` can run on the
     compiled loop: the drive and controller of :func:`supported`, a rigid mechanism without its own

@@ -172,15 +172,13 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
     kernel.check_times(t_end, float(o["timestep"]), record_dt)
     if model is not None and abs(model.opt.timestep - float(o["timestep"])) > 1e-15:
         raise ParameterError(f"model timestep {model.opt.timestep:g} s differs from the requested {o['timestep']:g} s")
-    plant = MultibodyPlant(machine, o, model)
     from . import fused
-    if fused.usable_multibody(plant, t_end, progress):  # the compiled loop around mj_step: the same bits
-        rec = fused.run_multibody(plant, t_end, record_dt)
-        if not rec.diverged[0]:
-            return Trajectory.from_record(rec, "multibody")
-        # diverged: the Python kernel below raises SimulationDiverged with its message
-    rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
-                     backend="multibody")
+
+    plant = MultibodyPlant(machine, o, model)
+    rec = fused.try_multibody(plant, t_end, record_dt, progress)  # the compiled loop around mj_step: the same bits
+    if rec is None:
+        rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
+                         backend="multibody")
     return Trajectory.from_record(rec, "multibody")
 
 
