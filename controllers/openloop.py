@@ -3,9 +3,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-import numpy as np
+from collections import namedtuple
+
 from pydantic import Field
 
+from mjbench.compiled import law
 from mjbench.schema import Q, Strict
 
 from . import register
@@ -20,12 +22,25 @@ class OpenParams(Strict):
     t_ramp: Q("time", ge=0.0, plausible=False) = Field(0.0, description="linear ramp from 0 over t_ramp (0: step)")
 
 
+OpenP = namedtuple("OpenP", "voltage t_ramp")
+
+
+@law
+def open_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+    """V_a = ``voltage`` (ramped linearly from 0 over ``t_ramp`` s when t_ramp > 0)."""
+    tr = P.t_ramp
+    if tr > 0.0 and t < tr:
+        return P.voltage * (t / tr)
+    return P.voltage
+
+
 @register
 class ConstantVoltage(Controller):
-    """V_a = ``voltage`` [V] (scalar or (nsim,) array); optional linear ramp over ``t_ramp`` s."""
+    """V_a = ``voltage`` [V]; optional linear ramp over ``t_ramp`` s."""
 
     type_name = "open"
     Params = OpenParams
+    law = open_law
 
     def __init__(self, voltage, t_ramp=0.0):
         self.voltage = voltage
@@ -35,13 +50,5 @@ class ConstantVoltage(Controller):
     def from_params(cls, p, drive=None, mechanism=None, scenario=None):
         return cls(p.voltage, t_ramp=p.t_ramp)
 
-    def reset(self):
-        pass
-
-    def __call__(self, t, y):
-        tr = self.t_ramp
-        if np.ndim(tr):  # (nsim,) ramp durations
-            return np.where(t < tr, self.voltage * (t / np.where(tr > 0, tr, 1.0)), self.voltage)
-        if tr > 0 and t < tr:
-            return self.voltage * (t / tr)
-        return self.voltage
+    def parameters(self, T, z):
+        return OpenP(float(self.voltage), float(self.t_ramp))

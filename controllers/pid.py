@@ -24,12 +24,14 @@ State (``STATE``): ``offset`` φ_w [rad], ``epos_prev`` the previous angle error
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from typing import Annotated, Literal, Union
 
 import numpy as np
 from pydantic import Field, model_validator
 from pydantic_core import PydanticCustomError
 
+from mjbench.compiled import clip, law
 from mjbench.errors import ParameterError
 from mjbench.schema import Bool, OptQ, Q, Strict
 
@@ -67,11 +69,43 @@ class PIDParams(Strict):
         return self
 
 
+#: the PID law's parameters (motor-side gains, K_p·t ramp and its bound, output clip, gear ratio)
+PIDP = namedtuple("PIDP", "kp ki kd ramp t_ramp_max v_limit z")
+
+
+@law
+def pid_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+    """Eq 16 with K_p(t) (Eqs 14-15), output clip and conditional-integration anti-windup.
+
+    Crank-side measurement (× z: the motor side), motor-side reference.  State: S[0] the windup
+    offset φ_w [rad], S[1] the previous angle error [rad], S[2] 1 once S[1] is set."""
+    z = P.z
+    e = om_r - z * qd
+    epos = phi_r - z * q
+    prev = S[1] if S[2] != 0.0 else epos
+    if P.ramp:
+        kp = P.kp * (t if t < P.t_ramp_max else P.t_ramp_max)
+    else:
+        kp = P.kp
+    ki = P.ki
+    u = kp * e + ki * (epos - S[0]) + P.kd * (acc_r - z * qdd)
+    vl = P.v_limit
+    d = epos - prev
+    if (u > vl and d > 0.0) or (u < -vl and d < 0.0):  # vl = inf: never
+        S[0] += d
+        u -= ki * d
+    u = clip(u, -vl, vl)
+    S[1] = epos
+    S[2] = 1.0
+    return u
+
+
 @register
 class PID(Controller):
     type_name = "pid"
     Params = PIDParams
-    STATE = ("offset", "epos_prev")
+    STATE = ("offset", "epos_prev", "started")
+    law = pid_law
 
     def __init__(self, kp, ki, kd, reference=None, omega0=None, kp_ramp=False,
                  t_ramp_max=math.inf, v_limit=None, period=0.0):
@@ -104,20 +138,20 @@ class PID(Controller):
         return cls(kp, ki, kd, reference=reference, omega0=p.omega0, kp_ramp=p.kp_ramp,
                    t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)
 
-    def reset(self):
-        self._tm_array = bool(np.ndim(self.t_ramp_max))
-        self._const_ref = type(self.reference) is ConstantSpeed  # inlined in __call__ (hot path)
-        self.offset = 0.0
-        self.epos_prev = None
-        self.reference.reset()
+    def parameters(self, T, z):
+        vl = math.inf if self.v_limit is None else float(self.v_limit)
+        return PIDP(float(self.kp), float(self.ki), float(self.kd), bool(self.kp_ramp), float(self.t_ramp_max),
+                    vl, float(z))
+
+    @property
+    def offset(self):
+        """The windup offset φ_w [rad] (state)."""
+        return self.state()["offset"]
 
     def gain_p(self, t):
         """Proportional gain at time t [V·s/rad]."""
         if self.kp_ramp:
-            tm = self.t_ramp_max
-            if self._tm_array:  # (nsim,) ramp limits
-                return self.kp * np.minimum(t, tm)
-            return self.kp * (t if t < tm else tm)
+            return self.kp * np.minimum(t, self.t_ramp_max)
         return self.kp
 
     def divergence_hint(self, t, h):
@@ -128,44 +162,3 @@ class PID(Controller):
                 f"without bound (Eq 15): past some t it exceeds the stability limit of the loop sampled "
                 f"at h = {h:g} s. Use a smaller step (--set simulation.dt=...) or bound the ramp "
                 f"(--set modes.<mode>.t_ramp_max=...).")
-
-    def __call__(self, t, y):
-        ref = self.reference
-        if self._const_ref:  # ConstantSpeed.__call__ inlined: the same operations, one call less per sample
-            omega_r = ref.omega0
-            ps = ref.phi_start
-            if ps is None:
-                ref.phi_start = ps = y.phi - omega_r * t
-            phi_r, acc_r = ps + omega_r * t, 0.0 * omega_r
-        else:
-            phi_r, omega_r, acc_r = ref(t, y)
-        e = omega_r - y.omega
-        epos = phi_r - y.phi
-        prev = self.epos_prev
-        if prev is None:
-            prev = epos
-        if not self.kp_ramp:
-            kp = self.kp
-        elif self._tm_array:
-            kp = self.gain_p(t)
-        else:  # gain_p(t) inlined (the per-step hot path of a single run)
-            tm = self.t_ramp_max
-            kp = self.kp * (t if t < tm else tm)
-        ki = self.ki
-        u = kp * e + ki * (epos - self.offset) + self.kd * (acc_r - y.omega_dot)
-        vl = self.v_limit
-        if vl is not None:
-            d = epos - prev
-            if isinstance(u, float):
-                if (u > vl and d > 0) or (u < -vl and d < 0):
-                    self.offset += d
-                    u -= ki * d
-                u = vl if u > vl else (-vl if u < -vl else u)
-            else:
-                # else freezing and clipping are no-ops (the common case); fmax ignores NaN rows
-                if np.fmax.reduce(np.abs(u) - vl) > 0:
-                    frozen = ((u > vl) & (d > 0)) | ((u < -vl) & (d < 0))
-                    self.offset = self.offset + np.where(frozen, d, 0.0)
-                    u = np.minimum(np.maximum(u - np.where(frozen, self.ki * d, 0.0), -vl), vl)  # clip
-        self.epos_prev = epos
-        return u

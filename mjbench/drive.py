@@ -27,6 +27,7 @@ and efficiency, dry friction, current loop) is optional: sub-tables of ``[drive]
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field, fields
 from typing import Literal
 
@@ -35,6 +36,8 @@ from pydantic import Field
 
 from .drivetrain.params import (CurrentLoopParams, EncoderParams, FrictionParams, GearParams, PWMParams,
                                 SensorParams, SUBTABLES)
+from . import compiled as C
+from .compiled import clip, sgn
 from .errors import ParameterError
 from .schema import Q, Strict
 
@@ -148,34 +151,22 @@ class DCMotorDrive:
         """Drive inertia reflected on the crank, J_eq = J_b + (J_m + J_a)·z² [kg·m²] (Eq 9)."""
         return self.J_b + (self.J_m + self.J_a) * self.z ** 2
 
-    @property
-    def tau_e(self):
-        """Electrical time constant L/R [s]."""
-        return self.L / self.R
-
     # ---------------------------------------------------------------- equations
+    def step_params(self, h: float) -> "DriveStep":
+        """The parameters of the drive's laws for a fixed co-simulation step h [s]."""
+        self.prepare(h)
+        return DriveStep(float(self.R), float(self.k_m), float(self.z), float(self.T_0), float(self.lam),
+                         float(self._w), float(self._decay), float(self.i_max))
+
+    def forms(self, h: float, every: int, plant) -> dict:
+        """The compiled forms of the drive-train elements for the kernel's slots ({} = ideal)."""
+        if self.train is None:
+            return {}
+        return self.train.forms(self, h, every, plant)
+
     def limit(self, V):
         """Voltage limiter of Fig. 3: clip to ±v_max."""
-        if self._no_vlimit:
-            return V
-        if isinstance(V, float):
-            return -self.v_max if V < -self.v_max else (self.v_max if V > self.v_max else V)
-        return np.minimum(np.maximum(V, -self.v_max), self.v_max)  # = np.clip, several times faster
-
-    def step_limit(self, scalar: bool):
-        """The kernel's per-sample limiter: None when there is no limit (v_max = inf), else
-        :meth:`limit` — for a single run (``scalar``) as a closure with ±v_max bound, the same
-        comparisons (0.07 µs less per co-step)."""
-        if self._no_vlimit:
-            return None
-        if not (scalar and np.ndim(self.v_max) == 0):
-            return self.limit
-        vm = float(self.v_max)
-        nvm = -vm
-
-        def limit(V):
-            return nvm if V < nvm else (vm if V > vm else V)
-        return limit
+        return C.vectorize(lambda v: clip(v, -float(self.v_max), float(self.v_max)), V)
 
     def di_dt(self, I, V, omega_m):
         """dI/dt of Eq 7 [A/s] for motor speed ``omega_m`` = φ̇ [rad/s]."""
@@ -185,125 +176,40 @@ class DCMotorDrive:
         """Cache the step-dependent constants for a fixed step h [s] (decay and mean weights)."""
         self._h = h
         self._flags()
-        L, R = np.asarray(self.L, dtype=float), np.asarray(self.R, dtype=float)
-        if np.all(L > 0):
+        L, R = float(self.L), float(self.R)
+        if L > 0:
             x = h * R / L
-            decay = np.exp(-x)
+            decay = math.exp(-x)
             w = (1.0 - decay) / x  # mean of exp(-s/tau) over [0, h]
-        elif np.any(L > 0):  # (nsim,) parameters, some with L = 0 (algebraic current)
-            L, R = np.broadcast_arrays(L, R)
-            x = h * R / np.where(L > 0, L, 1.0)
-            decay = np.where(L > 0, np.exp(-x), 0.0)
-            w = np.where(L > 0, (1.0 - decay) / x, 0.0)
         else:
-            decay, w = np.zeros_like(R), np.zeros_like(R)
-        self._decay = float(decay) if decay.ndim == 0 else decay
-        self._w = float(w) if w.ndim == 0 else w
+            decay = w = 0.0
+        self._decay, self._w = decay, w
         return self
 
     def current_mean(self, I, V, omega_m, h: float):
         """Time average of the exact current over a step h (V and φ̇ held) [A]: the constant
-        current whose torque impulse over the step equals the true one."""
-        if h != self._h:
-            self.prepare(h)
-        i_ss = (V - self.k_m * omega_m) / self.R
-        return i_ss + (I - i_ss) * self._w
+        current whose torque impulse over the step equals the true one (:func:`current_mean`)."""
+        P = self.step_params(h)
+        return C.vectorize(lambda i, v, w: current_mean(i, v, w, P), I, V, omega_m)
 
     def current_step(self, I, V, omega_m_mean, h: float):
-        """Exact current update over a step h with V held and φ̇ = ``omega_m_mean`` (see module doc)."""
-        if h != self._h:
-            self.prepare(h)
-        i_ss = (V - self.k_m * omega_m_mean) / self.R
-        I_new = i_ss + (I - i_ss) * self._decay
-        if not self._no_ilimit:
-            im = self.i_max
-            if isinstance(I_new, float) and isinstance(im, float):  # scalar hot path (np.clip costs ~25 µs)
-                I_new = -im if I_new < -im else (im if I_new > im else I_new)
-            else:
-                I_new = np.minimum(np.maximum(I_new, -im), im)
-                if I_new.ndim == 0:
-                    I_new = float(I_new)
-        return I_new
-
-    def step_torque(self, h: float, scalar: bool):
-        """The kernel's per-step torque call for a fixed step h [s]: ``torque(I, V, qd)`` =
-        ``crank_torque(current_mean(I, V, z·qd, h), qd, viscous=False)``, the crank torque of the
-        exact step-mean current (V held, crank speed qd at the step start).
-
-        ``scalar`` (a single run, float signals): a closure with the constants bound as locals —
-        the same operations in the same order as the two methods (a batch, which calls the
-        methods, stays bit-identical to single runs), at half their cost (0.12 vs 0.24 µs per
-        co-step; the current update gains nothing this way and stays :meth:`current_step`)."""
-        self.prepare(h)
-        z = self.z
-        if not (scalar and all(np.ndim(v) == 0 for v in (self.R, self.L, self.k_m, z, self.T_0))):
-            torque_m, mean_m = self.crank_torque, self.current_mean
-
-            def torque(I, V, qd):
-                return torque_m(mean_m(I, V, z * qd, h), qd, False)
-            return torque
-        R, T_0, w, z, k_m = float(self.R), float(self.T_0), float(self._w), float(z), float(self.k_m)
-        if T_0 == 0.0:
-            def torque(I, V, qd):
-                i_ss = (V - k_m * (z * qd)) / R
-                return z * (k_m * (i_ss + (I - i_ss) * w))
-        else:
-            def torque(I, V, qd):
-                i_ss = (V - k_m * (z * qd)) / R
-                s = z * qd
-                return z * (k_m * (i_ss + (I - i_ss) * w) - T_0 * (1.0 if s > 0 else (-1.0 if s < 0 else 0.0)))
-        return torque
-
-    def step_current(self, h: float, scalar: bool):
-        """The kernel's per-step current update for a fixed step h [s]: ``current(I, V, omega_m_mean)``
-        = :meth:`current_step` (exact exponential, amplifier limit); for a single run (``scalar``)
-        a closure with the constants bound, the same operations in the same order."""
-        self.prepare(h)
-        if not (scalar and all(np.ndim(v) == 0 for v in (self.R, self.L, self.k_m, self.i_max))):
-            cs = self.current_step
-
-            def current(I, V, om):
-                return cs(I, V, om, h)
-            return current
-        R, k_m, decay = float(self.R), float(self.k_m), float(self._decay)
-        if self._no_ilimit:
-            def current(I, V, om):
-                i_ss = (V - k_m * om) / R
-                return i_ss + (I - i_ss) * decay
-            return current
-        im = float(self.i_max)
-        nim = -im
-
-        def current(I, V, om):
-            i_ss = (V - k_m * om) / R
-            I_new = i_ss + (I - i_ss) * decay
-            return nim if I_new < nim else (im if I_new > im else I_new)
-        return current
-
-    def torque_function(self, scalar: bool):
-        """``torque(I, crank_speed)`` = :meth:`crank_torque` (viscous part included), for a single
-        run (``scalar``) as a closure with the constants bound: the same operations in the same order."""
-        if not (scalar and all(np.ndim(v) == 0 for v in (self.z, self.k_m, self.T_0, self.lam))):
-            return self.crank_torque
-        z, k_m, T_0, lam = float(self.z), float(self.k_m), float(self.T_0), float(self.lam)
-
-        def torque(I, crank_speed):
-            om = z * crank_speed
-            return z * (k_m * I - (T_0 * (1.0 if om > 0 else (-1.0 if om < 0 else 0.0)) + lam * om))
-        return torque
+        """Exact current update over a step h with V held and φ̇ = ``omega_m_mean`` (:func:`current_step`)."""
+        P = self.step_params(h)
+        return C.vectorize(lambda i, v, w: current_step(i, v, w, P), I, V, omega_m_mean)
 
     def friction_torque_motor(self, omega_m):
         """T_r = T_0·sgn φ̇ + λ·φ̇ on the motor shaft [N·m] (Eq 6; T_0 opposes the motion)."""
-        return self.T_0 * _sign(omega_m) + self.lam * omega_m
+        return self.T_0 * np.sign(omega_m) + self.lam * omega_m
 
     def crank_torque(self, I, crank_speed, viscous=True):
-        """Drive torque on the crank, z·(k_m·I − T_r(z·α̇)) [N·m] (Eq 9 without the J_eq·α̈ term).
-
-        ``viscous=False`` leaves out the viscous part −z²·λ·α̇, for a backend that models it as
-        joint damping (``crank_damping``; MuJoCo then integrates it within every step)."""
+        """Drive torque on the crank, z·(k_m·I − T_r(z·α̇)) [N·m] (Eq 9 without the J_eq·α̈ term,
+        :func:`drive_torque`).  ``viscous=False`` leaves out the viscous part −z²·λ·α̇ (the plant's
+        joint damping): z·(k_m·I − T_0·sgn φ̇) (:func:`motor_torque` × z)."""
+        P = self.step_params(self._h or 1e-4)
+        z = P.z
         if viscous:
-            return self.z * (self.k_m * I - self.friction_torque_motor(self.z * crank_speed))
-        return self.z * (self.k_m * I - self.T_0 * _sign(self.z * crank_speed))
+            return C.vectorize(lambda i, q: drive_torque(i, z * q, P), I, crank_speed)
+        return C.vectorize(lambda i, q: z * motor_torque(i, z * q, P), I, crank_speed)
 
     @property
     def crank_damping(self):
@@ -325,8 +231,36 @@ class DCMotorDrive:
         return d
 
 
-def _sign(x):
-    """sgn x for a float (fast path) or an array."""
-    if isinstance(x, float):
-        return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
-    return np.sign(x)
+#: the drive's parameters for its laws at one step h (``w``, ``decay``: the step's mean weight
+#: (1 − e^{−hR/L})/(hR/L) and decay e^{−hR/L}; 0 for L = 0)
+DriveStep = namedtuple("DriveStep", "R k_m z T_0 lam w decay i_max")
+
+
+@C.law
+def current_mean(I, V, w, P):
+    """Ī = I_ss + (I − I_ss)·(1 − e^{−hR/L})/(hR/L), I_ss = (V − k_m·φ̇)/R: the exact time average
+    of the current over a step with V and φ̇ = ``w`` held (Eq 7 solved exactly)."""
+    i_ss = (V - P.k_m * w) / P.R
+    return i_ss + (I - i_ss) * P.w
+
+
+@C.law
+def current_step(I, V, w_mean, P):
+    """I₊ = I_ss + (I − I_ss)·e^{−hR/L} with φ̇ = ``w_mean`` (the mean over the step), clipped to
+    the amplifier's ±i_max (inf: no limit)."""
+    i_ss = (V - P.k_m * w_mean) / P.R
+    return clip(i_ss + (I - i_ss) * P.decay, -P.i_max, P.i_max)
+
+
+@C.law
+def motor_torque(I, w, P):
+    """Net motor torque on the motor shaft without the viscous part, k_m·I − T_0·sgn φ̇ [N·m]
+    (the viscous −λ·φ̇ is the plant's joint damping)."""
+    return P.k_m * I - P.T_0 * sgn(w)
+
+
+@C.law
+def drive_torque(I, w, P):
+    """Drive torque on the crank, z·(k_m·I − (T_0·sgn φ̇ + λ·φ̇)) [N·m] (Eq 9 without J_eq·α̈),
+    for motor speed φ̇ = ``w``: the recorded ``torque_crank_Nm``."""
+    return P.z * (P.k_m * I - (P.T_0 * sgn(w) + P.lam * w))

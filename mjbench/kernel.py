@@ -1,60 +1,96 @@
-"""The co-step kernel: the one loop that runs a machine — on every backend.
+"""The co-step kernel: the one loop that runs a machine — on every backend, in CPython or compiled.
 
-A *plant* says how the mechanics advance one step h under a held input torque; everything else
-happens here, once, in this order, for a single run (Python floats) or a batch of N runs
-((nsim,) arrays, one Python iteration per step for all of them):
+One co-simulation step h (0.1 ms by default) of one run, in this order (:func:`_loop`):
 
 1. measurement: t_n, q_n, q̇_n from the plant, q̈_n = (q̇_n − q̇_{n−1})/h (the backward difference a
-   digital controller sees; 0 at the first sample), I_n — filled into one :class:`Measurement`;
-2. controller, at its own sample period (``controller.period``, a multiple of h; 0 = every
-   step), output held in between, then the drive's voltage limiter → V;
-3. divergence check and recording, every ``record_dt`` (preallocated arrays, no allocation);
-4. input torque τ = z·(k_m·Ī − T_0·sgn φ̇) with Ī the exact mean current over the step (V held,
-   φ̇_n) (:meth:`DCMotorDrive.current_mean`, through :meth:`DCMotorDrive.step_torque`); the viscous z²λ and the reflected inertia J_eq are
-   the plant's (joint damping and armature in MuJoCo, the same terms in the reduced model), so
-   they are integrated inside the step;
-5. one plant step (``plant.advance``);
-6. I_{n+1} by the drive's exact exponential update with the mean of φ̇_n and φ̇_{n+1}
-   (:meth:`DCMotorDrive.current_step`, amplifier current limit included).
+   digital controller sees; 0 at the first sample), I_n;
+2. at each control sample (every ``controller.period``, a multiple of h): the sensor (encoder,
+   speed estimate, noise; ideal: the exact values), the reference φ_ref, φ̇_ref, φ̈_ref, the
+   control law, the limiter (±v_max, or ±i_max for a current reference), the one-sample delay;
+   the output is held in between;
+3. every ``record_dt``: the divergence check and one record row (preallocated);
+4. the current loop (a current reference → voltage), the amplifier (ideal, averaged or switching
+   PWM), the motor torque z·(k_m·Ī − T_0·sgn φ̇) from the exact step-mean current Ī, the gear
+   efficiency; the viscous z²λ and the reflected inertia J_eq are the plant's (joint damping and
+   armature in MuJoCo, the same terms in the reduced model), integrated inside the step;
+5. one plant step (MuJoCo's ``mj_step``, or RK4 on the reduced model);
+6. I_{n+1} by the drive's exact exponential update with the mean of φ̇_n and φ̇_{n+1}.
 
-Drive-train hooks: when the drive has optional drive-train elements (``drive.train``, see
-:mod:`mjbench.drivetrain`: PWM, encoder/sensor, delay, gear, current loop) the train binds, before
-the loop, up to three functions that replace steps 1-2 (``sample``: sensor → controller → limiter
-→ delay), 4-6 (``step``: current loop → amplifier → torque → plant step → current) and add its
-recorded columns (``write``).  A hook the elements do not need is None and the kernel runs the
-inline code above, so the ideal drive costs exactly what it did.
+**Written once.**  :func:`_loop` is the only copy of this order.  Every formula in it is a *law*
+of a component (:mod:`mjbench.compiled`): the drive's equations (:mod:`mjbench.drive`), the
+control law and its reference (``controllers/``), the drive-train elements
+(:mod:`mjbench.drivetrain`), the plant's step (:mod:`mjbench.backends`).  A run is *composed*
+(:class:`Program`): each slot of the loop is bound to the law its component declares (absent
+optional elements are switched off by constant flags), and the loop is then either executed by
+CPython (the reference; short runs, components without a compiled form) or compiled by numba with
+every law inlined (long runs, batches, design loops).  Both execute the same source, so they give
+the same bits (tests/test_compiled.py).
 
-Plants (``mjbench.backends``): ``MultibodyPlant`` (one ``mj_step``), ``BatchMultibodyPlant``
-(``mujoco.batch``), ``ReducedPlant`` (RK4 or ``solve_ivp`` on the reduced model, rigid or with
-internal elastic coordinates).  Because the drive, the controller and the order of operations
-are the same, the difference between backends is the mechanics alone, and a batch of N runs is
-bit-identical to N single runs.  The common case (ideal drive, speed PID or open-loop voltage,
-rigid mechanism) also exists compiled, line for line, on the tabulated reduced plant and around
-MuJoCo's own ``mj_step`` (:mod:`mjbench.backends.fused`): the same bits, used once numba is loaded
-or for long jobs; this loop stays the reference.
+**When compiled** (:func:`choose_loop`): numba installed and every component compiles, and the
+job is large enough to pay numba's start-up (≈ 0.35 s of CPU to import numba and load a cached
+kernel, against ≈ 2–3 µs saved per co-step: :data:`MIN_STEPS`), or numba is already loaded, or
+``MJBENCH_JIT=1``.  ``MJBENCH_JIT=0`` always runs CPython.  The reason for the choice is recorded
+(``meta["loop"]``, ``meta["loop_reason"]``).
 
-Plant protocol (duck-typed, all arrays preallocated by the plant):
-``nsim`` (None for a single run), ``h`` [s], ``start()``, ``read() -> (q, q̇)``,
-``advance(tau, t) -> (q, q̇)`` (one step; returns the state at its end — a batch plant returns
-copies, as ``read``), ``closure()`` [m], ``unstable()`` (the
-engine's own instability flag, e.g. MuJoCo's bad-qacc warning), ``extra_columns`` (names of
-plant-specific recorded columns) and ``extra(out)`` writing them, ``retire(mask)`` (batch: stop
-stepping diverged runs).
+**Chunks.**  The loop runs a range of steps and keeps its state in arrays, so a run is executed in
+chunks of ≈ 0.1 s: progress bars advance, Ctrl-C and SIGTERM stop a compiled run within a chunk.
+
+Slot signatures (P: the component's parameter tuple, S: its state array):
+
+* ``SENSE(t, q, q̇, q̈, I, δ, δ̇, P, S) → (q_m, q̇_m, q̈_m, I_m)`` (δ: compliant-gear deflection);
+* ``REF(t, q_m, q̇_m, q̈_m, I_m, P, S) → (φ_ref, φ̇_ref, φ̈_ref)`` (motor side);
+* ``CTRL(t, q_m, q̇_m, q̈_m, I_m, φ_ref, φ̇_ref, φ̈_ref, P, S) → u``;
+* ``CLOOP(n, i*, I, P, S) → V``; ``AMP(t, I, V, φ̇₀, P, S) → (Ī, I_end, V_bridge, I_min, I_max)``
+  (averaged: ``AMP(t, I, V, φ̇₀, P, S) → V_bridge``); ``AMP_END(I_end, φ̇₀, φ̇̄, P) → I₊``;
+  ``EFF(T_m, φ̇, P) → T``;
+* ``PLANT(τ, t, P, S) → (q, q̇, δ, δ̇)``; ``READ(P, S)`` the same at the start;
+  ``CLOSURE(P, S) → m``; ``UNSTABLE(P, S) → bool``; ``PWRITE(out, b, P, S)`` the plant's recorded
+  columns.
+
+A law may take other laws as leading arguments (``Form.fn_args``: the rigid reduced plant's
+``MODEL(q, q̇, t, P) → (J, ½J', E_p', Q_ext)``, a MuJoCo plant's loads, SMC's model of the plant);
+the slot is then that law with those bound (:meth:`mjbench.compiled.Form.bound`, or a generated
+adapter in compiled code).
 """
 from __future__ import annotations
 
 import math
+import os
+import time
+from collections import namedtuple
 
 import numpy as np
 
 from controllers.base import Measurement
 
+from . import compiled as C
+from .compiled import clip, isfinite
+from .drive import current_mean, current_step, drive_torque, motor_torque
 from .errors import ParameterError, SimulationDiverged
 from .trajectory import NAMES
 
 MAX_SPEED = 1e4  #: rad/s: beyond this an input speed is a diverged simulation, not physics
 MAX_CURRENT = 1e5  #: A
 NCORE = len(NAMES)
+#: co-steps from which a single run is compiled when numba is not loaded yet (see the module doc;
+#: measured in docs/performance.md: numba import + cached kernel load ≈ 0.35 s CPU, CPython loop
+#: ≈ 2.5–4 µs per co-step more than the compiled one → break-even ≈ 1e5 steps)
+MIN_STEPS = 150_000
+#: wall time a chunk of a compiled run aims at (progress, signals)
+CHUNK_S = 0.1
+
+# kernel state of one run between chunks (float64 array)
+KS_Q, KS_QD, KS_QDP, KS_I, KS_U, KS_K, KS_DM, KS_DMD, KS_VB, KS_IBAR, KS_ILO, KS_IHI, KS_QM, KS_QDM, KS_QDDM, \
+    KS_PEND, KS_V = range(17)
+KS_SIZE = 17
+# divergence record: flag, t, q, q̇, I, u
+DIV_SIZE = 6
+
+#: the per-run constants of the loop
+Run = namedtuple("Run", "h nsteps decim every ks out ncol div u_lo u_hi")
+#: the slots' parameters and states of one run
+Parts = namedtuple("Parts", "drive sense_P sense_S ref_P ref_S ctrl_P ctrl_S cloop_P cloop_S amp_P amp_S eff_P "
+                            "plant_P plant_S")
 
 
 def check_times(t_end, h, record_dt):
@@ -64,6 +100,14 @@ def check_times(t_end, h, record_dt):
         raise ParameterError(f"simulation.dt = {h!r}: must be in (0, 0.01] s")
     if not (np.isfinite(record_dt) and record_dt > 0):
         raise ParameterError(f"simulation.record_dt = {record_dt!r}: must be > 0 [s]")
+    k = record_dt / h
+    if k < 1.0 - 1e-9 or abs(k - round(k)) > 1e-6 * k:
+        lo = max(1, int(k)) * h
+        raise ParameterError(f"simulation.record_dt = {record_dt:g} s is not a whole multiple of simulation.dt = "
+                             f"{h:g} s (records are taken at co-steps): use e.g. {lo:g} or {lo + h:g} s")
+    if record_dt > t_end:
+        raise ParameterError(f"simulation.record_dt = {record_dt:g} s is longer than the run (t_end = {t_end:g} s): "
+                             f"the record would hold one sample")
 
 
 def control_every(controller, h) -> int:
@@ -88,145 +132,619 @@ class Record:
         self.diverged, self.t_diverged, self.messages, self.meta = diverged, t_diverged, messages, meta
 
 
-def run(plant, drive, controller, t_end: float, record_dt: float = 1e-3, I0=0.0, progress=None,
-        backend: str = "") -> Record:
-    """Co-simulate ``plant`` + ``drive`` + ``controller`` for ``t_end`` s; see the module doc.
+# =============================================================================== the loop
+# Slot functions and flags are globals of the module the loop runs in (see Program.env): numba
+# treats them as constants (dead branches are pruned, laws inlined); CPython looks them up.
+HAS_SENSE = HAS_REF = HAS_DELAY = HAS_CLOOP = HAS_EFF = HAS_CLOSURE = HAS_UNSTABLE = False
+AMP_MODE = 0  # 0 ideal, 1 averaged (V → bridge V), 2 switching (the current within the step)
+NEXTRA = 0  # plant columns
+SENSE_COLS = AMP_COLS = MINMAX_COLS = IREF_COL = False
+SENSE = REF = CTRL = CLOOP = AMP = AMP_END = EFF = PLANT = CLOSURE = UNSTABLE = PWRITE = None
 
-    A single run raises :class:`SimulationDiverged` (time and state in the message); in a batch a
-    diverged run is flagged, its rows stop there and it is no longer stepped."""
-    h = float(plant.h)
+
+def _loop(n0, n1, K, X):
+    """Co-steps n0 … n1−1 of one run (see the module doc); returns the next step index.  State
+    between calls lives in ``K.ks`` and the components' state arrays; a divergence sets
+    ``K.div[0]`` and stops."""
+    h = K.h
+    inv_h = 1.0 / h
+    nsteps = K.nsteps
+    decim = K.decim
+    every = K.every
+    ks = K.ks
+    out = K.out
+    ncol = K.ncol
+    div = K.div
+    u_lo = K.u_lo
+    u_hi = K.u_hi
+    Pd = X.drive
+    Psen = X.sense_P
+    Ssen = X.sense_S
+    Pref = X.ref_P
+    Sref = X.ref_S
+    Pc = X.ctrl_P
+    Sc = X.ctrl_S
+    Pcl = X.cloop_P
+    Scl = X.cloop_S
+    Pamp = X.amp_P
+    Samp = X.amp_S
+    Peff = X.eff_P
+    Pp = X.plant_P
+    Sp = X.plant_S
+    z = Pd.z
+    k_m = Pd.k_m
+    q = ks[0]
+    qd = ks[1]
+    qd_prev = ks[2]
+    I = ks[3]
+    u = ks[4]
+    k = int(ks[5])
+    dm = ks[6]
+    dmd = ks[7]
+    Vb = ks[8]
+    Ibar = ks[9]
+    ilo = ks[10]
+    ihi = ks[11]
+    qm = ks[12]
+    qdm = ks[13]
+    qddm = ks[14]
+    pend = ks[15]
+    V = ks[16]
+    n = n0
+    while n < n1:
+        t = n * h
+        qdd = (qd - qd_prev) * inv_h
+        if n % every == 0:
+            # ---- sample: sensor → reference → control law → limiter → delay
+            if HAS_SENSE:
+                qm, qdm, qddm, Im = SENSE(t, q, qd, qdd, I, dm, dmd, Psen, Ssen)
+            else:
+                qm = q
+                qdm = qd
+                qddm = qdd
+                Im = I
+            if HAS_REF:
+                phi_r, om_r, acc_r = REF(t, qm, qdm, qddm, Im, Pref, Sref)
+            else:
+                phi_r = 0.0
+                om_r = 0.0
+                acc_r = 0.0
+            u = CTRL(t, qm, qdm, qddm, Im, phi_r, om_r, acc_r, Pc, Sc)
+            u = clip(u, u_lo, u_hi)
+            if HAS_DELAY:
+                u_now = u
+                u = pend
+                pend = u_now
+        if n % decim == 0:
+            # ---- divergence check, then one record row
+            if not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and isfinite(u) and isfinite(q)) or \
+                    (HAS_UNSTABLE and UNSTABLE(Pp, Sp)):
+                div[0] = 1.0
+                div[1] = t
+                div[2] = q
+                div[3] = qd
+                div[4] = I
+                div[5] = u
+                break
+            b = k * ncol
+            w = z * (qd + dmd)  # motor speed φ̇ (a compliant gear: the motor's own)
+            volt = Vb if HAS_CLOOP else u
+            out[b] = t
+            out[b + 1] = q
+            out[b + 2] = qd
+            out[b + 3] = qdd
+            out[b + 4] = w
+            out[b + 5] = I
+            out[b + 6] = volt
+            out[b + 7] = drive_torque(I, w, Pd)
+            out[b + 8] = k_m * I * w
+            out[b + 9] = volt * I
+            out[b + 10] = CLOSURE(Pp, Sp) if HAS_CLOSURE else 0.0
+            c = b + 11
+            if NEXTRA > 0:
+                PWRITE(out, c, Pp, Sp)
+                c += NEXTRA
+            if SENSE_COLS:
+                out[c] = qm
+                out[c + 1] = qdm
+                out[c + 2] = qddm
+                c += 3
+            if AMP_COLS:
+                out[c] = Vb
+                out[c + 1] = Ibar
+                c += 2
+            if MINMAX_COLS:
+                out[c] = ilo
+                out[c + 1] = ihi
+                c += 2
+            if IREF_COL:
+                out[c] = u
+            k += 1
+        if n == nsteps:
+            n += 1
+            break
+        # ---- current loop → amplifier → motor torque → gear → plant step → current update
+        if HAS_CLOOP:
+            V = CLOOP(n, u, I, Pcl, Scl)
+        else:
+            V = u
+        w0 = z * (qd + dmd)
+        Iend = 0.0
+        if AMP_MODE == 2:
+            Ibar, Iend, Vb, ilo, ihi = AMP(t, I, V, w0, Pamp, Samp)
+        else:
+            if AMP_MODE == 1:
+                Vb = AMP(t, I, V, w0, Pamp, Samp)
+            else:
+                Vb = V
+            Ibar = current_mean(I, Vb, w0, Pd)
+        Tm = motor_torque(Ibar, w0, Pd)
+        if HAS_EFF:
+            Tm = EFF(Tm, w0, Peff)
+        q1, qd1, dm, dmd = PLANT(z * Tm, t, Pp, Sp)
+        qd_prev = qd
+        wm = 0.5 * (w0 + z * (qd1 + dmd))
+        if AMP_MODE == 2:
+            I = AMP_END(Iend, w0, wm, Pamp)
+        else:
+            I = current_step(I, Vb, wm, Pd)
+        q = q1
+        qd = qd1
+        n += 1
+    ks[0] = q
+    ks[1] = qd
+    ks[2] = qd_prev
+    ks[3] = I
+    ks[4] = u
+    ks[5] = k
+    ks[6] = dm
+    ks[7] = dmd
+    ks[8] = Vb
+    ks[9] = Ibar
+    ks[10] = ilo
+    ks[11] = ihi
+    ks[12] = qm
+    ks[13] = qdm
+    ks[14] = qddm
+    ks[15] = pend
+    ks[16] = V
+    return n
+
+
+# =============================================================================== composition
+FLAGS = ("HAS_SENSE", "HAS_REF", "HAS_DELAY", "HAS_CLOOP", "HAS_EFF", "HAS_CLOSURE", "HAS_UNSTABLE",
+         "AMP_MODE", "NEXTRA", "SENSE_COLS", "AMP_COLS", "MINMAX_COLS", "IREF_COL")
+SLOTS = ("SENSE", "REF", "CTRL", "CLOOP", "AMP", "AMP_END", "EFF", "PLANT", "CLOSURE", "UNSTABLE", "PWRITE")
+
+
+@C.law
+def _absent(*args):  # a slot no run calls (its flag is off)
+    return 0.0
+
+
+_ABSENT = C.Form(_absent)
+
+
+class Program:
+    """One run composed: the form in each slot, the flags, the parameters and states, the columns.
+
+    Built from the machine's components (:meth:`build`); ``key`` identifies the composition (runs
+    with the same key share one compiled loop); ``compiled``: whether every slot compiles, else
+    ``reasons``."""
+
+    def __init__(self):
+        self.slots = {s: _ABSENT for s in SLOTS}
+        self.flags = {f: (0 if f in ("AMP_MODE", "NEXTRA") else False) for f in FLAGS}
+        self.reasons: list[str] = []
+        self.forms: dict = {}
+        self.columns: tuple = NAMES
+        self.u_lim = (-math.inf, math.inf)
+
+    # ------------------------------------------------------------------ assembly
+    def use(self, slot: str, form, why: str = ""):
+        """Bind ``slot`` to ``form`` (a Form, or a bare law)."""
+        if not isinstance(form, C.Form):
+            form = C.Form(form)
+        self.slots[slot] = form
+        if not form.compiled:
+            self.reasons.append(f"{why or slot.lower()}: {form.reason}")
+
+    @classmethod
+    def build(cls, plant, machine, h: float, every: int) -> "Program":
+        """Compose a run of ``machine`` on ``plant`` at step h with the controller sampled every
+        ``every`` steps: every component contributes its form (``form(...)`` methods)."""
+        pr = cls()
+        drive, ctrl = machine.drive, machine.controller
+        pr.drive = drive.step_params(h)
+        dforms = drive.forms(h, every, plant)  # the drive train's elements (empty: ideal)
+        pr.u_lim = dforms.get("limit", (-float(drive.v_max), float(drive.v_max)))
+        parts = {}
+        # controller (+ reference)
+        cf = controller_form(ctrl, h, every, machine)
+        pr.use("CTRL", cf, "controller")
+        parts["ctrl"] = cf
+        ref = cf.children.get("reference")
+        if ref is not None:
+            pr.flags["HAS_REF"] = True
+            pr.use("REF", ref, "reference")
+            parts["ref"] = ref
+        # drive train
+        sen = dforms.get("sense")
+        if sen is not None:
+            pr.flags["HAS_SENSE"] = True
+            pr.flags["SENSE_COLS"] = True
+            pr.use("SENSE", sen, "sensor")
+            parts["sense"] = sen
+        if dforms.get("sense_cols"):
+            pr.flags["SENSE_COLS"] = True
+        pr.flags["HAS_DELAY"] = bool(dforms.get("delay"))
+        cl = dforms.get("cloop")
+        if cl is not None:
+            pr.flags["HAS_CLOOP"] = True
+            pr.flags["IREF_COL"] = True
+            pr.use("CLOOP", cl, "current loop")
+            parts["cloop"] = cl
+        amp = dforms.get("amp")
+        if amp is not None:
+            pr.flags["AMP_MODE"] = 2 if amp.flags.get("switching") else 1
+            pr.flags["AMP_COLS"] = True
+            pr.flags["MINMAX_COLS"] = bool(amp.flags.get("switching"))
+            pr.use("AMP", amp, "amplifier")
+            if "end" in amp.laws:
+                pr.use("AMP_END", amp.laws["end"])
+            parts["amp"] = amp
+        eff = dforms.get("eff")
+        if eff is not None:
+            pr.flags["HAS_EFF"] = True
+            pr.use("EFF", eff, "gear efficiency")
+            parts["eff"] = eff
+        # plant
+        pf = plant.form()
+        pr.use("PLANT", pf, "plant")
+        for slot, name in (("CLOSURE", "closure"), ("UNSTABLE", "unstable"), ("PWRITE", "write")):
+            if name in pf.laws:  # the plant's further laws take the plant's (P, S)
+                pr.use(slot, pf.laws[name], f"plant {name}")
+        pr.flags["HAS_CLOSURE"] = "closure" in pf.laws
+        pr.flags["HAS_UNSTABLE"] = "unstable" in pf.laws
+        pr.flags["NEXTRA"] = int(pf.flags.get("nextra", 0))
+        pr.read = pf.laws["read"]
+        parts["plant"] = pf
+        pr.forms = parts
+        cols = list(NAMES) + list(plant.extra_columns)
+        if pr.flags["SENSE_COLS"]:
+            cols += ["angle_meas_rad", "speed_est_rad_s", "accel_est_rad_s2"]
+        if pr.flags["AMP_COLS"]:
+            cols += ["voltage_bridge_V", "current_mean_A"]
+        if pr.flags["MINMAX_COLS"]:
+            cols += ["current_min_A", "current_max_A"]
+        if pr.flags["IREF_COL"]:
+            cols.append("current_ref_A")
+        pr.columns = tuple(cols)
+        if len(plant.extra_columns) != pr.flags["NEXTRA"]:
+            raise ParameterError(f"plant declares {len(plant.extra_columns)} extra columns but writes "
+                                 f"{pr.flags['NEXTRA']}")
+        return pr
+
+    @property
+    def compiled(self) -> bool:
+        return not self.reasons
+
+    @property
+    def key(self) -> tuple:
+        """The composition: slot laws and flags (runs with the same key share one loop)."""
+        return (tuple((s, self.slots[s].key) for s in SLOTS), tuple((f, self.flags[f]) for f in FLAGS))
+
+    def env(self) -> dict:
+        """Globals of the CPython loop for this composition (flags and slot functions)."""
+        return {**self.flags, **{s: f.bound() for s, f in self.slots.items()}}
+
+    # ------------------------------------------------------------------ per-run values
+    def parts(self, python: bool):
+        """The slots' parameters and fresh states of one run (memoryviews for CPython)."""
+        f = self.forms
+        view = C.python_view if python else (lambda x: x)
+
+        def P(name):
+            return view(f[name].P) if name in f else C.NO_PARAMS
+
+        def S(name):
+            return view(f[name].state() if name in f else np.zeros(0))
+
+        return Parts(view(self.drive), P("sense"), S("sense"), P("ref"), S("ref"), P("ctrl"), S("ctrl"),
+                     P("cloop"), S("cloop"), P("amp"), S("amp"), P("eff"), P("plant"), S("plant"))
+
+
+def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
+    """The controller's form; a controller without one (a plain ``__call__(t, y)``) runs through a
+    Python adapter (the loop then runs in CPython)."""
+    fn = getattr(ctrl, "form", None)
+    f = fn(h * every, machine) if fn is not None else None
+    if f is not None:
+        return f
+    y = Measurement(z=machine.drive.z)
+
+    def adapter(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+        return ctrl(t, y.set(t, q, qd, qdd, I))
+
+    return C.python_form(adapter, f"{type(ctrl).__name__} has no compiled form (no law)")
+
+
+# =============================================================================== running
+_PY_LOOPS: dict = {}
+
+
+def python_loop(program: Program):
+    """The loop executed by CPython for this composition (the same code object as :func:`_loop`)."""
+    import types
+
+    key = program.key
+    fn = _PY_LOOPS.get(key) if program.compiled else None
+    if fn is None:
+        env = {**globals(), **program.env()}
+        fn = types.FunctionType(_loop.__code__, env, "_loop")
+        if program.compiled:
+            _PY_LOOPS[key] = fn
+    return fn
+
+
+def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> tuple[str, str]:
+    """("compiled" | "python", why) for a job of ``run_steps`` co-steps (all runs together)."""
+    from .compiled import jit
+
+    mode = (loop or os.environ.get("MJBENCH_JIT", "")).lower()
+    if mode in ("0", "python"):
+        return "python", "CPython loop requested (MJBENCH_JIT=0 / loop='python')"
+    if not program.compiled:
+        return "python", "; ".join(program.reasons)
+    if not jit.AVAILABLE:
+        return "python", "numba is not installed"
+    if mode in ("1", "compiled"):
+        return "compiled", "compiled loop requested (MJBENCH_JIT=1 / loop='compiled')"
+    if jit.loaded():
+        return "compiled", "numba already loaded"
+    if run_steps >= MIN_STEPS:
+        return "compiled", f"{run_steps:.3g} co-steps ≥ {MIN_STEPS:g} (pays numba's start-up)"
+    return "python", f"{run_steps:.3g} co-steps < {MIN_STEPS:g}: numba's start-up would cost more than it saves"
+
+
+def preload(run_steps: float) -> bool:
+    """Load numba now when a design loop plans ``run_steps`` co-steps over all its runs and that
+    pays for the start-up (then every later run of the process is compiled); → whether loaded."""
+    from .compiled import jit
+
+    if not jit.AVAILABLE or os.environ.get("MJBENCH_JIT", "") == "0":
+        return False
+    if jit.loaded() or run_steps >= MIN_STEPS:
+        jit.init()
+        return True
+    return False
+
+
+def record_bytes(nrec: int, ncol: int, nsim: int = 1) -> int:
+    """Memory of a record [bytes]: nsim × nrec rows × ncol float64 columns."""
+    return 8 * nrec * ncol * nsim
+
+
+def memory_limit() -> int:
+    """Largest record a run may allocate [bytes]: ``MJBENCH_MAX_RECORD_MB`` if set, else half the
+    machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read)."""
+    env = os.environ.get("MJBENCH_MAX_RECORD_MB")
+    if env:
+        try:
+            return int(float(env) * 2 ** 20)
+        except ValueError:
+            raise ParameterError(f"MJBENCH_MAX_RECORD_MB = {env!r}: must be a number of MiB") from None
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024 // 2
+    except OSError:
+        pass
+    return 4 * 2 ** 30
+
+
+def check_record(nsteps: int, decim: int, ncol: int, nsim: int, h: float, record_dt: float) -> None:
+    """Refuse, before simulating, a record that would not fit (ParameterError naming the cause)."""
+    nrec = nsteps // decim + 1
+    need = record_bytes(nrec, ncol, nsim)
+    lim = memory_limit()
+    if need > lim:
+        raise ParameterError(
+            f"the record needs {need / 2 ** 20:,.0f} MiB ({nsim} run(s) × {nrec:,} samples × {ncol} columns at "
+            f"record_dt = {record_dt:g} s), more than the limit {lim / 2 ** 20:,.0f} MiB (half the available "
+            f"memory; MJBENCH_MAX_RECORD_MB overrides): shorten t_end, raise simulation.record_dt or run fewer "
+            f"simulations at once")
+
+
+class Stepper:
+    """One run of the kernel advanced in chunks: the composed program, the loop (CPython or
+    compiled), the per-run parameters and state, the record.  :func:`run_many` drives one per run;
+    a caller that needs the run between chunks (an FMU's ``doStep``, a frequency-response
+    measurement) drives its own with :meth:`advance`.
+
+    ``out``: the flat record (nrec·ncol) to fill, default allocated; ``mode``: "python" or
+    "compiled" (:func:`choose_loop`)."""
+
+    def __init__(self, plant, machine, h: float, nsteps: int, decim: int, mode: str = "python", program=None,
+                 out=None, fn=None):
+        self.plant, self.machine, self.h, self.nsteps, self.decim, self.mode = plant, machine, h, nsteps, decim, mode
+        self.every = control_every(machine.controller, h)
+        if program is None:
+            plant.start()
+            program = Program.build(plant, machine, h, self.every)
+        self.program = pr = program
+        self.columns = pr.columns
+        self.ncol = ncol = len(pr.columns)
+        self.nrec = nsteps // decim + 1
+        if out is None:
+            out = np.full(self.nrec * ncol, np.nan)
+        self.out = out
+        python = mode == "python"
+        self.fn = fn if fn is not None else (python_loop(pr) if python else _compiled(pr))
+        self.parts = X = pr.parts(python)
+        self.ks = ks = np.zeros(KS_SIZE)
+        q, qd, dm, dmd = pr.read(X.plant_P, X.plant_S)
+        ks[KS_Q], ks[KS_QD], ks[KS_QDP], ks[KS_I] = q, qd, qd, float(machine.I0)
+        ks[KS_DM], ks[KS_DMD] = dm, dmd
+        ks[KS_QM], ks[KS_QDM] = q, qd
+        self.div = np.zeros(DIV_SIZE)
+        view = memoryview if python else (lambda a: a)
+        self.run = Run(h, nsteps, decim, self.every, view(ks), view(out), ncol, view(self.div), float(pr.u_lim[0]),
+                       float(pr.u_lim[1]))
+        self.n = 0
+
+    @property
+    def diverged(self) -> bool:
+        return bool(self.div[0])
+
+    @property
+    def done(self) -> bool:
+        return self.diverged or self.n > self.nsteps
+
+    @property
+    def nrows(self) -> int:
+        return int(self.ks[KS_K])
+
+    def state(self) -> dict:
+        """The run's state now: t [s], q [rad], q̇ [rad/s], I [A], u (the held controller output)."""
+        ks = self.ks
+        return {"t": self.n * self.h, "q": float(ks[KS_Q]), "qd": float(ks[KS_QD]), "I": float(ks[KS_I]),
+                "u": float(ks[KS_U]), "deflection": float(ks[KS_DM]), "deflection_rate": float(ks[KS_DMD])}
+
+    def advance(self, n_to: int) -> int:
+        """Run co-steps up to ``n_to`` (exclusive; at most nsteps + 1) or a divergence → the step reached."""
+        if not self.done:
+            self.n = self.fn(self.n, min(int(n_to), self.nsteps + 1), self.run, self.parts)
+        return self.n
+
+    def message(self, backend: str = "") -> str:
+        """The divergence message (time, state, the controller's hint)."""
+        d = self.div
+        hint_fn = getattr(self.machine.controller, "divergence_hint", None)
+        hint = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
+        return _message(backend, *d[1:6], hint)
+
+
+def run(plant, machine, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
+        loop: str | None = None) -> Record:
+    """Co-simulate ``machine`` on ``plant`` for ``t_end`` s; one :class:`Record` (single run).
+
+    Raises :class:`SimulationDiverged` (time and state in the message) when the run diverges."""
+    rec = run_many([plant], [machine], t_end, record_dt, progress, backend, loop)
+    state = rec.meta.pop("div_state", None)
+    if rec.diverged[0]:
+        raise SimulationDiverged(rec.messages[0], t=float(rec.t_diverged[0]), state=state)
+    return Record(rec.data[0], rec.columns, rec.nrows, rec.diverged, rec.t_diverged, rec.messages,
+                  {k: v for k, v in rec.meta.items() if k != "nsim"})
+
+
+def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
+             loop: str | None = None, threads: int | None = None) -> Record:
+    """Co-simulate N machines, each on its own plant → an (N, nrec, ncol) :class:`Record`.
+
+    Runs are independent (a batch equals N single runs, bit for bit); a diverged run is flagged
+    with its time and message, its rows stop there.  All runs must have the same step.  Compiled
+    runs of a batch run on ``threads`` threads (default: the CPUs; the compiled loop releases the
+    GIL).  Progress: co-steps of a single run, finished runs of a batch."""
+    plants, machines = list(plants), list(machines)
+    h = float(plants[0].h)
     check_times(t_end, h, record_dt)
-    batch = plant.nsim is not None
-    nsim = plant.nsim if batch else 1
-    every = control_every(controller, h)
-    controller.reset()
-    drive.prepare(h)
-    plant.start()
-    z = drive.z
-    y = Measurement(z=z)
-    # drive-train hooks (None: the ideal drive's inline code below)
-    train = getattr(drive, "train", None)
-    hooks = train.bind(plant, drive, controller, h, every, plant.nsim, y) if train is not None else None
-    sample = hooks.sample if hooks is not None else None
-    dstep = hooks.step if hooks is not None else None
-    dwrite = hooks.write if hooks is not None else None
-
     nsteps = int(round(t_end / h))
     decim = max(1, int(round(record_dt / h)))
     nrec = nsteps // decim + 1
-    extra_cols = tuple(plant.extra_columns)
-    columns = NAMES + extra_cols + (hooks.columns if hooks is not None else ())
-    ncol = len(columns)
-    data = np.full((nsim, nrec, ncol) if batch else (nrec, ncol), np.nan)
-    flat = None if batch else memoryview(data.reshape(-1))  # a view of data (C-contiguous)
-    torque = drive.crank_torque if batch else drive.torque_function(scalar=True)  # recorded τ (viscous part included)
-    step_torque = drive.step_torque(h, scalar=not batch)
-    vlimit = drive.step_limit(scalar=not batch)  # None: no voltage limit
-    step_current = drive.step_current(h, scalar=not batch)
-    k_m = drive.k_m
-    read, advance = plant.read, plant.advance
-    closure, unstable, extra = plant.closure, plant.unstable, plant.extra
-    hint = getattr(controller, "divergence_hint", None)
-    tick = progress.update if progress is not None else None
-    inv_h = 1.0 / h
-    I = (np.array(I0, dtype=float) + np.zeros(nsim)) if batch else float(I0)
-    q, qd = read()
-    qd_prev = qd.copy() if batch else qd
-    V = 0.0
-    k = 0
-
-    # per-run bookkeeping of a batch
-    nrows = np.zeros(nsim, dtype=int)
-    diverged = np.zeros(nsim, dtype=bool)
-    t_div = np.full(nsim, np.nan)
-    messages = [""] * nsim
-    alive = np.ones(nsim, dtype=bool)
-    any_dead = False
-    zeros = np.zeros(nsim) if batch else 0.0
-
-    with np.errstate(all="ignore"):
-        for n in range(nsteps + 1):
-            t = n * h  # q, qd: the plant's state at t (read before the loop, then returned by each step)
-            qdd = (qd - qd_prev) * inv_h  # backward difference, as a digital controller sees it
-            if n % every == 0:
-                if sample is None:
-                    V = controller(t, y.set(t, q, qd, qdd, I))
-                    if vlimit is not None:
-                        V = vlimit(V)
-                else:
-                    V = sample(t, q, qd, qdd, I)
-                if batch and np.ndim(V) == 0:
-                    V = zeros + V
-            if n % decim == 0:
-                # ---- divergence check (once, for every backend)
-                if batch:
-                    bad = ~((np.abs(qd) < MAX_SPEED) & (np.abs(I) < MAX_CURRENT) & np.isfinite(V)
-                            & np.isfinite(q)) | unstable()
-                    new = bad & alive
-                    if new.any():
-                        for i in np.flatnonzero(new):
-                            diverged[i], t_div[i] = True, t
-                            messages[i] = _message(backend, t, q[i], qd[i], I[i], V[i],
-                                                   hint(t, h) if hint is not None else "")
-                        alive &= ~new
-                        any_dead = True
-                        plant.retire(~alive)
-                        if not alive.any():
-                            break
-                elif not (abs(qd) < MAX_SPEED and abs(I) < MAX_CURRENT and math.isfinite(V)
-                          and math.isfinite(q)) or unstable():
-                    raise SimulationDiverged(
-                        _message(backend, t, q, qd, I, V, hint(t, h) if hint is not None else ""),
-                        t=t, state={"q": q, "qd": qd, "I": I, "V": V})
-                # ---- record
-                om = z * qd
-                if batch:
-                    r = data[:, k]
-                    r[:, 0] = t; r[:, 1] = q; r[:, 2] = qd; r[:, 3] = qdd; r[:, 4] = om; r[:, 5] = I  # noqa: E702
-                    r[:, 6] = V; r[:, 7] = torque(I, qd); r[:, 8] = k_m * I * om; r[:, 9] = V * I  # noqa: E702
-                    r[:, 10] = closure()
-                    if extra_cols:
-                        extra(r[:, NCORE:].T)
-                    if dwrite is not None:
-                        dwrite(r)
-                    if any_dead:
-                        r[~alive] = np.nan
-                    nrows[alive] = k + 1
-                else:  # through a flat memoryview of the record: no NumPy row or scalar per sample
-                    b = k * ncol
-                    flat[b] = t; flat[b + 1] = q; flat[b + 2] = qd; flat[b + 3] = qdd  # noqa: E702
-                    flat[b + 4] = om; flat[b + 5] = I; flat[b + 6] = V; flat[b + 7] = torque(I, qd)  # noqa: E702
-                    flat[b + 8] = k_m * I * om; flat[b + 9] = V * I; flat[b + 10] = closure()  # noqa: E702
-                    if extra_cols or dwrite is not None:
-                        r = data[k]
-                        if extra_cols:
-                            extra(r[NCORE:])
-                        if dwrite is not None:
-                            dwrite(r)
-                k += 1
-                if tick is not None:
-                    tick(decim)
-            if n == nsteps:
-                break
-            # ---- drive torque over the step, plant step, current update
-            if dstep is None:
-                q, qd1 = advance(step_torque(I, V, qd), t)
-                qd_prev = qd
-                I = step_current(I, V, 0.5 * z * (qd + qd1))
-                qd = qd1
-            else:
-                I = dstep(t, I, V, qd)
-                qd_prev = qd
-                q, qd = read()
-
-    if not batch:
-        nrows[0] = k
-    meta = {"dt": h, "record_dt": decim * h, "control_period": every * h, **plant.meta}
+    N = len(machines)
+    progs = []
+    for pl, mc in zip(plants, machines):
+        if abs(float(pl.h) - h) > 1e-15 * h:
+            raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
+        pl.start()
+        progs.append(Program.build(pl, mc, h, control_every(mc.controller, h)))
+    cols = progs[0].columns
+    if any(p.columns != cols for p in progs):
+        raise ParameterError("the runs of one batch must record the same columns (same drive-train elements and "
+                             "mechanism family)")
+    ncol = len(cols)
+    check_record(nsteps, decim, ncol, N, h, record_dt)
+    data = np.full((N, nrec * ncol), np.nan)
+    mode, why = "python", ""
+    for p in progs:  # one mode for the whole job (the same numbers either way)
+        mode, why = choose_loop(p, N * nsteps, loop)
+        if mode == "python":
+            break
+    fns = {}
+    steppers = []
+    for i, (pl, mc, pr) in enumerate(zip(plants, machines, progs)):
+        fn = fns.get(pr.key)
+        if fn is None:
+            fn = fns[pr.key] = python_loop(pr) if mode == "python" else _compiled(pr)
+        steppers.append(Stepper(pl, mc, h, nsteps, decim, mode, pr, data[i], fn))
+    nthreads = min(N, threads or os.cpu_count() or 1) if mode == "compiled" else 1
+    if nthreads > 1:
+        _run_threaded(steppers, nthreads, progress)
+    else:
+        for st in steppers:
+            _run_one(st, progress if N == 1 else None, mode == "compiled")
+            if progress is not None and N > 1:
+                progress.update(1)
+    nrows = np.array([st.nrows for st in steppers], dtype=int)
+    diverged = np.array([st.diverged for st in steppers], dtype=bool)
+    t_div = np.array([st.div[1] if st.diverged else np.nan for st in steppers])
+    messages = [st.message(backend) if st.diverged else "" for st in steppers]
+    div_state = None
+    for st in steppers:
+        if st.diverged:
+            d = st.div
+            div_state = {"q": float(d[2]), "qd": float(d[3]), "I": float(d[4]), "V": float(d[5])}
+    meta = {"dt": h, "record_dt": decim * h, "control_period": steppers[0].every * h, **plants[0].meta,
+            "loop": mode, "loop_reason": why, "nsim": N, "div_state": div_state}
+    train = getattr(machines[0].drive, "train", None)
     if train is not None:
         meta["drivetrain"] = train.describe()
-    if batch:
-        meta["nsim"] = nsim
-    return Record(data, columns, nrows, diverged, t_div, messages, meta)
+    return Record(data.reshape(N, nrec, ncol), cols, nrows, diverged, t_div, messages, meta)
+
+
+def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
+    """Advance one run to its end in chunks of ≈ CHUNK_S (progress, signals between chunks)."""
+    chunk = 20000 if compiled else 4000
+    while not st.done:
+        if stop is not None and stop.is_set():
+            return
+        t0 = time.perf_counter()
+        n0 = st.n
+        st.advance(n0 + chunk)
+        if progress is not None:
+            progress.update(st.n - n0)
+        dt = time.perf_counter() - t0
+        if compiled and dt > 0:
+            chunk = int(max(1000, min(5_000_000, chunk * CHUNK_S / dt)))
+
+
+def _run_threaded(steppers, nthreads: int, progress) -> None:
+    """Compiled runs on a thread pool (the loop releases the GIL); Ctrl-C/SIGTERM reach the main
+    thread, which stops the workers at their next chunk and re-raises."""
+    import threading
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    stop = threading.Event()
+    with ThreadPoolExecutor(max_workers=nthreads, thread_name_prefix="mjbench-run") as ex:
+        pending = {ex.submit(_run_one, st, None, True, stop) for st in steppers}
+        try:
+            while pending:
+                done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                for f in done:
+                    f.result()
+                    if progress is not None:
+                        progress.update(1)
+        except BaseException:
+            stop.set()
+            raise
+
+
+def _compiled(program: Program):
+    from .compiled import jit
+
+    return jit.loop_for(program, _loop)
 
 
 def _message(backend, t, q, qd, I, V, hint=""):

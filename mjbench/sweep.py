@@ -202,7 +202,7 @@ def row_metrics(traj, st) -> dict:
 def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
     """Simulate ``rows`` of the sweep in one batch (per model structure) on ``st["backend"]`` →
     result rows.  Pure: the same input gives the same output locally and on a Dask worker."""
-    from .backends import MB_SINGLES_BELOW, _merge, batch, simulate_many
+    from .backends import batch, simulate_many
 
     backend = st.get("backend", "multibody")
     outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT
@@ -237,12 +237,8 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
         try:
             if backend == "multibody":
                 o = {**batch.DEFAULT_OPTIONS, **st0["options"]}
-                if len(idx) < MB_SINGLES_BELOW:  # a few runs: single runs cost less (same numbers)
-                    res = _merge([batch.simulate([machines[i]], st0["t_end"], record_dt=st0["record_dt"], options=o,
-                                                 models=[models[i]]) for i in idx])
-                else:
-                    res = batch.simulate([machines[i] for i in idx], st0["t_end"], record_dt=st0["record_dt"],
-                                         options=o, nthread=nthread, models=[models[i] for i in idx])
+                res = batch.simulate([machines[i] for i in idx], st0["t_end"], record_dt=st0["record_dt"],
+                                     options=o, nthread=nthread, models=[models[i] for i in idx])
             else:
                 res = simulate_many([machines[i] for i in idx], backend, st0["t_end"], record_dt=st0["record_dt"],
                                     options=st0["options"])

@@ -316,9 +316,9 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
                    margin_mode=margin_mode, margin_angles=margin_angles)
     if backend == "reduced":  # the compiled co-step (numba, same bits) when the planned work pays for loading it
-        from .backends import fused
+        from . import kernel
         h = float(prob.options.get("timestep", scn.simulation.dt))
-        fused.preload((n_global + 3 + max(0, starts) * maxfev) * prob.t_end / h)
+        kernel.preload((n_global + 3 + max(0, starts) * maxfev) * prob.t_end / h)
     base_m, _ = prob.run(prob.x0, baseline=True)
     lim = dict(limits or {})
     lim.setdefault("voltage", base_m["peak_voltage_V"])

@@ -13,9 +13,12 @@ gives 5e-6 m and 4e-2 (measured, tests/test_fourbar_multibody.py).
 """
 from __future__ import annotations
 
+from collections import namedtuple
+
 import mujoco
 import numpy as np
 
+from .. import compiled as C
 from .. import kernel
 from ..errors import ParameterError
 from ..trajectory import Trajectory
@@ -88,7 +91,7 @@ def integrator_name(i):
 
 
 class MultibodyPlant:
-    """One machine's MuJoCo model and data; see the kernel's plant protocol."""
+    """One machine's MuJoCo model and data; its compiled form is :meth:`form` (the kernel's plant slot)."""
 
     nsim = None
 
@@ -96,17 +99,12 @@ class MultibodyPlant:
         o = {**DEFAULT_OPTIONS, **(options or {})}
         self.machine = machine
         self.model = m = model if model is not None else build_model(machine, o)[1]
-        self.data = d = mujoco.MjData(m)
+        self.data = mujoco.MjData(m)
         self.h = float(m.opt.timestep)
         mech = machine.mechanism
         jnt = m.joint(mech.input_joint)
         self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
         self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
-        self._qpos, self._qvel, self._qfrc = d.qpos, d.qvel, d.qfrc_applied
-        self._load = mech.multibody_load if mech.has_multibody_load() else None
-        self._bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
-        self._internal = mech.internal_state if mech.internal else None
-        self.closure = mech.closure_reader(m, d)  # closure() → the loop-closure residual [m]
         self.extra_columns = _extra_names(mech)
         self.meta = {"integrator": integrator_name(m.opt.integrator)}
 
@@ -116,44 +114,165 @@ class MultibodyPlant:
         d.qpos[:] = mc.mechanism.initial_qpos(m, mc.q0, mc.x0)
         d.qvel[:] = mc.mechanism.initial_qvel(m, mc.q0, mc.qd0, mc.x0, mc.xd0)
         mujoco.mj_forward(m, d)
-        # hot-path functions with everything bound as locals (no attribute lookups per step)
-        # memoryviews of MuJoCo's arrays: an element reads as a Python float and is written from one
-        # without a NumPy scalar (≈ 0.1 µs less per access than ndarray indexing)
-        qpos, qvel, qfrc = memoryview(self._qpos), memoryview(self._qvel), memoryview(self._qfrc)
-        qa, va, vd = self._qa, self._va, self._vd
-        load, step = self._load, mujoco.mj_step
 
-        def read():
-            return qpos[qa], qvel[va]
-
+    def form(self):
+        """The plant's compiled form: the held torque into ``qfrc_applied``, the mechanism's MuJoCo
+        loads (its ``load_form``), one ``mj_step`` called through MuJoCo's C address, the state read
+        from ``qpos``/``qvel``; the loop closure from the connect sites, MuJoCo's bad-acceleration
+        warning, the internal coordinates as recorded columns."""
+        m, d, mech = self.model, self.data, self.machine.mechanism
+        _OBJECTS[d._address] = (m, d)
+        step = _mj_step_address() or 0
+        load = mech.load_form(m, d)
+        closure = mech.closure_form(m, d)
+        motor = mech.motor_index(m)  # compliant gear: (qpos, qvel) of the motor's own hinge
+        internal = mech.internal_index(m) if mech.internal else np.zeros((0, 5))
+        P = MujocoP(step, m._address, d._address, d.qpos, d.qvel, d.qfrc_applied, self._qa, self._va,
+                    self._vd, -1 if motor is None else int(motor[0]), -1 if motor is None else int(motor[1]),
+                    d.warning.number, int(mujoco.mjtWarning.mjWARN_BADQACC),
+                    np.ascontiguousarray(internal[:, :4], dtype=np.int64) if internal is not None else None,
+                    np.ascontiguousarray(internal[:, 4], dtype=float) if internal is not None else None,
+                    C.NO_PARAMS if load is None else load.P, closure.P)
+        laws = {"read": mujoco_read, "closure": closure.law, "unstable": mujoco_unstable}
+        if not closure.compiled:
+            laws["closure"] = closure
+        flags = {"nextra": len(self.extra_columns)}
+        if mech.internal:
+            if internal is None:
+                laws["write"] = _python_internal(self)
+            else:
+                laws["write"] = mujoco_internal
         if load is None:
-            def advance(tau, t):
-                qfrc[vd] = tau
-                step(m, d)
-                return qpos[qa], qvel[va]
+            f = C.Form(mujoco_step, P, laws=laws, flags=flags)
         else:
-            def advance(tau, t):
-                qfrc[vd] = tau
-                load(m, d, t)
-                step(m, d)
-                return qpos[qa], qvel[va]
+            f = C.Form(mujoco_step_load, P, laws=laws, flags=flags, fn_args=(load,))
+        if _mj_step_address() is None:
+            f.compiled, f.reason = False, "MuJoCo's mj_step not found in its shared library"
+        elif not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:
+            f.compiled = False
+            f.reason = ("contacts are on: a MuJoCo error inside a compiled step (arena full) could not become "
+                        "a Python exception")
+        return f
 
-        self.read, self.advance = read, advance
-        warn = d.warning[self._bad]  # a live view of MuJoCo's counter
+    def finish(self):
+        _OBJECTS.pop(self.data._address, None)
 
-        def unstable():
-            return warn.number != 0
 
-        self.unstable = unstable
+#: the MuJoCo plant's parameters: mj_step's address, model and data addresses, live views of
+#: qpos, qvel, qfrc_applied, the input joint's qpos/dof and the drive's dof, the motor hinge of a
+#: compliant gear (−1: none), the warning counters and the bad-qacc index, the internal coordinates
+#: (rows qpos a, qpos b, dof a, dof b; x = q_a − c·q_b), the loads' and the closure's parameters
+MujocoP = namedtuple("MujocoP", "step m d qpos qvel qfrc qa va vd qm vm warn bad xi xc load closure")
+#: data address → (model, data): the CPython side of :func:`mj_step_at`
+_OBJECTS: dict = {}
 
-    def extra(self, out):
-        x, xd = self._internal(self.model, self.data.qpos, self.data.qvel)
-        k = len(x)
-        out[:k] = x
-        out[k:] = xd
 
-    def retire(self, mask):  # pragma: no cover - single run: never called
-        pass
+@C.bridge("call_c_pp")
+def mj_step_at(fn, m, d):
+    """MuJoCo's ``mj_step`` on the model and data at these addresses (CPython: through the Python
+    bindings; compiled: a direct C call to the function at address ``fn``)."""
+    model, data = _OBJECTS[d]
+    mujoco.mj_step(model, data)
+
+
+@C.law
+def _motor_offset(P, q, qd):
+    if P.qm < 0:
+        return 0.0, 0.0
+    return P.qpos[P.qm] - q, P.qvel[P.vm] - qd
+
+
+@C.law
+def mujoco_read(P, S):
+    q = P.qpos[P.qa]
+    qd = P.qvel[P.va]
+    dm, dmd = _motor_offset(P, q, qd)
+    return q, qd, dm, dmd
+
+
+@C.law
+def mujoco_step(tau, t, P, S):
+    """The held drive torque on its dof, one ``mj_step``; → (q, q̇, δ, δ̇) at the step's end."""
+    P.qfrc[P.vd] = tau
+    mj_step_at(P.step, P.m, P.d)
+    return mujoco_read(P, S)
+
+
+@C.law
+def mujoco_step_load(LOAD, tau, t, P, S):
+    """:func:`mujoco_step` with the mechanism's own loads written first (``LOAD(t, P_load)``, which
+    adds to the drive torque on the input dof)."""
+    P.qfrc[P.vd] = tau
+    LOAD(t, P.load)
+    mj_step_at(P.step, P.m, P.d)
+    return mujoco_read(P, S)
+
+
+@C.law
+def mujoco_unstable(P, S):
+    """MuJoCo's bad-acceleration warning was raised."""
+    return P.warn[P.bad] != 0
+
+
+@C.law
+def mujoco_internal(out, b, P, S):
+    """The internal coordinates x_i = q_a − c·q_b and their rates into ``out[b:]``."""
+    n = len(P.xc)
+    for i in range(n):
+        out[b + i] = P.qpos[P.xi[i, 0]] - P.xc[i] * P.qpos[P.xi[i, 1]]
+        out[b + n + i] = P.qvel[P.xi[i, 2]] - P.xc[i] * P.qvel[P.xi[i, 3]]
+
+
+@C.law
+def site_pairs_closure(P, S):
+    """The loop-closure residual [m]: the largest |component| of the offsets between the two sites
+    of every ``connect`` equality (``P.closure.sx`` the flat ``site_xpos``, ``.pairs`` flat index
+    pairs; ``P``: the MuJoCo plant's parameters)."""
+    r = 0.0
+    sx = P.closure.sx
+    pairs = P.closure.pairs
+    for p in range(len(pairs)):
+        v = abs(sx[pairs[p, 0]] - sx[pairs[p, 1]])
+        if v > r:
+            r = v
+    return r
+
+
+SitePairsP = namedtuple("SitePairsP", "sx pairs")
+
+
+def _python_internal(plant):
+    mech, m, d = plant.machine.mechanism, plant.model, plant.data
+
+    def write(out, b, P, S):
+        x, xd = mech.internal_state(m, d.qpos, d.qvel)
+        n = len(x)
+        for i in range(n):
+            out[b + i] = float(x[i])
+            out[b + n + i] = float(xd[i])
+    return write
+
+
+_MJ_STEP = None
+
+
+def _mj_step_address():
+    """The C address of MuJoCo's ``mj_step`` in the library the Python bindings loaded (the file
+    beside the package, which the bindings link to), or None where it cannot be found."""
+    global _MJ_STEP
+    if _MJ_STEP is None:
+        import ctypes
+        import glob
+        import os
+
+        here = os.path.dirname(mujoco.__file__)
+        libs = sorted(f for pattern in ("libmujoco.so*", "libmujoco*.dylib", "mujoco.dll")
+                      for f in glob.glob(os.path.join(here, pattern)))
+        try:
+            _MJ_STEP = ctypes.cast(ctypes.CDLL(libs[0]).mj_step, ctypes.c_void_p).value if libs else 0
+        except (OSError, AttributeError):  # pragma: no cover - a wheel without the shared library
+            _MJ_STEP = 0
+    return _MJ_STEP or None
 
 
 def _extra_names(mech):
@@ -163,7 +282,7 @@ def _extra_names(mech):
 
 
 def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 1e-3,
-             options: dict | None = None, model=None, progress=None) -> Trajectory:
+             options: dict | None = None, model=None, progress=None, loop=None) -> Trajectory:
     """Co-simulate ``machine`` on its MuJoCo model for ``t_end`` seconds; returns a Trajectory
     sampled every ``record_dt``.  ``dt`` overrides ``options['timestep']`` (default 1e-4 s)."""
     o = {**DEFAULT_OPTIONS, **(options or {})}
@@ -172,13 +291,11 @@ def simulate(machine, t_end: float, dt: float | None = None, record_dt: float = 
     kernel.check_times(t_end, float(o["timestep"]), record_dt)
     if model is not None and abs(model.opt.timestep - float(o["timestep"])) > 1e-15:
         raise ParameterError(f"model timestep {model.opt.timestep:g} s differs from the requested {o['timestep']:g} s")
-    from . import fused
-
     plant = MultibodyPlant(machine, o, model)
-    rec = fused.try_multibody(plant, t_end, record_dt, progress)  # the compiled loop around mj_step: the same bits
-    if rec is None:
-        rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
-                         backend="multibody")
+    try:
+        rec = kernel.run(plant, machine, t_end, record_dt, progress, backend="multibody", loop=loop)
+    finally:
+        plant.finish()
     return Trajectory.from_record(rec, "multibody")
 
 

@@ -30,11 +30,13 @@ Mechanisms with internal coordinates (the platforms) and ``solve_ivp`` always us
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
+from .. import compiled as C
 from .. import kernel
+from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
 from . import table as _table
 from ..trajectory import Trajectory
@@ -89,6 +91,44 @@ class ReducedPlant:
         nx = self._nx
         self.x = tuple(float(v) for v in (mc.x0 or (0.0,) * nx))
         self.xd = tuple(float(v) for v in (mc.xd0 or (0.0,) * nx))
+
+    def form(self):
+        """The plant's compiled form: RK4 on the mechanism's reduced model (its ``model_form``, the
+        spline table for a rigid crank mechanism); anything else (internal coordinates without a
+        law, ``model = "closed"``, ``solve_ivp``) is a Python adapter of :meth:`advance`."""
+        mech = self._mech
+        flags = {"nextra": len(self.extra_columns)}
+        if self.method == "rk4" and self._nx == 0 and self._table is not None:
+            model = mech.model_form()
+            P = RigidP(self.h, float(self._Ja), float(self._c), model.P)
+            S0 = np.array([float(self.machine.q0), float(self.machine.qd0)])
+            return C.Form(rk4_rigid, P, S0, laws={"read": reduced_read}, flags=flags, fn_args=(model,))
+        return self._python_form(flags)
+
+    def _python_form(self, flags):
+        plant = self
+        compliant = bool(self._nx) and self._mech.internal[-1] == DEFLECTION
+
+        def offset():
+            return (plant.x[-1], plant.xd[-1]) if compliant else (0.0, 0.0)
+
+        def step(tau, t, P, S):
+            q, qd = plant.advance(tau, t)
+            return (q, qd, *offset())
+
+        def read(P, S):
+            return (plant.q, plant.qd, *offset())
+
+        def write(out, b, P, S):
+            n = plant._nx
+            for i in range(n):
+                out[b + i] = plant.x[i]
+                out[b + n + i] = plant.xd[i]
+
+        why = ("solve_ivp" if self.method == "solve_ivp" else
+               "reduced.model = 'closed' (closed forms in Python)" if self._table is None and self._nx == 0 else
+               f"{type(self._mech).__name__} has internal coordinates and no compiled reduced model")
+        return C.python_form(step, why, laws={"read": read, "write": write}, flags=flags)
 
     def read(self):
         return self.q, self.qd
@@ -156,6 +196,8 @@ class ReducedPlant:
             return (qd, qdd, *xd, *xdd)
 
         y0 = (self.q, self.qd, *self.x, *self.xd)
+        from scipy.integrate import solve_ivp
+
         sol = solve_ivp(rhs, (t, t + self.h), y0, method="DOP853", rtol=self.rtol, atol=self.atol)
         if not sol.success:
             raise SimulationDiverged(f"reduced simulation (solve_ivp) failed at t = {t:.6g} s: {sol.message}", t=t)
@@ -206,7 +248,7 @@ def _table_advance(plant, tab, Ja, c, ext):
 
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
              method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12, progress=None,
-             options=None, model: str = "table") -> Trajectory:
+             options=None, model: str = "table", loop=None) -> Trajectory:
     """Run the reduced model of ``machine`` for ``t_end`` s (co-simulation step ``dt``)."""
     if options:
         dt = float(options.get("timestep", dt))
@@ -214,17 +256,45 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    if method == "rk4" and model == "table":
-        from . import fused
-        if fused.usable([machine], float(dt), t_end, progress):  # the compiled loop: the same bits
-            meta = {"method": method, "model": "closed", **_table.table_for(machine.mechanism).describe()}
-            rec = fused.run([machine], t_end, float(dt), record_dt, meta=meta)
-            if not rec.diverged[0]:
-                meta = {k: v for k, v in rec.meta.items() if k != "nsim"}
-                return Trajectory.from_record(kernel.Record(rec.data[0], rec.columns, rec.nrows, rec.diverged,
-                                                            rec.t_diverged, rec.messages, meta), "reduced")
-            # diverged: the Python kernel below raises SimulationDiverged with its message
     plant = ReducedPlant(machine, dt, method, rtol, atol, model)
-    rec = kernel.run(plant, machine.drive, machine.controller, t_end, record_dt, machine.I0, progress,
-                     backend="reduced")
+    rec = kernel.run(plant, machine, t_end, record_dt, progress, backend="reduced", loop=loop)
     return Trajectory.from_record(rec, "reduced")
+
+
+#: the rigid reduced plant's parameters: step, drive inertia J_eq and viscous z²λ, the model's parameters
+RigidP = namedtuple("RigidP", "h Ja c model")
+
+
+@C.law
+def rk4_rigid(MODEL, tau, t, P, S):
+    """One classical RK4 step of α̈ = [τ − c·α̇ + Q_ext − E_p' − ½J'·α̇²] / (J_eq + J) with τ held
+    (S = [α, α̇]); MODEL(q, q̇, t, P.model) → (J, ½J', E_p', Q_ext).  → (α, α̇, 0, 0)."""
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    Ja = P.Ja
+    c = P.c
+    M = P.model
+    q = S[0]
+    qd = S[1]
+    J, H, E, Q = MODEL(q, qd, t, M)
+    a1 = (tau - c * qd + Q - E - H * qd * qd) / (Ja + J)
+    v2 = qd + h2 * a1
+    J, H, E, Q = MODEL(q + h2 * qd, v2, t + h2, M)
+    a2 = (tau - c * v2 + Q - E - H * v2 * v2) / (Ja + J)
+    v3 = qd + h2 * a2
+    J, H, E, Q = MODEL(q + h2 * v2, v3, t + h2, M)
+    a3 = (tau - c * v3 + Q - E - H * v3 * v3) / (Ja + J)
+    v4 = qd + h * a3
+    J, H, E, Q = MODEL(q + h * v3, v4, t + h, M)
+    a4 = (tau - c * v4 + Q - E - H * v4 * v4) / (Ja + J)
+    q1 = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
+    qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    S[0] = q1
+    S[1] = qd1
+    return q1, qd1, 0.0, 0.0
+
+
+@C.law
+def reduced_read(P, S):
+    return S[0], S[1], 0.0, 0.0

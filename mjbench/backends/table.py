@@ -29,10 +29,11 @@ shares one table, a calibration builds one per candidate linkage (≈ 2–5 ms).
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
+from collections import OrderedDict, namedtuple
 
 import numpy as np
 
+from ..compiled import law
 from ..errors import ParameterError
 
 N0 = 1024         #: first grid size tried (doubled until the tolerance is met)
@@ -158,3 +159,36 @@ def floor(x):
         return float(math.floor(x))
     except (ValueError, OverflowError):
         return math.nan
+
+
+# ----------------------------------------------------------------------------- the table as a law
+#: the table's parameters for :func:`table_model`: coefficients (n, 4m) (row j: c₀ of the m
+#: quantities, then c₁, c₂, c₃ of cell j), n cells, k = n/period, m quantities, viscous (4th = D)
+TableP = namedtuple("TableP", "C n k m viscous")
+
+
+def table_params(tab: "ReducedTable") -> TableP:
+    """The parameters of :func:`table_model` for a table."""
+    return TableP(np.ascontiguousarray(tab.coef.T), int(tab.n), float(tab.k), int(tab.m), bool(tab.viscous))
+
+
+@law
+def table_model(q, qd, t, P):
+    """(J, ½J', E_p', Q_ext) at input angle q and speed q̇ from the periodic spline table: one
+    Horner evaluation per quantity in the cell's local coordinate; Q_ext = −D(q)·q̇ when the table
+    carries the viscous D, else 0.  NaN for an angle that is not finite (a diverged run)."""
+    u = q * P.k
+    if not abs(u) < 1e15:
+        return math.nan, math.nan, math.nan, math.nan
+    fl = math.floor(u)
+    f = u - fl
+    j = fl % P.n
+    C = P.C
+    m = P.m
+    J = ((C[j, 3 * m] * f + C[j, 2 * m]) * f + C[j, m]) * f + C[j, 0]
+    H = ((C[j, 3 * m + 1] * f + C[j, 2 * m + 1]) * f + C[j, m + 1]) * f + C[j, 1]
+    E = ((C[j, 3 * m + 2] * f + C[j, 2 * m + 2]) * f + C[j, m + 2]) * f + C[j, 2]
+    if P.viscous:
+        D = ((C[j, 3 * m + 3] * f + C[j, 2 * m + 3]) * f + C[j, m + 3]) * f + C[j, 3]
+        return J, H, E, -D * qd
+    return J, H, E, 0.0

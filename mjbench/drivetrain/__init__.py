@@ -100,6 +100,11 @@ class DriveTrain:
         gear = self.gear if (self.gear is not None and self.gear.compliant) else None
         return DrivenMechanism(mechanism, drive, gear, self.friction)
 
+    # ------------------------------------------------------------------ compiled forms
+    def forms(self, drive, h, every, plant) -> dict:
+        """The elements' forms for the kernel's slots (see :mod:`mjbench.kernel`)."""
+        raise NotImplementedError("drive-train elements are being ported to the compiled kernel")
+
     # ------------------------------------------------------------------ kernel hooks
     def bind(self, plant, drive, controller, h, every, nsim, y) -> Hooks:
         """The hooks of one run (called by the kernel after ``plant.start()``).  ``every``: co-steps per

@@ -231,6 +231,66 @@ class Mechanism(abc.ABC):
             return None
         return tuple((3 * a + j, 3 * c + j) for a, c in pairs for j in range(3))
 
+    # --- compiled forms (the kernel's slots; mjbench.compiled) ---------------------------------
+    def model_form(self):
+        """The reduced model as a law ``MODEL(q, q̇, t, P) → (J, ½J', E_p', Q_ext)`` (a
+        :class:`~mjbench.compiled.Form`), for the rigid reduced plant and model-based controllers.
+
+        Default: the periodic spline table of J, ½J', E_p' and a viscous D
+        (:func:`mjbench.backends.table.table_model`).  A mechanism whose external torque is not
+        viscous overrides this with a law that adds it (e.g. the quick-return's cutting force);
+        without one, a Python adapter of the closed forms (the run is then not compiled)."""
+        from .. import compiled as C
+        from ..backends import table
+
+        if table.supports(self) and not (self.has_external_torque() and self.reduced_viscous(0.0) is None):
+            return C.Form(table.table_model, table.table_params(table.table_for(self)))
+        why = ("its external torque is not viscous and has no law (override model_form)"
+               if table.supports(self) else "its reduced model cannot be tabulated")
+        return C.python_form(_closed_model(self), f"{type(self).__name__}: {why}")
+
+    def load_form(self, model, data):
+        """The MuJoCo loads as a law ``LOAD(t, P)`` writing ``qfrc_applied`` (a Form), or None when
+        the mechanism has none.  Default: a Python adapter of :meth:`multibody_load` (the run is
+        then not compiled); mechanisms with loads override it."""
+        if not self.has_multibody_load():
+            return None
+        from .. import compiled as C
+
+        load = self.multibody_load
+
+        def adapter(t, P):
+            load(model, data, t)
+        return C.python_form(adapter, f"{type(self).__name__}.multibody_load has no law (override load_form)")
+
+    def closure_form(self, model, data):
+        """The loop-closure residual as a law ``CLOSURE(P, S) → m`` (a Form whose ``P`` becomes the
+        MuJoCo plant's ``P.closure``; the law gets the plant's P): the connect sites' offsets when
+        every equality is a site ``connect``
+        (:meth:`closure_site_index`), else a Python adapter of :meth:`closure_error`."""
+        from .. import compiled as C
+        from ..backends.multibody import SitePairsP, site_pairs_closure
+
+        idx = self.closure_site_index(model)
+        if idx is not None:
+            pairs = np.array(idx, dtype=np.int64).reshape(-1, 2)
+            return C.Form(site_pairs_closure, SitePairsP(data.site_xpos.reshape(-1), pairs))
+        err = self.closure_error
+
+        def adapter(P, S):
+            return err(model, data)
+        return C.python_form(adapter, f"{type(self).__name__}.closure_error has no law")
+
+    def motor_index(self, model):
+        """(qpos, dof) of the motor's own hinge when the drive acts through a compliant gear, else None."""
+        return None
+
+    def internal_index(self, model):
+        """The internal coordinates in the MuJoCo model as rows (qpos a, qpos b, dof a, dof b, c):
+        x = q_a − c·q_b (an (n, 5) array), or None if they are not of that form (a Python adapter of
+        :meth:`internal_state` then records them)."""
+        return None
+
     def multibody_load(self, model, data, t: float) -> None:
         """Write external loads of the mechanism into ``data.qfrc_applied`` (default none).
         ``qfrc_applied[input]`` already holds the drive torque: add to it, do not replace it."""
@@ -252,6 +312,14 @@ class Mechanism(abc.ABC):
         """Parameters as a plain dict (manifests, model cache keys)."""
         return {"type": self.type_name,
                 **{k: v for k, v in vars(self).items() if not k.startswith("_")}}
+
+
+def _closed_model(mech):
+    """MODEL(q, q̇, t, P) from the closed forms (Python only)."""
+    def model_law(q, qd, t, P):
+        J, dJ, dEp = mech.reduced(q)
+        return float(J), 0.5 * float(dJ), float(dEp), float(mech.external_torque(q, qd, t))
+    return model_law
 
 
 def connect_site_pairs(model) -> list:

@@ -550,8 +550,8 @@ def _preload(backend, evaluations, dt):
     """Load the compiled co-step (numba; same bits) when the planned reduced-model work pays for it:
     every evaluation is an open-loop and a PID run of ≥ 0.5 s each."""
     if backend == "reduced":
-        from mjbench.backends import fused
-        fused.preload(evaluations * 2 * 0.5 / dt)
+        from mjbench import kernel
+        kernel.preload(evaluations * 2 * 0.5 / dt)
 
 
 def calibrate(scn, names=DEFAULT_PARAMS, starts=6, dt=1e-3, max_nfev=30, seed=0, n_screen=256,
