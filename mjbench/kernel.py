@@ -431,8 +431,10 @@ class Program:
 
     @property
     def key(self) -> tuple:
-        """The composition: slot laws and flags (runs with the same key share one loop)."""
-        return (tuple((s, self.slots[s].key) for s in SLOTS), tuple((f, self.flags[f]) for f in FLAGS))
+        """The composition: slot laws (names and function objects) and flags (runs with the same
+        key share one loop)."""
+        return (tuple((s, self.slots[s].key, self.slots[s].ident) for s in SLOTS),
+                tuple((f, self.flags[f]) for f in FLAGS))
 
     def env(self) -> dict:
         """Globals of the CPython loop for this composition (flags and slot functions)."""
@@ -483,7 +485,7 @@ def python_loop(program: Program):
         env = {**globals(), **program.env()}
         fn = types.FunctionType(_loop.__code__, env, "_loop")
         if program.compiled:
-            _PY_LOOPS[key] = fn
+            _PY_LOOPS[key] = fn  # (its globals hold the laws: their ids in the key stay unique)
     return fn
 
 
@@ -619,11 +621,64 @@ class Stepper:
         return self.n
 
     def message(self, backend: str = "") -> str:
-        """The divergence message (time, state, the controller's hint)."""
+        """The divergence message: time and state, then the likely cause (:func:`diagnose`), else
+        the controller's own hint (``divergence_hint``, e.g. the K_p·t ramp)."""
         d = self.div
-        hint_fn = getattr(self.machine.controller, "divergence_hint", None)
-        hint = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
-        return _message(backend, *d[1:6], hint)
+        cause = diagnose(self.machine, self.h)
+        if not cause:
+            hint_fn = getattr(self.machine.controller, "divergence_hint", None)
+            cause = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
+        return _message(backend, *d[1:6], cause)
+
+
+def input_inertia(machine, n: int = 16) -> tuple[float, float]:
+    """(smallest, largest) inertia at the input coordinate, J_eq + J(q) over n angles of one
+    period [kg·m²] (the mechanism's closed forms; the drive's reflected J_eq)."""
+    mech, drive = machine.mechanism, machine.drive
+    period = getattr(mech, "reduced_period", None) or 2.0 * math.pi
+    J = []
+    for q in np.linspace(0.0, period, n, endpoint=False):
+        try:
+            J.append(float(mech.reduced(float(q))[0]))
+        except Exception:  # noqa: BLE001 - a pose the linkage cannot take: skip it
+            continue
+    Jeq = float(drive.J_eq)
+    if not J:
+        return Jeq, Jeq
+    return Jeq + min(J), Jeq + max(J)
+
+
+def check_machine(machine) -> None:
+    """Refuse, before simulating, a machine with nothing to accelerate: J_eq + J(q) ≤ 0 (all
+    masses and inertias zero) — its acceleration would be a division by zero."""
+    jmin, jmax = input_inertia(machine)
+    if not jmax > 0.0:
+        raise ParameterError(f"the machine has no inertia at its input (J_eq + J(q) = {jmax:g} kg·m²: drive.J_m, "
+                             f"J_a, J_b and every mass and inertia of the mechanism are zero): give the drive or the "
+                             f"mechanism some inertia")
+
+
+def diagnose(machine, h: float) -> str:
+    """The likely cause of a divergence from the machine itself ('' if none is recognised):
+    an initial current beyond the amplifier's limit; a mechanical time constant J·R/(z·k_m)²
+    (J the smallest input inertia) below 2·h, i.e. an inertia too small for the step (or a unit
+    slip in the inertias)."""
+    drive = machine.drive
+    I0, imax = abs(float(machine.I0)), float(drive.i_max)
+    if I0 > imax:
+        return (f" Likely cause: initial.I0 = {machine.I0:g} A is beyond the amplifier's current limit "
+                f"drive.i_max = {imax:g} A.")
+    if abs(float(machine.I0)) > 10.0 * max(abs(float(getattr(drive, "v_max", math.inf)) / float(drive.R)), 0.0):
+        return (f" Likely cause: initial.I0 = {machine.I0:g} A is far beyond the stall current v_max/R = "
+                f"{float(drive.v_max) / float(drive.R):g} A.")
+    jmin, _ = input_inertia(machine)
+    k = float(drive.z) * float(drive.k_m)
+    tau_m = jmin * float(drive.R) / (k * k) if k > 0 else math.inf
+    if tau_m < 2.0 * h:
+        return (f" Likely cause: the smallest inertia at the input, J_eq + J(q) = {jmin:.3g} kg·m², gives a mechanical "
+                f"time constant J·R/(z·k_m)² = {tau_m:.3g} s below 2·dt = {2 * h:g} s: the inertia is too small for the "
+                f"step (a unit slip in a mass or inertia?), or reduce simulation.dt.")
+    return ""
 
 
 def run(plant, machine, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
@@ -655,7 +710,12 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     nrec = nsteps // decim + 1
     N = len(machines)
     progs = []
+    checked = set()
     for pl, mc in zip(plants, machines):
+        key = id(mc.mechanism), id(mc.drive)
+        if key not in checked:
+            check_machine(mc)
+            checked.add(key)
         if abs(float(pl.h) - h) > 1e-15 * h:
             raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
         pl.start()

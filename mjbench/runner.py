@@ -65,6 +65,9 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
                                                    steady_from=mt.steady_start)
                                       for b, tr in trajs.items()}}
     res["reduced_model"] = reduced_source(scn)
+    # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
+    res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
+                   for b, tr in trajs.items()}
     if scn.law is not None and S.make_mechanism(scn).internal:
         # a motion law run by a real motor + servo (seeds 001/003 machines): residual vibration
         from .vibration import residual_from_trajectory

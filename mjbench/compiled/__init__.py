@@ -119,6 +119,12 @@ class Form:
         return functools.partial(self.law, *(f.bound() for f in self.fn_args))
 
     @property
+    def ident(self) -> tuple:
+        """The function objects of this form (their ids): a law re-defined in this process (an
+        edited module re-imported) is a new composition even under the same name."""
+        return (id(self.law),) + tuple(i for f in self.fn_args for i in f.ident)
+
+    @property
     def key(self) -> str:
         """The composition this form stands for (its law and its function arguments' laws)."""
         k = qualname(self.law)

@@ -27,6 +27,7 @@ AVAILABLE = importlib.util.find_spec("numba") is not None
 _LOCK = threading.Lock()
 _READY = False
 _LOOPS: dict = {}
+_KEEP: list = []
 _FINGERPRINT = None
 
 
@@ -133,6 +134,7 @@ def loop_for(program, loop_fn):
         fn = _LOOPS.get(key)
         if fn is None:
             fn = _LOOPS[key] = _build(program, loop_fn)
+            _KEEP.append(dict(program.slots))  # the key holds the laws' ids: keep them alive
     return fn
 
 
