@@ -3,22 +3,52 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 
 from .errors import MjbenchError
 
 
-def build_parser():
+#: subcommand → the module of ``mjbench.commands`` that registers it: a command imports only its
+#: own module (a command costs its work, not every other command's imports); tests/test_cli.py
+#: checks this table against the modules' own registrations
+COMMAND_MODULES = {
+    "analyze": "analyze", "calibrate": "calibrate", "demand": "check_reference", "demo": "demo",
+    "design": "design", "identify": "identify", "linearize": "linearize", "optimize-law": "optimize_law",
+    "render": "render", "reproduce": "reproduce", "run": "run", "list": "run", "sweep": "sweep", "tune": "tune",
+}
+
+
+#: the commands that render with MuJoCo's OpenGL context (the others import MuJoCo without it)
+GL_COMMANDS = {"render", "reproduce", "demo"}
+
+
+def _command_in(argv) -> str | None:
+    """The subcommand named in argv (the first word that is not an option), if any."""
+    for a in argv:
+        if not a.startswith("-"):
+            return a
+    return None
+
+
+def build_parser(argv=None):
+    """The parser; with ``argv`` naming a known subcommand only that command's module is imported
+    (help and unknown commands import every command module)."""
     p = argparse.ArgumentParser(prog="mjbench", description=(
         "MuJoCo testbed for motor-driven mechanisms under feedback control. "
         "Scenarios are built-in names (see `mjbench list`) or TOML files."))
     p.add_argument("--version", action="version", version=f"mjbench {version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    from . import commands
-    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
-        mod = importlib.import_module(f"mjbench.commands.{info.name}")
+    cmd = _command_in(argv) if argv is not None else None
+    if cmd in COMMAND_MODULES:
+        names = [COMMAND_MODULES[cmd]]
+    else:
+        from . import commands
+        names = [i.name for i in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name)]
+    for name in names:
+        mod = importlib.import_module(f"mjbench.commands.{name}")
         if hasattr(mod, "register"):
             mod.register(sub)
     return p
@@ -35,13 +65,30 @@ def version() -> str:
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    from . import outputs
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["--version"]:
+        print(f"mjbench {version()}")
+        return 0
     from .render import check_gl_env
+
+    check_gl_env()  # a MUJOCO_GL typo is replaced (with a warning) before MuJoCo is imported
+    cmd = _command_in(argv)
+    gl = os.environ.get("MUJOCO_GL")
+    if cmd in COMMAND_MODULES and cmd not in GL_COMMANDS and "mujoco" not in sys.modules:
+        os.environ["MUJOCO_GL"] = "disable"  # no PyOpenGL for a command that never renders
+    try:
+        args = build_parser(argv).parse_args(argv)
+        if os.environ.get("MUJOCO_GL") == "disable" and gl != "disable":
+            import mujoco  # noqa: F401 - imported once without its GL context
+    finally:
+        if gl is None:
+            os.environ.pop("MUJOCO_GL", None)
+        else:
+            os.environ["MUJOCO_GL"] = gl
+    from . import outputs
 
     restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
     try:
-        check_gl_env()
         if not getattr(args, "gl", False):  # render/reproduce/demo choose the OpenGL backend first
             outputs.route_mujoco_log()
         return int(args.func(args) or 0)
@@ -49,7 +96,6 @@ def main(argv=None) -> int:
         print(f"mjbench: error: {e}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. `mjbench list | head`
-        import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except KeyboardInterrupt as e:

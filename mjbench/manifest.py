@@ -13,15 +13,24 @@ from . import outputs
 
 
 def versions() -> dict:
-    import matplotlib
+    """Versions of mjbench and the libraries a run depends on (installed distributions' metadata:
+    a run need not import matplotlib or scipy to state their versions)."""
     import mujoco
-    import scipy
 
     from . import __version__
 
     return {"mjbench": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
-            "scipy": scipy.__version__, "matplotlib": matplotlib.__version__,
+            "scipy": _dist_version("scipy"), "matplotlib": _dist_version("matplotlib"),
             "python": sys.version.split()[0], "platform": platform.platform()}
+
+
+def _dist_version(name: str) -> str | None:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return None
 
 
 def git_commit() -> str | None:

@@ -2,23 +2,24 @@
 voltage, current, mechanical and electrical power; every backend that ran drawn together."""
 from __future__ import annotations
 
-import matplotlib
+import sys
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from .plotstyle import BACKEND as BACKEND_STYLE  # noqa: E402
-from .plotstyle import SETPOINT, context  # noqa: E402
-from .trajectory import atomic_write  # noqa: E402
+from .plotstyle import BACKEND as BACKEND_STYLE
+from .plotstyle import SETPOINT, context
+from .trajectory import atomic_write
 
 MODE_TITLE = {"open": "open loop", "pid": "closed loop (PID)", "smc": "sliding-mode control"}
 
 
-def save(fig, path, dpi=130):
-    """Save a figure atomically (complete file or none) and close it."""
+def save(fig, path, dpi=130, tight=True):
+    """Save a figure atomically (complete file or none) and close it.  ``tight=False`` for a figure
+    already laid out (``tight_layout``): one draw instead of two."""
     fmt = str(path).rsplit(".", 1)[-1]
-    atomic_write(path, lambda f: fig.savefig(f, format=fmt, dpi=dpi, bbox_inches="tight"), mode="wb")
-    plt.close(fig)
+    atomic_write(path, lambda f: fig.savefig(f, format=fmt, dpi=dpi, bbox_inches="tight" if tight else None),
+                 mode="wb")
+    plt = sys.modules.get("matplotlib.pyplot")  # a figure made by pyplot is released there too
+    if plt is not None:
+        plt.close(fig)
     return path
 
 
@@ -35,8 +36,10 @@ def _fig4(runs, path, setpoint, title, chi):
     first = next(iter(next(iter(runs.values())).values()))
     extra = [c for c in first.columns[11:] if c.endswith("_rad") and not c.endswith("_rate_rad")]
     nrow = 4 + len(extra)
-    fig, axes = plt.subplots(nrow, len(modes), figsize=(5.2 * len(modes), 10.5 + 2.4 * len(extra)), sharex="col",
-                             squeeze=False)
+    from matplotlib.figure import Figure  # no pyplot: a run's figure costs its drawing, not pyplot's import
+
+    fig = Figure(figsize=(5.2 * len(modes), 10.5 + 2.4 * len(extra)))
+    axes = fig.subplots(nrow, len(modes), sharex="col", squeeze=False)
     letters = "abcdefgh"
     for j, mode in enumerate(modes):
         col = axes[:, j]
@@ -71,4 +74,4 @@ def _fig4(runs, path, setpoint, title, chi):
     if title:
         fig.suptitle(title, fontsize=11)
     fig.tight_layout()
-    return save(fig, path)
+    return save(fig, path, tight=False)

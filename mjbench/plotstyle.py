@@ -15,7 +15,6 @@ import contextlib
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 
 RC = {
     "font.family": "DejaVu Sans",

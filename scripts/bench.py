@@ -5,13 +5,11 @@ Each module in scripts/bench_parts/ defines ``run(args) -> list[(name, value, de
 Prints a human-readable table, then one machine-readable ``name=value`` line per figure.
 Usage: python scripts/bench.py [--only PART ...] [--repeat N]
 
-Every figure is the Python co-step kernel's (``MJBENCH_FUSED=0``: the compiled co-step is used by
-default once numba is loaded, which would make a part's figures depend on the parts run before
-it); the rows named ``*fused*`` measure the compiled co-step (mjbench/backends/fused.py) explicitly.
+Runs are on the compiled co-step loop (mjbench.kernel, numba; each part loads it first) unless a
+row says otherwise; the CPython loop is the reference of the tests, not of the benchmarks.
 """
 import argparse
 import importlib
-import os
 import pkgutil
 import sys
 from pathlib import Path
@@ -30,7 +28,6 @@ def main():
     if args.only:
         names = [n for n in names if n in args.only]
     rows = []
-    os.environ["MJBENCH_FUSED"] = "0"  # see the module doc; parts switch it on for their *fused* rows only
     for n in names:
         mod = importlib.import_module(f"bench_parts.{n}")
         print(f"== {n}: {(mod.__doc__ or '').strip().splitlines()[0] if mod.__doc__ else ''}", flush=True)
