@@ -158,6 +158,13 @@ class DCMotorDrive:
         return DriveStep(float(self.R), float(self.k_m), float(self.z), float(self.T_0), float(self.lam),
                          float(self._w), float(self._decay), float(self.i_max))
 
+    def form(self, h: float) -> "C.Form":
+        """The drive's compiled form for the kernel: its parameters at step h and its laws
+        (``mean``: :func:`current_mean`, ``torque``: :func:`motor_torque`, ``step``:
+        :func:`current_step`, ``record``: :func:`drive_torque`)."""
+        return C.Form(current_mean, self.step_params(h), laws={"mean": current_mean, "torque": motor_torque,
+                                                               "step": current_step, "record": drive_torque})
+
     def forms(self, h: float, every: int, plant) -> dict:
         """The compiled forms of the drive-train elements for the kernel's slots ({} = ideal)."""
         if self.train is None:

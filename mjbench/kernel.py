@@ -43,6 +43,9 @@ Slot signatures (P: the component's parameter tuple, S: its state array):
 * ``CLOOP(n, i*, I, P, S) → V``; ``AMP(t, I, V, φ̇₀, P, S) → (Ī, I_end, V_bridge, I_min, I_max)``
   (averaged: ``AMP(t, I, V, φ̇₀, P, S) → V_bridge``); ``AMP_END(I_end, φ̇₀, φ̇̄, P) → I₊``;
   ``EFF(T_m, φ̇, P) → T``;
+* the drive's ``DMEAN(I, V, φ̇, P) → Ī`` (step-mean current), ``DTORQUE(Ī, φ̇, P) → T_m`` (motor
+  torque without its viscous part), ``DSTEP(I, V, φ̇̄, P) → I₊``, ``DREC(I, φ̇, P)`` (recorded crank
+  torque); P has at least ``z`` and ``k_m``;
 * ``PLANT(τ, t, P, S) → (q, q̇, δ, δ̇)``; ``READ(P, S)`` the same at the start;
   ``CLOSURE(P, S) → m``; ``UNSTABLE(P, S) → bool``; ``PWRITE(out, b, P, S)`` the plant's recorded
   columns.
@@ -65,7 +68,6 @@ from controllers.base import Measurement
 
 from . import compiled as C
 from .compiled import clip, isfinite
-from .drive import current_mean, current_step, drive_torque, motor_torque
 from .errors import ParameterError, SimulationDiverged
 from .trajectory import NAMES
 
@@ -140,6 +142,7 @@ AMP_MODE = 0  # 0 ideal, 1 averaged (V → bridge V), 2 switching (the current w
 NEXTRA = 0  # plant columns
 SENSE_COLS = AMP_COLS = MINMAX_COLS = IREF_COL = False
 SENSE = REF = CTRL = CLOOP = AMP = AMP_END = EFF = PLANT = CLOSURE = UNSTABLE = PWRITE = None
+DMEAN = DTORQUE = DSTEP = DREC = None  # the drive's laws (a DC motor: mjbench.drive)
 
 
 def _loop(n0, n1, K, X):
@@ -236,7 +239,7 @@ def _loop(n0, n1, K, X):
             out[b + 4] = w
             out[b + 5] = I
             out[b + 6] = volt
-            out[b + 7] = drive_torque(I, w, Pd)
+            out[b + 7] = DREC(I, w, Pd)
             out[b + 8] = k_m * I * w
             out[b + 9] = volt * I
             out[b + 10] = CLOSURE(Pp, Sp) if HAS_CLOSURE else 0.0
@@ -277,8 +280,8 @@ def _loop(n0, n1, K, X):
                 Vb = AMP(t, I, V, w0, Pamp, Samp)
             else:
                 Vb = V
-            Ibar = current_mean(I, Vb, w0, Pd)
-        Tm = motor_torque(Ibar, w0, Pd)
+            Ibar = DMEAN(I, Vb, w0, Pd)
+        Tm = DTORQUE(Ibar, w0, Pd)
         if HAS_EFF:
             Tm = EFF(Tm, w0, Peff)
         q1, qd1, dm, dmd = PLANT(z * Tm, t, Pp, Sp)
@@ -287,7 +290,7 @@ def _loop(n0, n1, K, X):
         if AMP_MODE == 2:
             I = AMP_END(Iend, w0, wm, Pamp)
         else:
-            I = current_step(I, Vb, wm, Pd)
+            I = DSTEP(I, Vb, wm, Pd)
         q = q1
         qd = qd1
         n += 1
@@ -314,7 +317,8 @@ def _loop(n0, n1, K, X):
 # =============================================================================== composition
 FLAGS = ("HAS_SENSE", "HAS_REF", "HAS_DELAY", "HAS_CLOOP", "HAS_EFF", "HAS_CLOSURE", "HAS_UNSTABLE",
          "AMP_MODE", "NEXTRA", "SENSE_COLS", "AMP_COLS", "MINMAX_COLS", "IREF_COL")
-SLOTS = ("SENSE", "REF", "CTRL", "CLOOP", "AMP", "AMP_END", "EFF", "PLANT", "CLOSURE", "UNSTABLE", "PWRITE")
+SLOTS = ("DMEAN", "DTORQUE", "DSTEP", "DREC", "SENSE", "REF", "CTRL", "CLOOP", "AMP", "AMP_END", "EFF", "PLANT",
+         "CLOSURE", "UNSTABLE", "PWRITE")
 
 
 @C.law
@@ -355,7 +359,10 @@ class Program:
         ``every`` steps: every component contributes its form (``form(...)`` methods)."""
         pr = cls()
         drive, ctrl = machine.drive, machine.controller
-        pr.drive = drive.step_params(h)
+        df = drive.form(h)  # the drive's laws: step-mean current, motor torque, current update, recorded torque
+        pr.drive = df.P
+        for slot, name in (("DMEAN", "mean"), ("DTORQUE", "torque"), ("DSTEP", "step"), ("DREC", "record")):
+            pr.use(slot, df.laws[name], "drive")
         dforms = drive.forms(h, every, plant)  # the drive train's elements (empty: ideal)
         pr.u_lim = dforms.get("limit", (-float(drive.v_max), float(drive.v_max)))
         parts = {}

@@ -91,7 +91,10 @@ def test_loop_choice_is_recorded_with_its_reason(monkeypatch):
     mc.controller = Custom()
     tr = simulate(mc, "reduced", 0.01, loop="compiled")
     assert tr.meta["loop"] == "python" and "Custom has no compiled form" in tr.meta["loop_reason"]
-    mode, why = kernel.choose_loop(kernel.Program.build(reduced.ReducedPlant(_machine()), _machine(), 1e-4, 1), 10.0)
+    mc = _machine()
+    plant = reduced.ReducedPlant(mc)
+    plant.start()
+    mode, why = kernel.choose_loop(kernel.Program.build(plant, mc, 1e-4, 1), 10.0)
     assert (mode, "pays" in why or "already loaded" in why) in (("python", False), ("compiled", True))
 
 

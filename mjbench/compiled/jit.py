@@ -200,8 +200,7 @@ def _specialise(name, fn, argn, mods):
 def _build(program, loop_fn):
     flags = program.flags
     header = ["import numba", "from mjbench.kernel import MAX_SPEED, MAX_CURRENT",
-              "from mjbench.compiled import clip, isfinite",
-              "from mjbench.drive import current_mean, current_step, drive_torque, motor_torque", ""]
+              "from mjbench.compiled import clip, isfinite", ""]
     header += [f"{f} = {flags[f]!r}" for f in sorted(flags)]
     inmemory = {}
     mods = set()
