@@ -22,7 +22,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
-bench: $(STAMP)
+# the bench also measures against Exudyn (optional extra `bench`, part scripts/bench_parts/exudyn.py)
+$(VENV)/.installed-bench: $(STAMP)
+	$(BIN)/pip install --quiet -e ".[test,dask,fast,bench]"
+	touch $@
+
+bench: $(VENV)/.installed-bench
 	$(BIN)/python scripts/bench.py
 
 clean:
