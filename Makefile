@@ -11,7 +11,7 @@ $(BIN)/python:
 
 $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e ".[test,dask,fast]"
+	$(BIN)/pip install --quiet -e ".[test,dask,fast,fmi]"
 	touch $(STAMP)
 
 install: $(STAMP)

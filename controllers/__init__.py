@@ -1,6 +1,7 @@
 """Controllers: small objects with a sample period, ``reset()`` and one call per control sample.
 
-``u = controller(t, y)`` returns the armature voltage [V] from a :class:`Measurement` y; the
+``u = controller(t, y)`` returns the armature voltage [V] from a :class:`Measurement` y by running
+the controller's law (one scalar function the co-step kernel also runs, compiled or not); the
 protocol is in :mod:`controllers.base`.  Registry: ``[modes.NAME] type = T`` → the class
 registered under T (built-ins imported lazily; :func:`register` adds one).
 """
@@ -12,7 +13,8 @@ from .base import Controller, Measurement
 
 #: built-in controller types → module
 BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
-           "servo": "controllers.servo"}
+           "servo": "controllers.servo",
+           "fmu": "controllers.fmu"}
 
 _REGISTRY: dict[str, type[Controller]] = {}
 

@@ -17,6 +17,7 @@ COMMAND_MODULES = {
     "analyze": "analyze", "calibrate": "calibrate", "demand": "check_reference", "demo": "demo",
     "design": "design", "identify": "identify", "linearize": "linearize", "optimize-law": "optimize_law",
     "render": "render", "reproduce": "reproduce", "run": "run", "list": "run", "sweep": "sweep", "tune": "tune",
+    "export-fmu": "export_fmu", "frest": "frest",
 }
 
 
@@ -32,10 +33,21 @@ def _command_in(argv) -> str | None:
     return None
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with mjbench's error format: ONE line ``mjbench: error: --opt: what is wrong (see
+    mjbench CMD --help)`` on stderr and exit status 2 (docs/outputs.md), instead of the usage block
+    plus a line.  Subcommand parsers are of the same class (``add_subparsers`` uses the parent's)."""
+
+    def error(self, message):
+        msg = message[len("argument "):] if message.startswith("argument ") else message
+        sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        self.exit(2, f"mjbench: error: {msg} (see mjbench {sub + ' ' if sub else ''}--help)\n")
+
+
 def build_parser(argv=None):
     """The parser; with ``argv`` naming a known subcommand only that command's module is imported
     (help and unknown commands import every command module)."""
-    p = argparse.ArgumentParser(prog="mjbench", description=(
+    p = Parser(prog="mjbench", description=(
         "MuJoCo testbed for motor-driven mechanisms under feedback control. "
         "Scenarios are built-in names (see `mjbench list`) or TOML files."))
     p.add_argument("--version", action="version", version=f"mjbench {version()}")
@@ -77,7 +89,12 @@ def main(argv=None) -> int:
     if cmd in COMMAND_MODULES and cmd not in GL_COMMANDS and "mujoco" not in sys.modules:
         os.environ["MUJOCO_GL"] = "disable"  # no PyOpenGL for a command that never renders
     try:
-        args = build_parser(argv).parse_args(argv)
+        try:
+            args = build_parser(argv).parse_args(argv)
+        except SystemExit as e:  # a bad command line (Parser.error): exit 2; --help exits 0 as usual
+            if e.code == 2:
+                return 2
+            raise
         if os.environ.get("MUJOCO_GL") == "disable" and gl != "disable":
             import mujoco  # noqa: F401 - imported once without its GL context
     finally:
@@ -98,12 +115,33 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # e.g. `mjbench list | head`
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as e:  # the environment: disk full, a file that vanished, permissions (no traceback)
+        print(f"mjbench: error: {os_error_text(e)}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("mjbench: error: out of memory: the command needs more memory than is available (shorten the "
+              "run, raise simulation.record_dt, or use fewer points/rows)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as e:
         signum = getattr(e, "signum", 2)
         print(f"mjbench: interrupted ({'SIGTERM' if signum == 15 else 'SIGINT'})", file=sys.stderr)
         return 128 + signum
     finally:
         restore()
+
+
+def os_error_text(e: OSError) -> str:
+    """One line for an operating-system error: what failed, on which file, and what to do."""
+    import errno
+
+    where = f" ({e.filename})" if getattr(e, "filename", None) else ""
+    what = e.strerror or str(e) or type(e).__name__
+    if e.errno in (errno.ENOSPC, errno.EDQUOT):
+        return (f"cannot write the outputs{where}: {what}; nothing was left half-written (free some space, or "
+                f"choose an --out on another disk)")
+    if e.errno == errno.EROFS:
+        return f"cannot write the outputs{where}: {what}; choose an --out on a writable disk"
+    return f"{what}{where}"
 
 
 if __name__ == "__main__":
