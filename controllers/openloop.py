@@ -1,9 +1,8 @@
 """Open loop: a constant (or ramped) armature voltage (seed 000 Fig. 4, left column)."""
 from __future__ import annotations
 
-from typing import Literal
-
 from collections import namedtuple
+from typing import Literal
 
 from pydantic import Field
 
@@ -52,3 +51,13 @@ class ConstantVoltage(Controller):
 
     def parameters(self, T, z):
         return OpenP(float(self.voltage), float(self.t_ramp))
+
+    def linear(self, machine, op, T, h, angle="state"):
+        """None: open loop, no feedback to linearise (the plant alone is the system)."""
+        return None
+
+    def running_speed(self, machine, q):
+        """The constant-inertia steady speed at the voltage: V·k_m·z / (R·z²λ + (k_m·z)²) [rad/s]."""
+        d = machine.drive
+        km, z = float(d.k_m), float(d.z)
+        return float(self.voltage) * km * z / (float(d.R) * float(d.crank_damping) + (km * z) ** 2)

@@ -19,7 +19,9 @@ is moved into the windup offset φ_w (state ``offset``) instead of the integral.
 saturation φ_w stays 0 and the law is exactly Eq 16.  ``v_limit=None`` disables both (the
 backend's drive limiter still applies).
 
-State (``STATE``): ``offset`` φ_w [rad], ``epos_prev`` the previous angle error [rad].
+State (``STATE``): ``offset`` φ_w [rad], ``epos_prev`` the previous angle error [rad],
+``started`` (1 once ``epos_prev`` holds a sample).  The law is :func:`pid_law`; its linear
+counterpart (:meth:`PID.linear`) is :func:`mjbench.linear.pid_law` with K_p(t*) frozen.
 """
 from __future__ import annotations
 
@@ -153,6 +155,22 @@ class PID(Controller):
         if self.kp_ramp:
             return self.kp * np.minimum(t, self.t_ramp_max)
         return self.kp
+
+    # ------------------------------------------------------------------ capabilities
+    def linear(self, machine, op, T, h, angle="state"):
+        """Eq 16 with K_p(t*) frozen at the operating point's time: :func:`mjbench.linear.pid_law`."""
+        from mjbench import linear as LN
+
+        return LN.pid_law(float(np.asarray(self.gain_p(op.t))), float(self.ki), float(self.kd),
+                          float(machine.drive.z), T, h)
+
+    def hold_offset(self, machine, op):
+        """K_i·z·q_off = V* (the integral term alone holds the point: no speed or acceleration error)."""
+        kp = float(np.asarray(self.gain_p(op.t)))
+        if kp != float(np.asarray(self.gain_p(op.t + 1.0))):
+            raise ParameterError("step_check: K_p·t changes during the run; use a constant K_p (kp_ramp = false)")
+        z = float(machine.drive.z)
+        return op.V / (float(self.ki) * z) if float(self.ki) else 0.0
 
     def divergence_hint(self, t, h):
         """Explanation appended to a divergence error (seed 000 errata: the unbounded K_p·t)."""

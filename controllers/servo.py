@@ -10,16 +10,20 @@ mechanism's rigid J(q)/z² at q = 0; ``"auto"``).  The velocity integral is a re
 sample period, frozen while the output is clipped (v_limit).  Used to show how a real servo
 departs from the ideal-servo hypothesis of seeds 001/003.
 
-State (``STATE``): ``integ`` the velocity-loop integral [V], ``t_prev`` the previous sample time.
-Gains may be scalars or (nsim,) arrays.
+The law is :func:`servo_law`; the reference (a motion law, ``controllers/references/law.py``)
+reaches it through the kernel's REF slot.  State (``STATE``): ``integ`` the velocity-loop
+integral [V], ``t_prev`` the previous sample time [s] (NaN before the first sample).
 """
 from __future__ import annotations
 
+import math
+from collections import namedtuple
 from typing import Annotated, Literal, Union
 
 import numpy as np
 from pydantic import Field
 
+from mjbench.compiled import clip, law
 from mjbench.errors import ParameterError
 from mjbench.schema import OptQ, Q, Strict
 
@@ -45,20 +49,45 @@ class ServoParams(Strict):
         Field(default_factory=LawReferenceParams)
 
 
+#: the servo law's parameters (gains on the motor shaft, output clip, gear ratio)
+ServoP = namedtuple("ServoP", "kpp kvp kvi kffv kffa v_limit z")
+
+
+@law
+def servo_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+    """Cascade P-position / PI-velocity with feed-forward (module docstring), motor side (φ = z·q).
+    S = [integral [V], previous sample time (NaN before the first)]: the rectangle rule over the
+    measured sample interval, frozen while the output is clipped (conditional integration)."""
+    z = P.z
+    om_cmd = om_r + P.kpp * (phi_r - z * q)
+    e_v = om_cmd - z * qd
+    dt = 0.0 if math.isnan(S[1]) else t - S[1]
+    S[1] = t
+    u_noint = P.kffv * om_r + P.kffa * acc_r + P.kvp * e_v
+    inc = P.kvi * e_v * dt
+    u = u_noint + S[0] + inc
+    vl = P.v_limit
+    if (u > vl and inc > 0.0) or (u < -vl and inc < 0.0):  # vl = inf: never
+        u -= inc  # conditional integration (anti-windup)
+    else:
+        S[0] += inc
+    return clip(u, -vl, vl)
+
+
 @register
 class CascadeServo(Controller):
     type_name = "servo"
     Params = ServoParams
     STATE = ("integ", "t_prev")
+    law = servo_law
 
     def __init__(self, reference, kpp, kvp, kvi, kffv=0.0, kffa=0.0, v_limit=None, period=0.0):
         self.reference = reference
         for name, v in (("kpp", kpp), ("kvp", kvp), ("kvi", kvi), ("kffv", kffv), ("kffa", kffa)):
-            if not np.all(np.isfinite(v)):
-                raise ParameterError(f"servo {name} = {v!r}: must be finite")
-        # gains stay as given: floats, or (nsim,) arrays in a batch
-        self.kpp, self.kvp, self.kvi = kpp, kvp, kvi
-        self.kffv, self.kffa = kffv, kffa
+            if not (np.ndim(v) == 0 and math.isfinite(float(v))):
+                raise ParameterError(f"servo {name} = {v!r}: must be a finite number")
+        self.kpp, self.kvp, self.kvi = float(kpp), float(kvp), float(kvi)
+        self.kffv, self.kffa = float(kffv), float(kffa)
         self.v_limit = v_limit
         self.period = float(period)
         self.reset()
@@ -82,31 +111,38 @@ class CascadeServo(Controller):
             kffa = 0.0 if drive is None else drive.R * J_rigid / drive.k_m
         return cls(reference, p.kpp, p.kvp, p.kvi, float(kffv), float(kffa), p.v_limit, p.period)
 
-    def reset(self):
-        self.integ = 0.0
-        self.t_prev = None
-        self.reference.reset()
+    def parameters(self, T, z):
+        vl = math.inf if self.v_limit is None else float(self.v_limit)
+        return ServoP(self.kpp, self.kvp, self.kvi, self.kffv, self.kffa, vl, float(z))
 
-    def __call__(self, t, y):
-        phi_r, om_r, acc_r = self.reference(t, y)
-        om_cmd = om_r + self.kpp * (phi_r - y.phi)
-        e_v = om_cmd - y.omega
-        dt = 0.0 if self.t_prev is None else t - self.t_prev
-        self.t_prev = t
-        u_noint = self.kffv * om_r + self.kffa * acc_r + self.kvp * e_v
-        inc = self.kvi * e_v * dt
-        u = u_noint + self.integ + inc
-        vl = self.v_limit
-        if vl is None:
-            self.integ = self.integ + inc
-            return u
-        if isinstance(u, float):
-            if (u > vl and inc > 0) or (u < -vl and inc < 0):
-                u -= inc  # conditional integration (anti-windup)
-            else:
-                self.integ += inc
-            return vl if u > vl else (-vl if u < -vl else u)
-        frozen = ((u > vl) & (inc > 0)) | ((u < -vl) & (inc < 0))
-        u = np.where(frozen, u - inc, u)
-        self.integ = self.integ + np.where(frozen, 0.0, inc)
-        return np.minimum(np.maximum(u, -vl), vl)
+    def initial_state(self):
+        return np.array([0.0, math.nan])
+
+    @property
+    def integ(self):
+        """The velocity-loop integral [V] of the Python calls (state)."""
+        return self.state()["integ"]
+
+    # ------------------------------------------------------------------ capabilities
+    def linear(self, machine, op, T, h, angle="state"):
+        """e_v = z·(q̇_ref + K_pp·(q_ref − q) − q̇); V = K_ffv·z·q̇_ref + K_ffa·z·q̈_ref + K_vp·e_v + s
+        + K_vi·T·e_v, s⁺ = s + K_vi·T·e_v (rectangle rule, increment applied at once)."""
+        import control as ct
+
+        from mjbench.linear import LAW_INPUTS
+
+        z = float(machine.drive.z)
+        kpp, kvp, kvi, kffv, kffa = self.kpp, self.kvp, self.kvi, self.kffv, self.kffa
+        ev = z * np.array([kpp, 1.0, 0.0, -kpp, -1.0, 0.0, 0.0])  # e_v from q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I
+        ff = z * np.array([0.0, kffv, kffa, 0.0, 0.0, 0.0, 0.0])
+        A = np.array([[1.0]])
+        B = (kvi * T * ev)[None, :]
+        C = np.array([[1.0]])
+        D = (ff + (kvp + kvi * T) * ev)[None, :]
+        return ct.ss(A, B, C, D, T, inputs=list(LAW_INPUTS), outputs=["V"], states=["servo_integral"], name="servo")
+
+    def hold_offset(self, machine, op):
+        """K_vp·K_pp·z·q_off = V* − K_ffv·z·q̇* (the position loop's offset holds the point)."""
+        z = float(machine.drive.z)
+        rest = op.V - self.kffv * z * op.qd
+        return rest / (self.kvp * self.kpp * z) if rest else 0.0

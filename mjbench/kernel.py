@@ -470,6 +470,9 @@ def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
     f = fn(h * every, machine) if fn is not None else None
     if f is not None:
         return f
+    reset = getattr(ctrl, "reset", None)
+    if reset is not None:  # a plain Python controller keeps its state in itself: start it afresh
+        reset()
     y = Measurement(z=machine.drive.z)
 
     def adapter(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
@@ -811,7 +814,12 @@ def _run_threaded(steppers, nthreads: int, progress) -> None:
 def _compiled(program: Program):
     from .compiled import jit
 
-    return jit.loop_for(program, _loop)
+    return jit.loop_for(program, _loop, _LOOP_SOURCE)
+
+
+#: the loop's source as loaded (the compiled loop is generated from exactly the code CPython runs,
+#: even if the file changes on disk while this process lives)
+_LOOP_SOURCE = __import__("inspect").getsource(_loop)
 
 
 def _message(backend, t, q, qd, I, V, hint=""):

@@ -39,7 +39,9 @@ the K_p·t ramp of seed 000 loses stability through sampling — none of which a
 shows.  Inputs ``q_set``, ``qd_set`` (exogenous set-points, input side) and the measurements
 ``q``, ``qd``, ``qd_prev``, ``I``; output ``V``.  The reference is part of the counterpart: seed
 002's coupler-speed reference q̇_trj(q) depends on the *measured* angle, which closes one more
-loop.  Saturation (v_limit, anti-windup) is assumed inactive.
+loop.  Saturation (v_limit, anti-windup) is assumed inactive.  Each counterpart is a capability of
+the controller's class (``Controller.linear``, ``Controller.linear_reference``, the reference's
+``linear``): a new controller brings its own, and one without it gets a ParameterError saying so.
 
 Loop (:func:`loop`): broken at the plant input V — L = −C·P, S = 1/(1 + L), T = L/(1 + L) built
 with ``control.feedback``, the closed loop (set-points and an input disturbance ``d`` → q, q̇, I,
@@ -57,10 +59,14 @@ from __future__ import annotations
 import cmath
 import dataclasses
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from controllers.reference import Reference as _Reference
+
+from .compiled import law
 from .errors import ParameterError
 
 FD_Q = 1e-6  #: [rad] central-difference step for second derivatives in q
@@ -593,25 +599,12 @@ def transmission_modes(machine, op: OperatingPoint) -> dict:
 
 # ============================================================================ references, controllers
 def running_speed(machine, q=0.0) -> float:
-    """The input speed [rad/s] the controller asks for at angle q: PID ``omega0``/z, the
-    coupler-speed reference q̇_trj(q) (seed 002 Eq 17), SMC ``omega_d``, a motion law's mean
-    speed; open loop: the constant-inertia steady speed at its voltage."""
-    ctrl, d = machine.controller, machine.drive
-    z = float(d.z)
-    ref = getattr(ctrl, "reference", None)
-    if ref is not None and hasattr(ref, "crank_speed"):
-        return float(ref.crank_speed(float(q)))
-    if ref is not None and hasattr(ref, "omega0"):
-        return float(ref.omega0) / z
-    if ref is not None and hasattr(ref, "law"):
-        law = ref.law
-        return float(law.Phi) / float(law.T) / z
-    if getattr(ctrl, "omega_d", None) is not None:
-        return float(ctrl.omega_d)
-    if hasattr(ctrl, "voltage"):
-        km = float(d.k_m)
-        return float(ctrl.voltage) * km * z / (float(d.R) * float(d.crank_damping) + (km * z) ** 2)
-    return 0.0
+    """The input speed [rad/s] the controller asks for at angle q (its class's capability
+    ``running_speed(machine, q)``: PID ``omega0``/z, the coupler-speed reference q̇_trj(q) (seed 002
+    Eq 17), SMC ``omega_d``, a motion law's mean speed; open loop: the constant-inertia steady speed
+    at its voltage); 0 for a controller that cannot say."""
+    fn = getattr(machine.controller, "running_speed", None)
+    return float(fn(machine, float(q))) if fn is not None else 0.0
 
 
 def reference_gain(ctrl, q) -> float:
@@ -624,40 +617,33 @@ def reference_gain(ctrl, q) -> float:
     return (float(ref.crank_speed(q + e)) - float(ref.crank_speed(q - e))) / (2 * e)
 
 
-def _reference_counterpart(ctrl, machine, op, T, h, feedback=True):
-    """The reference as a DT system: inputs q_set, qd_set, q, qd (measured) → q_ref, qd_ref,
-    qdd_ref (input side).  A set-point step is not differentiated (ConstantSpeed: ω̇_ref = 0;
-    coupler speed: as at start-up, kick = false)."""
+#: inputs of a control law's counterpart (the reference's outputs, then the measurements)
+LAW_INPUTS = ("q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I")
+#: inputs and outputs of a reference's counterpart
+REF_INPUTS = ("q_set", "qd_set", "q", "qd")
+REF_OUTPUTS = ("q_ref", "qd_ref", "qdd_ref")
+
+
+def setpoint_reference(T):
+    """A time-based reference as a DT system at period T (constant speed, motion law): q_ref =
+    q_set + Σ T·qd_set (exactly ω0·t for a step), q̇_ref = qd_set, q̈_ref = 0 (a set-point step is
+    not differentiated).  Inputs q_set, qd_set, q, qd → q_ref, qd_ref, qdd_ref."""
     ct = _ct()
-    ins, outs = ["q_set", "qd_set", "q", "qd"], ["q_ref", "qd_ref", "qdd_ref"]
-    ref = getattr(ctrl, "reference", None)
-    if ref is not None and hasattr(ref, "crank_speed"):
-        # seed 002 Eq 17: q̇_trj = V_C/S(q) of the MEASURED angle: δq̇_trj = δqd_set + g·δq.
-        # States: r1 = integral part of q_ref (trapezoidal, as the reference integrates φ_ref),
-        # r2 = q̇_trj and r3 = q at the previous sample (for the trapezoid and the difference).
-        e = 1e-4
-        c0, cp, cm = (float(ref.crank_speed(op.q + s)) for s in (0.0, e, -e))
-        g = (cp - cm) / (2 * e) if feedback else 0.0
-        gp = (cp - 2 * c0 + cm) / (e * e) if feedback else 0.0
-        A = np.array([[1.0, 0.5 * T, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
-        B = np.array([[0.0, 0.5 * T, 0.5 * T * g, 0.0], [0.0, 1.0, g, 0.0], [0.0, 0.0, 1.0, 0.0]])
-        C = np.array([[1.0, 0.5 * T, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
-        D = np.array([[1.0, 0.5 * T, 0.5 * T * g, 0.0], [0.0, 1.0, g, 0.0], [0.0, 0.0, 0.0, 0.0]])
-        if ref.derivative == "difference":  # (q̇_trj − q̇_trj,prev)/T, set-point part not differentiated
-            C[2, 2], D[2, 2] = -g / T, g / T
-        elif ref.derivative == "analytic":  # d/dt q̇_trj(q) = g(q)·q̇ → g·δq̇ + g'·q̇*·δq
-            D[2, 2], D[2, 3] = gp * op.qd, g
-        return ct.ss(A, B, C, D, T, inputs=ins, outputs=outs, states=["qref_int", "qdtrj_prev", "q_prev"],
-                     name="reference")
-    if hasattr(ctrl, "omega_d"):  # SMC: ω_d is the set-point, no reference object
-        return ct.ss(np.zeros((0, 0)), np.zeros((0, 4)), np.zeros((3, 0)),
-                     [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 0, 0]], T, inputs=ins, outputs=outs, name="reference")
-    # constant speed / motion law: q_ref = q_set + Σ T·qd_set (exactly ω0·t for a step), qd_ref = qd_set
     A = np.array([[1.0]])
     B = np.array([[0.0, T, 0.0, 0.0]])
     C = np.array([[1.0], [0.0], [0.0]])
     D = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
-    return ct.ss(A, B, C, D, T, inputs=ins, outputs=outs, states=["qref_int"], name="reference")
+    return ct.ss(A, B, C, D, T, inputs=list(REF_INPUTS), outputs=list(REF_OUTPUTS), states=["qref_int"],
+                 name="reference")
+
+
+def passthrough_reference(T):
+    """The set-points themselves (a controller with its own set-point, e.g. SMC's ω_d): q_ref =
+    q_set, q̇_ref = qd_set, q̈_ref = 0."""
+    ct = _ct()
+    return ct.ss(np.zeros((0, 0)), np.zeros((0, 4)), np.zeros((3, 0)),
+                 [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 0, 0]], T, inputs=list(REF_INPUTS),
+                 outputs=list(REF_OUTPUTS), name="reference")
 
 
 def pid_law(kp, ki, kd, z, T, h):
@@ -666,132 +652,56 @@ def pid_law(kp, ki, kd, z, T, h):
     ct = _ct()
     D = float(z) * np.array([[ki, kp, kd, -ki, -kp - kd / h, kd / h, 0.0]], dtype=float)
     return ct.ss(np.zeros((0, 0)), np.zeros((0, 7)), np.zeros((1, 0)), D, T,
-                 inputs=["q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I"], outputs=["V"], name="pid")
+                 inputs=list(LAW_INPUTS), outputs=["V"], name="pid")
 
 
 def pid_controller(kp, ki, kd, z, T, h):
     """The PID of :func:`pid_law` with a constant-speed reference: a full controller counterpart
     (inputs q_set, qd_set, q, qd, qd_prev, I)."""
     ct = _ct()
-
-    class _C:  # a constant-speed reference (no angle dependence)
-        reference = None
-
-    ref = _reference_counterpart(_C(), None, None, T, h)
-    return ct.interconnect([ref, pid_law(kp, ki, kd, z, T, h)], inplist=["q_set", "qd_set", "q", "qd", "qd_prev", "I"],
-                           outlist=["V"], inputs=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outputs=["V"],
+    return ct.interconnect([setpoint_reference(T), pid_law(kp, ki, kd, z, T, h)],
+                           inplist=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outlist=["V"],
+                           inputs=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outputs=["V"],
                            name="controller", check_unused=False)
-
-
-def _law_pid(ctrl, machine, op, T, h):
-    """Eq 16 with K_p(t*) frozen: :func:`pid_law`."""
-    return pid_law(float(np.asarray(ctrl.gain_p(op.t))), float(ctrl.ki), float(ctrl.kd), float(machine.drive.z), T, h)
-
-
-def _law_servo(ctrl, machine, op, T, h):
-    """Cascade servo: e_v = z·(q̇_ref + K_pp·(q_ref − q) − q̇); V = K_ffv·z·q̇_ref + K_ffa·z·q̈_ref
-    + K_vp·e_v + s + K_vi·T·e_v, s⁺ = s + K_vi·T·e_v (rectangle rule, increment applied at once)."""
-    ct = _ct()
-    z = float(machine.drive.z)
-    kpp, kvp, kvi = float(ctrl.kpp), float(ctrl.kvp), float(ctrl.kvi)
-    kffv, kffa = float(ctrl.kffv), float(ctrl.kffa)
-    ev = z * np.array([kpp, 1.0, 0.0, -kpp, -1.0, 0.0, 0.0])  # e_v from q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I
-    ff = z * np.array([0.0, kffv, kffa, 0.0, 0.0, 0.0, 0.0])
-    A = np.array([[1.0]])
-    B = (kvi * T * ev)[None, :]
-    C = np.array([[1.0]])
-    D = (ff + (kvp + kvi * T) * ev)[None, :]
-    return ct.ss(A, B, C, D, T, inputs=["q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I"], outputs=["V"],
-                 states=["servo_integral"], name="servo")
-
-
-def _law_smc(ctrl, machine, op, T, h, frozen=False):
-    """SMC (seed 004, our reading of Eq 37) inside its boundary layer, |s| < φ: the computed-torque
-    part linearised at the point plus the linear switching term −(K/φ)·s, s = λ·e₁ + e₂,
-    e₂ = (q̇ − qd_prev)/h − ω̇_d.  With ``boundary = 0`` (sign) there is no linear counterpart."""
-    ct = _ct()
-    if float(np.max(np.asarray(ctrl.boundary))) <= 0.0:
-        raise ParameterError("SMC with boundary = 0 switches (sign(s)): it has no linear counterpart; set "
-                             "modes.<mode>.boundary > 0 [rad/s²] (boundary layer) to analyse its linear part")
-    dr, mech = machine.drive, machine.mechanism
-    n, km, R, L = float(dr.z), float(dr.k_m), float(dr.R), float(dr.L)
-    lam, K, phi = float(ctrl.lam), float(ctrl.K), float(ctrl.boundary)
-    q, w, t = op.q, op.qd, op.t
-    wd = float(ctrl.omega_d)
-    e1 = w - wd
-    Jt = float(dr.J_eq)
-    dtq = dtw = 0.0  # ∂torque/∂q, ∂torque/∂w (computed-torque part)
-    dtw += -Jt * lam + n * n * float(dr.lam)
-    dtd = Jt * lam  # ∂torque/∂ω_d
-    if ctrl.model:
-        J, dJ, _ = (float(v) for v in mech.reduced(q))
-        e = FD_Q
-
-        def Q0(qq, ww):
-            return -float(mech.reduced(qq)[2]) + float(mech.external_torque(qq, ww, t))
-
-        _, dJp, _ = mech.reduced(q + e)
-        _, dJm, _ = mech.reduced(q - e)
-        ddJ = (float(dJp) - float(dJm)) / (2 * e)
-        Q0q = (Q0(q + e, w) - Q0(q - e, w)) / (2 * e)
-        Q0w = (Q0(q, w + e) - Q0(q, w - e)) / (2 * e)
-        dtq += dJ * (-lam * e1) + 0.5 * ddJ * w * w - Q0q
-        dtw += -J * lam + dJ * w - Q0w
-        dtd += J * lam
-    if frozen:  # the angle is a parameter of the model-based terms
-        dtq = 0.0
-    c = R / (n * km)
-    ks = K / phi
-    # inputs: q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I — ω_d ↔ qd_ref (a set-point offset)
-    Dm = np.array([[0.0, c * dtd + ks * lam, 0.0, c * dtq, c * dtw + n * km - ks * (lam + 1.0 / h), ks / h, 0.0]])
-    if ctrl.didt == "difference":  # + L·(I − I_prev)/T: one state, the previous current sample
-        Dm[0, 6] = L / T
-        return ct.ss([[0.0]], [[0, 0, 0, 0, 0, 0, 1.0]], [[-L / T]], Dm, T,
-                     inputs=["q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I"], outputs=["V"],
-                     states=["I_prev"], name="smc")
-    return ct.ss(np.zeros((0, 0)), np.zeros((0, 7)), np.zeros((1, 0)), Dm, T,
-                 inputs=["q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I"], outputs=["V"], name="smc")
-
-
-LAWS = {"pid": _law_pid, "servo": _law_servo, "smc": _law_smc}
 
 
 def controller_counterpart(machine, op: OperatingPoint, h: float, reference_feedback: bool = True,
                            angle: str = "state"):
     """The machine's controller as a discrete-time ``control.StateSpace`` at its period T
     (inputs q_set, qd_set, q, qd, qd_prev, I; output V), or None for an open-loop controller.
-    ``reference_feedback=False`` treats an angle-dependent reference (seed 002) as an exogenous
-    speed profile (its dependence on the measured angle left out): the *speed loop*.
-    ``angle="frozen"``: the frozen-angle picture for the controller too — the angle is a
-    parameter of the reference and of a model-based law (SMC's ℑ(q), C(q), Q0(q)), as it is of the
-    plant (:func:`freeze_angle`); the measured angle still enters where it is a state (the PID's
-    integral, the servo's position loop).
-    A controller class may provide its own ``linear_counterpart(machine, op, T, h)`` returning
-    the law with inputs q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I."""
+
+    Built from the controller class's capabilities: ``ctrl.linear(machine, op, T, h, angle)`` (the
+    law: inputs q_ref, qd_ref, qdd_ref, q, qd, qd_prev, I → V; :class:`controllers.base.Controller`)
+    and ``ctrl.linear_reference(machine, op, T, h, feedback)`` (its reference: q_set, qd_set, q, qd
+    → q_ref, qd_ref, qdd_ref).  A controller without them raises a ParameterError naming the
+    missing capability.  ``reference_feedback=False`` treats an angle-dependent reference (seed
+    002) as an exogenous speed profile (its dependence on the measured angle left out): the *speed
+    loop*.  ``angle="frozen"``: the frozen-angle picture for the controller too — the angle is a
+    parameter of the reference and of a model-based law (SMC's ℑ(q), C(q), Q0(q)), as it is of
+    the plant (:func:`freeze_angle`); the measured angle still enters where it is a state (the
+    PID's integral, the servo's position loop)."""
     from .kernel import control_every
 
     ct = _ct()
     ctrl = machine.controller
-    N = control_every(ctrl, h)
-    T = N * h
-    tn = getattr(ctrl, "type_name", "")
-    own = getattr(ctrl, "linear_counterpart", None)
     if angle not in ("state", "frozen"):
         raise ParameterError(f"angle = {angle!r}: choose 'state' or 'frozen'")
     if angle == "frozen":
         reference_feedback = False
-    if own is not None:
-        law = own(machine, op, T, h)
-    elif tn == "smc":
-        law = _law_smc(ctrl, machine, op, T, h, frozen=(angle == "frozen"))
-    elif tn in LAWS:
-        law = LAWS[tn](ctrl, machine, op, T, h)
-    elif tn == "open":
+    name = getattr(ctrl, "type_name", "") or type(ctrl).__name__
+    fn = getattr(ctrl, "linear", None)
+    if fn is None:
+        raise ParameterError(f"controller {name!r} has no linear counterpart (capability linear(machine, op, T, h) "
+                             f"not defined; see controllers.base.Controller)")
+    T = control_every(ctrl, h) * h
+    law = fn(machine, op, T, h, angle=angle)
+    if law is None:  # open loop
         return None
-    else:
-        raise ParameterError(f"controller type {tn or type(ctrl).__name__!r} has no linear counterpart "
-                             f"(known: {sorted(LAWS)}; or give the class a linear_counterpart method)")
-    ref = _reference_counterpart(ctrl, machine, op, T, h, reference_feedback)
+    rfn = getattr(ctrl, "linear_reference", None)
+    if rfn is None:
+        raise ParameterError(f"controller {name!r} has no linear_reference capability "
+                             f"(see controllers.base.Controller)")
+    ref = rfn(machine, op, T, h, reference_feedback)
     return ct.interconnect([ref, law], inplist=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outlist=["V"],
                            inputs=["q_set", "qd_set", "q", "qd", "qd_prev", "I"], outputs=["V"],
                            name="controller", check_unused=False)
@@ -1233,25 +1143,38 @@ def plain(o):
 
 
 # ============================================================================ nonlinear check
-class StepReference:
-    """Reference protocol object (controllers.reference): motor-side φ_ref, φ̇_ref, φ̈_ref of a
+#: :func:`step_reference_law`'s parameters (input side; eps: half a co-step, the step's tolerance)
+StepRefP = namedtuple("StepRefP", "z q0 qd0 t_step dq dqd eps")
+
+
+@law
+def step_reference_law(t, q, qd, qdd, I, P, S):
+    """Motor-side φ_ref, φ̇_ref, φ̈_ref of a constant speed q̇0 from angle q0 with steps of the angle
+    (dq) and of the speed (dqd) at t_step (input side × z)."""
+    on = t >= P.t_step - P.eps
+    qq = P.q0 + P.qd0 * t + ((P.dq + P.dqd * (t - P.t_step)) if on else 0.0)
+    qdd_ = P.qd0 + (P.dqd if on else 0.0)
+    return P.z * qq, P.z * qdd_, 0.0
+
+
+class StepReference(_Reference):
+    """Reference (a law, :mod:`controllers.reference`): motor-side φ_ref, φ̇_ref, φ̈_ref of a
     constant speed q̇0 from angle q0 [input side, rad, rad/s], with steps of the angle (dq) and of
     the speed (dqd) at ``t_step`` — the same signals as :func:`step_response`'s set-points."""
 
     STATE = ()
+    law = step_reference_law
 
     def __init__(self, z, q0, qd0, t_step, dq=0.0, dqd=0.0, h=1e-4):
-        self.z, self.q0, self.qd0, self.t_step, self.dq, self.dqd = float(z), q0, qd0, t_step, dq, dqd
-        self._eps = 0.5 * h
+        self.z, self.q0, self.qd0, self.t_step, self.dq, self.dqd = (float(v) for v in (z, q0, qd0, t_step, dq, dqd))
+        self._eps = 0.5 * float(h)
+        self.reset()
 
-    def reset(self):
-        pass
+    def parameters(self, T, z):
+        return StepRefP(self.z, self.q0, self.qd0, self.t_step, self.dq, self.dqd, self._eps)
 
-    def __call__(self, t, y=None):
-        on = t >= self.t_step - self._eps
-        q = self.q0 + self.qd0 * t + ((self.dq + self.dqd * (t - self.t_step)) if on else 0.0)
-        qd = self.qd0 + (self.dqd if on else 0.0)
-        return self.z * q, self.z * qd, 0.0
+    def crank_speed_at(self, machine, q):
+        return self.qd0
 
 
 def step_check(machine, op: OperatingPoint, h: float, dq=0.0, dqd=0.0, t_step=0.05, t_end=0.3,
@@ -1267,22 +1190,17 @@ def step_check(machine, op: OperatingPoint, h: float, dq=0.0, dqd=0.0, t_step=0.
     from .kernel import control_every
 
     ctrl = machine.controller
-    tn = getattr(ctrl, "type_name", "")
     z = float(machine.drive.z)
     N = control_every(ctrl, h)
     T = N * h
+    # reference offset that makes the controller output V* at the point (steady start): the
+    # class's capability hold_offset(machine, op) (PID, servo)
+    fn = getattr(ctrl, "hold_offset", None)
+    if fn is None:
+        raise ParameterError(f"step_check: controller {type(ctrl).__name__} not supported (capability "
+                             f"hold_offset(machine, op) not defined)")
+    q_off = float(fn(machine, op))
     lp, _ = analyse(machine, op, h, plant_kind or ("multibody" if backend == "multibody" else "reduced"), options)
-    # reference offset that makes the controller output V* at the point (steady start)
-    if tn == "pid":
-        kp = float(np.asarray(ctrl.gain_p(op.t)))
-        if kp != float(np.asarray(ctrl.gain_p(op.t + 1.0))):
-            raise ParameterError("step_check: K_p·t changes during the run; use a constant K_p (kp_ramp = false)")
-        q_off = op.V / (float(ctrl.ki) * z) if float(ctrl.ki) else 0.0
-    elif tn == "servo":
-        rest = op.V - float(ctrl.kffv) * z * op.qd
-        q_off = rest / (float(ctrl.kvp) * float(ctrl.kpp) * z) if rest else 0.0
-    else:
-        raise ParameterError(f"step_check: controller type {tn!r} not supported (pid, servo)")
     c2 = copy.copy(ctrl)
     c2.reference = StepReference(z, op.q + q_off, op.qd, t_step, dq, dqd, h)
     mach = dataclasses.replace(machine, controller=c2, q0=op.q, qd0=op.qd, I0=op.I,

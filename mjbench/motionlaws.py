@@ -21,15 +21,26 @@ jerk [rad/s³])`` for an array of times; outside [0, T] the motor is at rest (0 
 
 Shape parameters (what an optimiser moves): ``law.params`` and ``law.with_params(x)`` — the
 exponents γ for the pseudo-polynomial law, the interior ordinates normalised by Φ for Bezier.
+
+**One formula.**  Each law is evaluated by one scalar *law* (:mod:`mjbench.compiled`):
+``MOTION(t, order, P) → (φ, φ̇, φ̈, φ⃛)`` (:func:`pseudopoly_motion`, :func:`bezier_motion`; derivatives
+above ``order`` are 0) from coefficient arrays in ``P`` (:meth:`MotionLaw.motion_form`).  The
+methods ``evaluate``/``position``/``velocity``/… apply it elementwise to arrays; the servo's
+reference (:class:`controllers.references.law.LawReference`) calls the same law in the co-step
+kernel, compiled or not.  The Bezier curves are evaluated in the Bernstein basis by a Horner
+scheme in λ/(1 − λ) (or (1 − λ)/λ past the middle), the derivative curves from the derivative
+polygons (Eq 13).
 """
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from scipy.interpolate import BPoly
 from scipy.special import comb
 
+from .compiled import law
 from .errors import ParameterError
 
 #: two exponents closer than this (relative) make Z̄ numerically singular
@@ -37,7 +48,10 @@ GAMMA_TOL = 1e-9
 
 
 class MotionLaw:
-    """Base class: rest-to-rest motor move of ``Phi`` rad in ``T`` s."""
+    """Base class: rest-to-rest motor move of ``Phi`` rad in ``T`` s.
+
+    A subclass provides :meth:`motion_form` (its law and coefficients); ``evaluate`` and the
+    other methods run that law."""
 
     kind = "law"
 
@@ -49,21 +63,37 @@ class MotionLaw:
             raise ParameterError(f"law.T = {T!r}: motion time must be finite and > 0 [s]")
         self.Phi, self.T = Phi, T
 
-    # subclasses implement _inside(t, order) for t in [0, T] (array) -> list of derivatives 0..order
+    def motion_form(self):
+        """The law's compiled form: ``Form(MOTION, P)`` with ``MOTION(t, order, P) → (φ, φ̇, φ̈, φ⃛)``
+        [rad, rad/s, rad/s², rad/s³] at time t [s] (at rest outside [0, T])."""
+        from . import compiled as C
+
+        if type(self).evaluate is not MotionLaw.evaluate:  # a law with its own Python evaluation
+            ev = self.evaluate
+
+            def adapter(t, order, P):
+                out = ev(t, order)
+                return tuple(float(out[k]) if k <= order else 0.0 for k in range(4))
+            return C.python_form(adapter, f"{type(self).__name__} has no motion law (motion_form)")
+        raise NotImplementedError(f"{type(self).__name__} defines neither motion_form() nor evaluate()")
+
+    def _motion(self):
+        m = self.__dict__.get("_motion_cache")
+        if m is None:
+            f = self.motion_form()
+            m = self.__dict__["_motion_cache"] = (f.bound(), f.P)
+        return m
+
     def evaluate(self, t, order: int = 3):
         """(φ, φ̇, φ̈, φ⃛)[:order+1] at times t [s] (array or scalar); motor at rest outside [0, T]."""
-        t = np.asarray(t, dtype=float)
-        scalar = t.ndim == 0
-        t = np.atleast_1d(t)
-        tc = np.clip(t, 0.0, self.T)
-        out = self._inside(tc, order)
-        before, after = t < 0.0, t > self.T
-        out[0] = np.where(before, 0.0, np.where(after, self.Phi, out[0]))
-        for k in range(1, order + 1):
-            out[k] = np.where(before | after, 0.0, out[k])
-        if scalar:
-            out = [float(o[0]) for o in out]
-        return tuple(out)
+        fn, P = self._motion()
+        order = int(order)
+        ta = np.asarray(t, dtype=float)
+        if ta.ndim == 0:
+            out = fn(float(ta), order, P)
+            return tuple(float(out[k]) for k in range(order + 1))
+        rows = np.array([fn(x, order, P) for x in ta.ravel().tolist()], dtype=float).reshape(-1, 4)
+        return tuple(rows[:, k].reshape(ta.shape) for k in range(order + 1))
 
     __call__ = evaluate
 
@@ -87,29 +117,123 @@ class MotionLaw:
                 "jerk": float(np.max(np.abs(j[1:-1])))}
 
     def as_reference(self, scale: float = 1.0, t0: float = 0.0):
-        """A ``controllers`` reference ``(t, y) -> (φ_ref, φ̇_ref, φ̈_ref)`` (times ``scale``),
-        starting at ``t0`` [s]."""
+        """A motor-side reference (:class:`controllers.references.law.LawReference`) tracking this
+        law (times ``scale``), starting at ``t0`` [s]."""
+        from controllers.references.law import LawReference
+
         return LawReference(self, scale, t0)
 
 
-class LawReference:
-    """Reference object for ``controllers.PID`` (motor shaft position, speed, acceleration)."""
+@law
+def _upow(u, e):
+    """u^e for u ∈ [0, 1] (u = 0: 0 for e > 0, 1 for e = 0, +inf for e < 0)."""
+    if u > 0.0:
+        return u ** e
+    if e > 0.0:
+        return 0.0
+    return 1.0 if e == 0.0 else math.inf
 
-    def __init__(self, law, scale=1.0, t0=0.0):
-        self.law, self.scale, self.t0 = law, scale, t0
 
-    def reset(self):
-        pass
+#: the pseudo-polynomial law's coefficients: Φ, T, number of terms, exponents γ_i, C_i, and per
+#: derivative k = 1..3 the factor (−1)^{k+1}·Φ/T^k and the products P(γ_i, k)·C_i (Eq 18)
+PseudoPolyP = namedtuple("PseudoPolyP", "Phi T n g C f1 f2 f3 c1 c2 c3")
 
-    def __call__(self, t, y=None):
-        tl = float(t) - self.t0
-        s = self.scale
-        if tl > self.law.T:  # at rest after the move: no law evaluation on the hot path
-            return s * self.law.Phi, 0.0, 0.0
-        if tl < 0.0:
-            return 0.0, 0.0, 0.0
-        p, v, a = self.law.evaluate(tl, 2)
-        return s * p, s * v, s * a
+
+@law
+def pseudopoly_motion(t, order, P):
+    """Seed 001 Eqs 17-18: φ = Φ·[1 − Σ C_i·u^{γ_i}], dᵏφ/dtᵏ = (−1)^{k+1}·Φ/T^k·Σ P(γ_i, k)·C_i·u^{γ_i−k},
+    u = 1 − t/T; at rest outside [0, T]; derivatives above ``order`` are 0."""
+    if t < 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if t > P.T:
+        return P.Phi, 0.0, 0.0, 0.0
+    u = 1.0 - t / P.T
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    s3 = 0.0
+    for i in range(P.n):
+        g = P.g[i]
+        s0 += P.C[i] * _upow(u, g)
+        if order >= 1:
+            s1 += P.c1[i] * _upow(u, g - 1.0)
+        if order >= 2:
+            s2 += P.c2[i] * _upow(u, g - 2.0)
+        if order >= 3:
+            s3 += P.c3[i] * _upow(u, g - 3.0)
+    return P.Phi * (1.0 - s0), P.f1 * s1, P.f2 * s2, P.f3 * s3
+
+
+@law
+def bernstein_sum(c, m, lam):
+    """Σ_{i=0..m} c_i·λ^i·(1 − λ)^{m−i} (binomials folded into c) by Horner's scheme in
+    x = λ/(1 − λ) for λ ≤ ½, in (1 − λ)/λ above (|x| ≤ 1); 0 for m < 0."""
+    if m < 0:
+        return 0.0
+    if lam <= 0.5:
+        x = lam / (1.0 - lam)
+        acc = c[m]
+        for i in range(m - 1, -1, -1):
+            acc = acc * x + c[i]
+        return acc * (1.0 - lam) ** float(m)
+    x = (1.0 - lam) / lam
+    acc = c[0]
+    for i in range(1, m + 1):
+        acc = acc * x + c[i]
+    return acc * lam ** float(m)
+
+
+#: the Bezier law's coefficients: Φ, T, degree n_s, and the control polygons of φ, φ̇, φ̈, φ⃛
+#: (Eq 13 applied k times) times the binomials C(n_s − k, i)
+BezierP = namedtuple("BezierP", "Phi T n b0 b1 b2 b3")
+
+
+@law
+def bezier_motion(t, order, P):
+    """Seed 003 Eqs 17-21: φ(t) = Σ S_i·B(n_s, i, t/T) and its derivatives from the derivative
+    polygons; at rest outside [0, T]; derivatives above ``order`` are 0."""
+    if t < 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if t > P.T:
+        return P.Phi, 0.0, 0.0, 0.0
+    lam = t / P.T
+    n = P.n
+    p = bernstein_sum(P.b0, n, lam)
+    v = bernstein_sum(P.b1, n - 1, lam) if order >= 1 else 0.0
+    a = bernstein_sum(P.b2, n - 2, lam) if order >= 2 else 0.0
+    j = bernstein_sum(P.b3, n - 3, lam) if order >= 3 else 0.0
+    return p, v, a, j
+
+
+#: a shaped law's impulses (amplitudes A_j, times t_j, count) and its base law's parameters
+ShapedP = namedtuple("ShapedP", "A tj n base")
+
+
+@law
+def shaped_motion(BASE, t, order, P):
+    """An input-shaped law φ_s(t) = Σ A_j·φ(t − t_j) (and derivatives); BASE the base law."""
+    p = 0.0
+    v = 0.0
+    a = 0.0
+    j = 0.0
+    for k in range(P.n):
+        bp, bv, ba, bj = BASE(t - P.tj[k], order, P.base)
+        A = P.A[k]
+        p += A * bp
+        v += A * bv
+        a += A * ba
+        j += A * bj
+    return p, v, a, j
+
+
+def shaped_form(base: "MotionLaw", amplitudes, times):
+    """``Form(shaped_motion, ShapedP, fn_args=(base law,))`` of an impulse sequence applied to ``base``."""
+    from . import compiled as C
+
+    bf = base.motion_form()
+    A = np.ascontiguousarray(amplitudes, dtype=float)
+    tj = np.ascontiguousarray(times, dtype=float)
+    return C.Form(shaped_motion, ShapedP(A, tj, int(A.size), bf.P), fn_args=(bf,))
 
 
 # ====================================================================== pseudo-polynomial laws
@@ -182,17 +306,14 @@ class PseudoPolynomialLaw(MotionLaw):
     def with_params(self, x):
         return PseudoPolynomialLaw(self.Phi, self.T, x)
 
-    def _inside(self, t, order):
-        u = 1.0 - t / self.T
-        Phi, T = self.Phi, self.T
-        out = [None] * (order + 1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            pw = [u[None, :] ** (self.gammas[:, None] - k) for k in range(order + 1)]
-        out[0] = Phi * (1.0 - self.C @ pw[0])
-        for k in range(1, order + 1):  # Eq 18
-            coef = pochhammer_falling(self.gammas, k) * self.C
-            out[k] = (-1.0) ** (k + 1) * Phi / T ** k * (coef @ pw[k])
-        return out
+    def motion_form(self):
+        from . import compiled as C
+
+        g, Cc, Phi, T = self.gammas, self.C, self.Phi, self.T
+        f = [(-1.0) ** (k + 1) * Phi / T ** k for k in (1, 2, 3)]
+        c = [np.ascontiguousarray(pochhammer_falling(g, k) * Cc) for k in (1, 2, 3)]
+        return C.Form(pseudopoly_motion, PseudoPolyP(Phi, T, int(g.size), np.ascontiguousarray(g),
+                                                     np.ascontiguousarray(Cc), *f, *c))
 
     def accel_terms(self):
         """φ̈(t) = Σ a_i·u^{e_i}, u = 1 − t/T: returns (a_i [rad/s²], e_i) (Eq 10)."""
@@ -263,9 +384,6 @@ class BezierLaw(MotionLaw):
         self.interior = interior.copy()
         self.n_s = 2 * self.m + self.p + 1
         self.S = np.concatenate([np.zeros(self.m + 1), self.interior, np.full(self.m + 1, self.Phi)])
-        self._bp = [BPoly(self.S[:, None], [0.0, self.T])]
-        for _ in range(3):  # Eq 13 applied repeatedly: velocity, acceleration, jerk polygons
-            self._bp.append(self._bp[-1].derivative())
 
     @property
     def params(self):
@@ -286,11 +404,20 @@ class BezierLaw(MotionLaw):
         """Abscissas [s] of the (n_s + 1 − k) equally spaced knots of polygon k."""
         return np.linspace(0.0, self.T, self.n_s + 1 - k)
 
-    def _inside(self, t, order):
-        return [self._bp[k](t) for k in range(order + 1)]
+    def motion_form(self):
+        from . import compiled as C
+
+        n = self.n_s
+        polys = self.polygons()
+        b = []
+        for k, y in enumerate(polys):  # Eq 13 applied k times; binomials of degree n − k folded in
+            b.append(np.ascontiguousarray(y * comb(n - k, np.arange(y.size)) if y.size else np.zeros(1)))
+        return C.Form(bezier_motion, BezierP(self.Phi, self.T, int(n), *b))
 
     def accel_bpoly(self):
-        return self._bp[2]
+        """The acceleration curve as a ``scipy.interpolate.BPoly`` (its derivatives at the ends:
+        the analytic residual-vibration integral of :mod:`mjbench.vibration`)."""
+        return BPoly(self.polygons()[2][:, None], [0.0, self.T])
 
     def describe(self):
         return {"kind": self.kind, "Phi": self.Phi, "T": self.T, "m": self.m, "p": self.p,

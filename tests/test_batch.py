@@ -3,11 +3,8 @@
 import numpy as np
 import pytest
 
-import controllers
 from mjbench import scenario
 from mjbench.backends import batch, multibody
-from mjbench.drive import DCMotorDrive
-from mjbench.errors import ParameterError
 
 T_END = 0.12  # s: 1200 co-steps, enough for the PID start-up, limiter and anti-windup to act
 
@@ -51,17 +48,22 @@ def test_open_loop_per_sim_voltage_and_threads():
     single = multibody.simulate(machines[2], 0.05, record_dt=1e-3)
     np.testing.assert_allclose(r1.trajectory(2).data[:, :10], single.data[:, :10], rtol=0, atol=1e-12)
     # one simulation through mujoco.batch (no single-run fast path) is the same too
-    one = batch.simulate(machines[2:], 0.05, record_dt=1e-3, single_fast_path=False)
+    one = batch.simulate(machines[2:], 0.05, record_dt=1e-3)
     np.testing.assert_allclose(one.trajectory(0).data[:, :10], single.data[:, :10], rtol=0, atol=1e-12)
     # higher voltage → faster start-up
     w = r1.column("motor_speed_rad_s")[:, -1]
     assert w[0] < w[1] < w[2]
 
 
-def test_mixed_controller_flags_rejected():
+def test_mixed_controller_flags_are_independent_runs():
+    """Runs of a batch are independent compositions: a K_p·t PID next to a constant-gain one (the
+    old stacked controller refused this) each equal their single run, bit for bit."""
     ms = [_machine(VARIANTS[0][0]), _machine(VARIANTS[5][0])]  # kp_ramp true vs false
-    with pytest.raises(ParameterError, match="kp_ramp"):
-        batch.simulate(ms, 0.01)
+    res = batch.simulate(ms, 0.02, record_dt=1e-3)
+    for i in range(2):
+        single = multibody.simulate(_machine(VARIANTS[(0, 5)[i]][0]), 0.02, record_dt=1e-3)
+        np.testing.assert_array_equal(res.trajectory(i).data[:, :10], single.data[:, :10])
+    assert not np.array_equal(res.trajectory(0).voltage, res.trajectory(1).voltage)
 
 
 def test_divergence_isolated():
@@ -75,38 +77,54 @@ def test_divergence_isolated():
     np.testing.assert_array_equal(res.trajectory(0).data[:, :10], single.data[:, :10])
 
 
-def test_stack_objects_vectorises_pid_and_drive():
-    pids = [controllers.PID(kp, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0) for kp in (60.0, 80.0)]
-    st = batch.stack_objects(pids)
-    assert isinstance(st.kp, np.ndarray) and st.kp.tolist() == [60.0, 80.0] and st.ki == 32.0
-    ramp = batch.stack_objects([controllers.PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, t_ramp_max=tm)
-                                for tm in (0.2, 1.0)])
-    ramp.reset()
-    np.testing.assert_array_equal(ramp.gain_p(0.5), [80.0 * 0.2, 80.0 * 0.5])
-    # per-simulation output limits: clipped (and frozen) row by row
-    # (a diverged, NaN row must not keep the others from being clipped)
-    vl = batch.stack_objects([controllers.PID(100.0, 0.0, 0.0, omega0=30.0, v_limit=v) for v in (10.0, 48.0, 48.0)])
-    vl.reset()
-    y = controllers.Measurement()
-    y.set(0.0, np.zeros(3), np.array([0.0, 0.0, np.nan]), np.zeros(3), np.zeros(3))
-    np.testing.assert_array_equal(vl(0.0, y), [10.0, 48.0, np.nan])
-    drv = batch.stack_drives([DCMotorDrive(R=2.0, L=9e-3), DCMotorDrive(R=2.0, L=0.0)])
-    assert drv.R == 2.0 and drv.L.tolist() == [9e-3, 0.0]
-    drv.prepare(1e-4)
-    # L = 0 row: algebraic current; L > 0 row: exact exponential decay
-    I = drv.current_step(np.zeros(2), np.array([10.0, 10.0]), np.zeros(2), 1e-4)
-    assert I[1] == pytest.approx(5.0) and 0 < I[0] < 5.0 * (1 - np.exp(-1e-4 * 2 / 9e-3)) + 1e-12
+def test_per_run_parameters_limits_and_drives():
+    """Every run of a batch gets its own controller parameters and state (nothing shared): output
+    limits 10 V and 48 V clip their own run (the anti-windup acting on each), a drive with L = 0
+    (algebraic current) runs next to L = 9 mH; each run equals its single run."""
+    from mjbench.kernel import Program, control_every
+    from mjbench.backends.multibody import MultibodyPlant, build_model, DEFAULT_OPTIONS
+
+    sets = [("modes.pid.v_limit=10",), ("modes.pid.v_limit=48",), ("modes.pid.v_limit=48", "drive.L=0")]
+    ms = [_machine(o) for o in sets]
+    res = batch.simulate(ms, 0.05, record_dt=1e-4)
+    V = res.column("voltage_V")
+    assert np.max(np.abs(V[0])) == pytest.approx(10.0) and 10.0 < np.max(np.abs(V[1])) <= 48.0
+    for i, o in enumerate(sets):
+        single = multibody.simulate(_machine(o), 0.05, record_dt=1e-4)
+        np.testing.assert_array_equal(res.trajectory(i).data[:, :10], single.data[:, :10])
+    tr = res.trajectory(2)  # L = 0: I₊ = (V − k_m·φ̇̄)/R, φ̇̄ the mean motor speed over the step
+    w_mean = 0.5 * (tr.omega[:-1] + tr.omega[1:])
+    np.testing.assert_allclose(tr.current[1:], (tr.voltage[:-1] - 0.48 * w_mean) / 2.0, rtol=1e-9, atol=1e-12)
+    # the compositions: one P per run (its own v_limit), a fresh state array per run
+    progs = []
+    for mc in ms[:2]:
+        h = DEFAULT_OPTIONS["timestep"]
+        pl = MultibodyPlant(mc, DEFAULT_OPTIONS, build_model(mc, DEFAULT_OPTIONS)[1])
+        pl.start()
+        progs.append(Program.build(pl, mc, h, control_every(mc.controller, h)))
+        pl.finish()
+    assert progs[0].key == progs[1].key  # one compiled loop serves both
+    (P0, S0), (P1, S1) = ((p.forms["ctrl"].P, p.forms["ctrl"].state()) for p in progs)
+    assert (P0.v_limit, P1.v_limit) == (10.0, 48.0) and S0 is not S1
+    assert progs[0].forms["ctrl"].state() is not progs[0].forms["ctrl"].state()
 
 
 def test_model_based_smc_per_simulation_mechanisms():
-    """Seed 004: the sliding-mode controller evaluates the reduced model of its mechanism; with a
-    different mass per simulation it gets a PerSimulation stand-in — still equal to single runs."""
+    """Seed 004: the sliding-mode controller evaluates the reduced model of its own machine's
+    mechanism (its ``model_form``); with a different mass per simulation each run's controller
+    carries its own model parameters — and every run equals its single run."""
     pytest.importorskip("controllers.smc")
     m4 = scenario.get(scenario.load("yigit2023"), "mechanism.m4")
     sets = [("modes.smc.lam=80.0",), ("modes.smc.K=500.0", f"mechanism.m4={1.1 * m4}")]
     ms = [scenario.make_machine(scenario.load("yigit2023", s), "smc") for s in sets]
     res = batch.simulate(ms, 0.05, record_dt=1e-3)
-    assert isinstance(batch.stack_objects([m.controller for m in ms]).mechanism, batch.PerSimulation)
+    forms = [m.controller.form(1e-3, m) for m in ms]
+    models = [f.fn_args[0] for f in forms]
+    assert models[0].law is models[1].law  # one law (one compiled loop) ...
+    J = [m.law(1.0, 5.0, 0.0, m.P)[0] for m in models]  # ... with each machine's own model: ℑ(q = 1)
+    assert J[1] > J[0]
+    for m, j in zip(ms, J):
+        assert j == pytest.approx(float(m.mechanism.reduced(1.0)[0]), rel=1e-9)
     for i, s in enumerate(sets):
         single = multibody.simulate(scenario.make_machine(scenario.load("yigit2023", s), "smc"), 0.05, record_dt=1e-3)
-        np.testing.assert_allclose(res.trajectory(i).data[:, :10], single.data[:, :10], rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(res.trajectory(i).data[:, :10], single.data[:, :10])

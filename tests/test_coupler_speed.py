@@ -159,6 +159,44 @@ def test_reference_outputs_motor_side_and_integrates(fb1):
     assert phi == pytest.approx(z * 2.0) and acc == 0.0
 
 
+def test_kinematic_laws_equal_the_closed_forms(fb1):
+    """The scalar laws the reference runs (fourbar_angles, fourbar_ratio_derivatives) against the
+    four-bar's NumPy closed forms (Appendices A-B); a linkage that cannot be assembled gives NaN in
+    the law and a GeometryError from the method."""
+    from mjbench.errors import GeometryError
+    from mjbench.mechanisms.fourbar import fourbar_angles, fourbar_ratio_derivatives
+
+    P = fb1.kinematic_params()
+    beta, gamma, Qr, Rr, dQ, dR = fb1.ratio_derivatives(Q)
+    for i, q in enumerate(Q):
+        b, g, Qv, Rv, dQv, dRv = fourbar_ratio_derivatives(float(q), P)
+        assert (b, g) == fourbar_angles(float(q), P)
+        np.testing.assert_allclose([b, g, Qv, Rv, dQv, dRv], [beta[i], gamma[i], Qr[i], Rr[i], dQ[i], dR[i]],
+                                   rtol=1e-12, atol=1e-13)
+    from mjbench.mechanisms.fourbar import _assembled
+
+    bad = P._replace(a=0.2)  # a crank longer than the other links allow
+    assert np.isnan(fourbar_angles(1.0, bad)[0])
+    with pytest.raises(GeometryError, match="assembled"):  # the methods refuse such angles
+        _assembled(np.array([fourbar_ratio_derivatives(1.0, bad)[2]]), np.array([1.0]))
+
+
+def test_analytic_derivative_is_the_time_derivative_along_the_motion(fb1):
+    """derivative = "analytic": ω̇_ref/z = dq̇_trj/dq·q̇ (measured) — against central differences of
+    q̇_trj(q) (constant and table profiles)."""
+    z, qd = 50.0, 4.0
+    for kw in (dict(vc=0.1), dict(vc=0.1, profile="table", s=[0.0, 0.1], v_rel=[1.0, 2.0])):
+        ref = CouplerSpeed(fb1, z=z, derivative="analytic", **kw)
+        y = Measurement(z=z)
+        for q in (0.7, 2.5, 5.0):
+            ref.reset()
+            ref(0.0, y.set(0.0, q, qd, 0.0, 0.0))
+            _, _, acc = ref(1e-3, y.set(1e-3, q, qd, 0.0, 0.0))
+            e = 1e-6
+            fd = (ref.crank_speed(q + e) - ref.crank_speed(q - e)) / (2 * e) * qd
+            assert acc / z == pytest.approx(fd, rel=1e-6, abs=1e-9)
+
+
 def test_reference_profiles(fb1):
     L = fb1.path_length()
     pw = CouplerSpeed(fb1, z=50.0, profile="piecewise", s=[0.0, 0.5], v=[0.1, 0.3], s_unit="fraction")

@@ -1,4 +1,4 @@
-"""DC motor drive (Eqs 6-9) and controllers (Eqs 14-16): exactness, vectorisation, errors."""
+"""DC motor drive (Eqs 6-9) and controllers (Eqs 14-16): the laws against the equations written out, errors."""
 import math
 
 import numpy as np
@@ -24,82 +24,112 @@ def test_current_step_is_exact_for_constant_speed():
     assert Ibar == pytest.approx(iss * (1 - tau / h * (1 - math.exp(-h / tau))), rel=1e-12)
 
 
+def _mean_current_by_hand(d, I, V, w, h):
+    """Ī over a step h with V and φ̇ held, from the exact solution of L·İ = V − R·I − k_m·φ̇."""
+    iss = (V - d.k_m * w) / d.R
+    if d.L == 0.0:
+        return iss
+    x = h * d.R / d.L
+    return iss + (I - iss) * (1.0 - math.exp(-x)) / x
+
+
 @pytest.mark.parametrize("kw", [dict(), dict(T_0=0.05, z=3.0), dict(L=0.0, T_0=0.02)])
-def test_kernel_step_torque_equals_the_drive_methods(kw):
-    """The kernel's bound per-step torque (a scalar closure for a single run) gives the same
-    bits as the documented methods it stands for (which the batch uses), over a grid of states
-    including stalled and reversing ones."""
+def test_kernel_drive_laws_are_eqs_7_and_9(kw):
+    """The laws the kernel calls for the drive (step-mean current, motor torque, recorded crank
+    torque) against Eqs 7 and 9 written out here, over a grid of states including stalled and
+    reversing ones (L = 0: algebraic current)."""
+    from mjbench.drive import current_mean, drive_torque, motor_torque
+
     h = 1e-4
     d = DCMotorDrive(R=2.0, **kw)
-    torque, generic = d.step_torque(h, scalar=True), d.step_torque(h, scalar=False)
+    P = d.step_params(h)
+    z = d.z
     n = 0
     for I in (-7.0, 0.0, 0.3, 12.0):
         for V in (-48.0, 0.0, 5.0, 48.0):
             for qd in (-20.0, 0.0, 1e-9, 33.0):
-                ref = d.crank_torque(d.current_mean(I, V, d.z * qd, h), qd, False)
-                assert torque(I, V, qd) == ref == generic(I, V, qd)
+                w = z * qd
+                Ibar = current_mean(I, V, w, P)
+                assert Ibar == pytest.approx(_mean_current_by_hand(d, I, V, w, h), rel=1e-12, abs=1e-12)
+                sg = float(np.sign(w))
+                # Eq 9 without J_eq·α̈: the plant adds the viscous −z²λ·α̇ (joint damping)
+                assert z * motor_torque(Ibar, w, P) == pytest.approx(z * (d.k_m * Ibar - d.T_0 * sg), rel=1e-14,
+                                                                     abs=1e-14)
+                assert drive_torque(Ibar, w, P) == pytest.approx(z * (d.k_m * Ibar - d.T_0 * sg) - z * z * d.lam * qd,
+                                                                 rel=1e-12, abs=1e-12)
+                # the methods run the same laws
+                assert d.crank_torque(Ibar, qd) == drive_torque(Ibar, w, P)
+                assert d.crank_torque(Ibar, qd, viscous=False) == z * motor_torque(Ibar, w, P)
                 n += 1
     assert n == 64
 
 
 @pytest.mark.parametrize("kw", [dict(), dict(i_max=5.0, v_max=24.0, z=3.0, T_0=0.05),
                                 dict(L=0.0, i_max=2.0, v_max=1.0, lam=0.0)])
-def test_kernel_current_and_limit_closures_equal_the_drive_methods(kw):
-    """The kernel's bound current update, voltage limiter and recorded torque (closures for a
-    single run) give the same bits as current_step / limit / crank_torque, limits active or not
-    (L = 0: algebraic current; T_0 > 0: Coulomb friction, stalled and reversing speeds)."""
+def test_kernel_current_update_and_limits(kw):
+    """The current update (law) is the exact exponential of Eq 7 clipped to ±i_max; the voltage
+    limiter clips to ±v_max; L = 0: I₊ = (V − k_m·φ̇)/R."""
+    from mjbench.drive import current_step
+
     h = 1e-4
     d = DCMotorDrive(R=2.0, **kw)
-    cur, generic = d.step_current(h, scalar=True), d.step_current(h, scalar=False)
-    lim = d.step_limit(scalar=True)
-    tq = d.torque_function(scalar=True)  # the recorded torque column
-    assert (lim is None) == (d.v_max == math.inf)
+    P = d.step_params(h)
+    imax = kw.get("i_max", math.inf)
     for I in (-7.0, 0.0, 0.3, 12.0):
         for V in (-48.0, -1.0, 0.0, 5.0, 48.0):
             for w in (-60.0, 0.0, 1e-9, 99.0):
-                assert cur(I, V, w) == d.current_step(I, V, w, h) == generic(I, V, w)
-                assert tq(I, w) == d.crank_torque(I, w)
-            if lim is not None:
-                assert lim(V) == d.limit(V)
+                iss = (V - d.k_m * w) / d.R
+                exact = iss if d.L == 0.0 else iss + (I - iss) * math.exp(-h * d.R / d.L)
+                assert current_step(I, V, w, P) == pytest.approx(min(max(exact, -imax), imax), rel=1e-12, abs=1e-12)
+                assert d.current_step(I, V, w, h) == current_step(I, V, w, P)
+            assert d.limit(V) == min(max(V, -d.v_max), d.v_max)
     if "i_max" in kw:  # the limit was active somewhere in the grid
-        assert cur(12.0, 48.0, -60.0) == kw["i_max"]
+        assert current_step(12.0, 48.0, -60.0, P) == kw["i_max"]
 
 
-def test_pid_inlined_constant_speed_reference_equals_the_reference_call():
-    """PID inlines ConstantSpeed (hot path); any other reference goes through its __call__ — a
-    subclass that only forwards must give the same bits, scalar and (nsim,) arrays."""
-    from controllers.base import Measurement
+def test_constant_speed_reference_inside_the_pid_is_eq16():
+    """PID + ConstantSpeed called from Python (the law the kernel runs) against Eq 16 written out,
+    on a random measurement sequence; a reference subclass that only forwards gives the same bits;
+    the reference starts at the first measured angle (φ_start = z·q − ω₀·t)."""
     from controllers.pid import PID
     from controllers.reference import ConstantSpeed
 
     class Forwarding(ConstantSpeed):
         pass
 
-    for kp in (80.0, np.array([80.0, 5.0, 300.0])):
-        a = PID(kp, 32.0, 0.015, reference=ConstantSpeed(30.0), kp_ramp=True, v_limit=48.0)
-        b = PID(kp, 32.0, 0.015, reference=Forwarding(30.0), kp_ramp=True, v_limit=48.0)
-        assert a._const_ref and not b._const_ref
-        y = Measurement(z=2.0)
-        rng = np.random.default_rng(3)
-        for n in range(200):
-            t = n * 1e-3
-            q, qd, qdd, I = (rng.normal(size=np.shape(kp)) * s + 0.0 for s in (3.0, 20.0, 500.0, 5.0))
-            y.set(t, q, qd, qdd, I)
-            np.testing.assert_array_equal(a(t, y), b(t, y))
-        np.testing.assert_array_equal(a.offset, b.offset)
-        assert a.reference.phi_start is not None
+    z, kp, ki, kd, w0 = 2.0, 80.0, 32.0, 0.015, 30.0
+    a = PID(kp, ki, kd, reference=ConstantSpeed(w0), kp_ramp=True)
+    b = PID(kp, ki, kd, reference=Forwarding(w0), kp_ramp=True)
+    y = Measurement(z=z)
+    rng = np.random.default_rng(3)
+    phi_start = None
+    for n in range(200):
+        t = n * 1e-3
+        q, qd, qdd, I = (float(rng.normal() * s) for s in (3.0, 20.0, 500.0, 5.0))
+        y.set(t, q, qd, qdd, I)
+        ua = a(t, y)
+        assert ua == b(t, y)
+        if phi_start is None:
+            phi_start = z * q - w0 * t
+        eq16 = kp * t * (w0 - z * qd) + ki * (phi_start + w0 * t - z * q) + kd * (0.0 - z * qdd)
+        assert ua == pytest.approx(eq16, rel=1e-12, abs=1e-9)
+    assert a.offset == b.offset == 0.0  # no v_limit: no windup offset
+    assert a.reference.phi_start == pytest.approx(phi_start)
 
 
-def test_drive_accepts_arrays_like_scalars():
-    R = np.array([1.0, 2.0, 3.0])
-    da = DCMotorDrive(R=R)
-    I = np.zeros(3)
-    out = da.current_step(I, np.full(3, 24.0), np.array([0.0, 5.0, 10.0]), 1e-4)
-    for k in range(3):
-        ds = DCMotorDrive(R=float(R[k]))
-        assert out[k] == pytest.approx(ds.current_step(0.0, 24.0, [0.0, 5.0, 10.0][k], 1e-4), rel=1e-14)
-    tq = da.crank_torque(out, np.array([1.0, -1.0, 0.0]))
-    assert tq.shape == (3,)
+def test_drive_methods_accept_arrays_of_states():
+    """The drive's methods apply its scalar laws elementwise to arrays (post-processing): the same
+    numbers as one call per element, in the array's shape."""
+    d = DCMotorDrive(R=2.0)
+    I = np.array([[0.0, 1.0], [-2.0, 3.0]])
+    V = np.full((2, 2), 24.0)
+    w = np.array([[0.0, 5.0], [10.0, -4.0]])
+    out = d.current_step(I, V, w, 1e-4)
+    assert out.shape == (2, 2)
+    for k in np.ndindex(2, 2):
+        assert out[k] == d.current_step(float(I[k]), 24.0, float(w[k]), 1e-4)
+    tq = d.crank_torque(np.array([1.0, 2.0, 3.0]), np.array([1.0, -1.0, 0.0]))
+    assert tq.shape == (3,) and tq[1] == d.crank_torque(2.0, -1.0)
 
 
 def test_torque_and_inertia_follow_eq9():
@@ -142,20 +172,36 @@ def test_pid_anti_windup_freezes_the_integral_while_saturated():
     assert max(outs) == 12.0
     # after release the integral term is what accumulated before saturation, not 2 s of windup
     assert c.ki * (30.0 * 2000 * h - c.offset) < 12.0 + 30.0
-    assert set(c.state()) == {"offset", "epos_prev"}
+    assert set(c.state()) == {"offset", "epos_prev", "started"}
+    # the state: the last angle error φ_ref − φ (stalled motor: ω₀·t), the frozen increments in φ_w
+    assert c.state()["epos_prev"] == pytest.approx(30.0 * 1999 * h, rel=1e-12)
+    # saturated from the first sample (K_p·30 = 30 V > 12 V): every increment was frozen
+    assert c.offset == pytest.approx(30.0 * 1999 * h, rel=1e-12)
 
 
-def test_controllers_accept_arrays():
-    kp = np.array([50.0, 80.0])
-    c = PID(kp, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
-    c.reset()
-    y = Measurement(z=1.0).set(0.3, np.array([5.0, 6.0]), np.array([20.0, 25.0]), np.zeros(2), np.zeros(2))
-    V = c(0.3, y)
-    for k in range(2):
-        cs = PID(float(kp[k]), 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
-        cs.reset()
-        assert V[k] == pytest.approx(cs(0.3, _y(0.3, [5.0, 6.0][k], [20.0, 25.0][k], 0.0)), rel=1e-14)
-    assert ConstantVoltage(np.array([1.0, 2.0]))(0.1, y).shape == (2,)
+def test_controller_objects_run_their_law_with_their_own_state():
+    """A controller object is its law with P and S: the call equals the law called on
+    ``parameters(T, z)`` and a fresh state, bit for bit, and two objects share nothing (the batch
+    of the old array controllers is now independent runs: tests/test_compiled_controllers.py)."""
+    from controllers.pid import pid_law
+
+    y = Measurement(z=1.5)
+    a = PID(50.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
+    b = PID(80.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=5.0)
+    P = a.parameters(0.0, 1.5)
+    S = a.initial_state()
+    Sref = a.reference.initial_state()
+    for n in range(50):
+        t = n * 1e-3
+        y.set(t, 0.2 * n, 20.0 + n, 3.0, 0.0)
+        ref = type(a.reference).law(t, y.q, y.qd, y.qdd, y.current, a.reference.parameters(0.0, 1.5), Sref)
+        assert a(t, y) == pid_law(t, y.q, y.qd, y.qdd, y.current, *ref, P, S)
+        b(t, y)
+    np.testing.assert_array_equal(a._S, S)
+    assert a.state() != b.state()  # saturated differently: each keeps its own windup offset
+    assert ConstantVoltage(12.0, t_ramp=0.5)(0.1, y) == pytest.approx(12.0 * 0.1 / 0.5, rel=1e-15)
+    with pytest.raises(TypeError):  # arrays are not a controller input any more
+        a(0.0, Measurement(z=1.0).set(0.0, np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2)))
 
 
 def test_zero_inductance_algebraic_current():
@@ -172,22 +218,34 @@ def test_zero_inductance_algebraic_current():
     np.testing.assert_allclose(tr2.qd, tr.qd, rtol=0, atol=1e-4 * np.max(np.abs(tr.qd)))
 
 
-def test_servo_accepts_arrays_and_matches_single_runs():
-    """A batch runs one servo with (nsim,) gains (issue: CascadeServo cast gains to float)."""
+def test_servo_is_the_cascade_with_conditional_integration():
+    """CascadeServo called from Python (its law) against the cascade written out here: P position
+    loop, PI velocity loop with the rectangle rule over the measured sample interval, feed-forward,
+    output clip with the integral frozen while clipped."""
     from controllers.reference import ConstantSpeed
     from controllers.servo import CascadeServo
 
-    kvp = np.array([1.0, 2.0, 4.0])
-    c = CascadeServo(ConstantSpeed(10.0), kpp=50.0, kvp=kvp, kvi=20.0, kffv=0.5, v_limit=12.0)
-    c.reset()
-    y = Measurement(z=1.0)
-    outs = [c(t, y.set(t, np.full(3, 0.5 * t), np.full(3, 4.0), np.zeros(3), np.zeros(3))) for t in (0.0, 1e-3, 2e-3)]
-    for k in range(3):
-        s = CascadeServo(ConstantSpeed(10.0), kpp=50.0, kvp=float(kvp[k]), kvi=20.0, kffv=0.5, v_limit=12.0)
-        s.reset()
-        ref = [s(t, _y(t, 0.5 * t, 4.0, 0.0)) for t in (0.0, 1e-3, 2e-3)]
-        assert [o[k] for o in outs] == pytest.approx(ref, rel=1e-15)
-    assert set(c.state()) == {"integ", "t_prev"}
+    z, kpp, kvp, kvi, kffv, vl = 2.0, 50.0, 0.4, 20.0, 0.5, 12.0
+    c = CascadeServo(ConstantSpeed(10.0, phi0=0.0), kpp=kpp, kvp=kvp, kvi=kvi, kffv=kffv, v_limit=vl)
+    y = Measurement(z=z)
+    integ, t_prev, clipped = 0.0, None, 0
+    for n in range(300):
+        t = n * 1e-3
+        q, qd = 0.4 * t + 0.02 * math.sin(40 * t), 4.0 + (3.0 if n > 150 else 0.0)
+        u = c(t, y.set(t, q, qd, 0.0, 0.0))
+        e_v = 10.0 + kpp * (10.0 * t - z * q) - z * qd
+        dt = 0.0 if t_prev is None else t - t_prev
+        t_prev = t
+        inc = kvi * e_v * dt
+        raw = kffv * 10.0 + kvp * e_v + integ + inc
+        if (raw > vl and inc > 0) or (raw < -vl and inc < 0):
+            raw -= inc
+            clipped += 1
+        else:
+            integ += inc
+        assert u == pytest.approx(min(max(raw, -vl), vl), rel=1e-12, abs=1e-12)
+    assert clipped > 0 and c.integ == pytest.approx(integ, rel=1e-12)
+    assert set(c.state()) == {"integ", "t_prev"} and c.state()["t_prev"] == t_prev
 
 
 def test_current_limit_applies_in_every_integrator_option():

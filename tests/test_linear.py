@@ -185,6 +185,35 @@ def test_smc_without_boundary_layer_has_no_linear_counterpart():
         LN.controller_counterpart(m, LN.operating_point(m, 0.0, 5.0), H)
 
 
+def test_linear_capabilities_live_on_the_controller_classes():
+    """linear.py asks the controller's class (no branch on its type): open loop → no counterpart;
+    a class without a capability → a ParameterError naming it; running speeds from each class."""
+    scn, m = machine("incerti2012", mode="open")
+    assert LN.controller_counterpart(m, LN.operating_point(m, 0.0, 5.0), H) is None
+    d = m.drive
+    w_ss = 25.0 * d.k_m * d.z / (d.R * d.z ** 2 * d.lam + (d.k_m * d.z) ** 2)
+    assert LN.running_speed(m) == pytest.approx(w_ss, rel=1e-14)
+    scn, m = machine("yigit2023", mode="smc")
+    assert LN.running_speed(m) == 5.0
+    with pytest.raises(ParameterError, match="hold_offset"):
+        LN.step_check(m, LN.operating_point(m, 0.0, 5.0), H)
+
+    class Bare(controllers.Controller):  # a law-less controller with no capabilities
+        type_name = "bare"
+
+        @classmethod
+        def from_params(cls, p, drive=None, mechanism=None, scenario=None):
+            return cls()
+
+        def __call__(self, t, y):
+            return 0.0
+
+    m.controller = Bare()
+    with pytest.raises(ParameterError, match="no linear counterpart"):
+        LN.controller_counterpart(m, LN.operating_point(m, 0.0, 5.0), H)
+    assert LN.running_speed(m) == 0.0
+
+
 # ----------------------------------------------------------------------------- loop
 def test_loop_objects_are_consistent():
     """S + T = 1, S = 1/(1 + L) at every frequency; peak |S| = 1/min|1 + L|; closed-loop

@@ -151,3 +151,51 @@ def test_make_law():
     assert law.n_s == 8
     with pytest.raises(ParameterError):
         make_law({"kind": "spline", "Phi": 1.0, "T": 1.0})
+
+
+@pytest.mark.parametrize("m,p", [(2, 3), (1, 0), (3, 2), (4, 1)])
+def test_bezier_law_matches_scipy_bpoly(m, p):
+    """The scalar law (Horner in the Bernstein basis, derivative polygons of Eq 13) against
+    scipy's BPoly and its derivatives, φ to φ⃛, over the move and at both ends."""
+    Phi, T = 7.0, 0.6
+    rng = np.random.default_rng(10 * m + p)
+    law = BezierLaw(Phi, T, m, p, interior=Phi * rng.uniform(-0.2, 1.2, p))
+    bp = [BPoly(law.S[:, None], [0.0, T])]
+    for _ in range(3):
+        bp.append(bp[-1].derivative())
+    t = np.concatenate(([0.0, T], np.linspace(0.0, T, 97), [0.5 * T]))
+    out = law.evaluate(t, 3)
+    for k in range(4):
+        ref = bp[k](t)
+        np.testing.assert_allclose(out[k], ref, rtol=0, atol=1e-12 * Phi * (law.n_s / T) ** k * 10 ** k)
+
+
+def test_pseudopolynomial_law_matches_eq17_written_out():
+    """The scalar law against Eqs 17-18 written with NumPy (exponents γ, coefficients C)."""
+    law = PseudoPolynomialLaw(2.5, 0.9, (4.5, 6.2, 8.4))
+    t = np.linspace(0.0, 0.9, 61)
+    u = 1.0 - t / 0.9
+    g, C = law.gammas, law.C
+    p = 2.5 * (1.0 - sum(C[i] * u ** g[i] for i in range(3)))
+    v = 2.5 / 0.9 * sum(C[i] * g[i] * u ** (g[i] - 1) for i in range(3))
+    a = -2.5 / 0.9 ** 2 * sum(C[i] * g[i] * (g[i] - 1) * u ** (g[i] - 2) for i in range(3))
+    out = law.evaluate(t, 2)
+    for x, ref, sc in zip(out, (p, v, a), (2.5, 2.5 / 0.9, 2.5 / 0.81)):
+        np.testing.assert_allclose(x, ref, rtol=0, atol=1e-13 * sc * 100)
+
+
+def test_law_reference_is_the_scaled_delayed_law():
+    """LawReference (the servo's reference, a law) = scale·φ(t − t0) and derivatives, at rest
+    before the start and after the end; its state-free law gives the same at any call order."""
+    law = make_law({"kind": "bezier", "Phi": 3.0, "T": 0.5, "m": 2, "p": 3})
+    ref = law.as_reference(scale=2.0, t0=0.1)
+    for t in (0.0, 0.05, 0.1, 0.2, 0.37, 0.6, 0.65, 1.0, 0.3):
+        phi, om, acc = ref(t, None)
+        p, v, a = law.evaluate(t - 0.1, 2)
+        assert (phi, om, acc) == (2.0 * p, 2.0 * v, 2.0 * a)
+        if t < 0.1:
+            assert (phi, om, acc) == (0.0, 0.0, 0.0)
+        if t > 0.6:
+            assert (phi, om, acc) == (6.0, 0.0, 0.0)
+    with pytest.raises(ParameterError, match="law.T"):
+        make_law({"kind": "bezier", "Phi": 3.0, "T": -1.0})

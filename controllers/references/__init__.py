@@ -1,7 +1,8 @@
 """References for speed/position controllers (``[modes.NAME.reference] type = ...``).
 
-Each reference object has ``reset()`` and ``__call__(t, y) -> (phi_ref, omega_ref,
-omega_dot_ref)`` on the MOTOR shaft [rad, rad/s, rad/s²] (see :mod:`controllers.reference`).
+Each reference is a law ``law(t, q, q̇, q̈, I, P, S) -> (phi_ref, omega_ref, omega_dot_ref)`` on the
+MOTOR shaft [rad, rad/s, rad/s²], run by the kernel (compiled or not) and by the object's
+``__call__(t, y)`` (see :mod:`controllers.reference`).
 
 * ``coupler_speed`` — :mod:`controllers.references.coupler_speed`, seed 002 Eq 17: crank-speed
   reference for a prescribed coupler-point speed V_C (constant, piecewise-constant or tabulated).

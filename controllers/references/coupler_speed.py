@@ -13,10 +13,13 @@ with s the path length travelled since q = 0 (``FourBar.arc_length``).  V_C(s) i
   §2), optional cosine blend of length ``blend`` [m] centred on each break;
 * ``profile = "table"``: V_C linear in s between the points (s_i, v_i), periodic per lap
   ("fully variable");
-* any Python callable ``vc(s_lap)`` [m → m/s] (API only).
+* any Python callable ``vc(s_lap)`` [m → m/s] (API only; an attribute ``vc.derivative(s_lap)``
+  gives dV_C/ds for ``derivative = "analytic"``).  It has no compiled form: a run with it executes
+  the kernel in CPython (a Python adapter, ``meta["loop_reason"]`` says so).
 
 ``s`` breaks are in metres (``s_unit = "m"``) or in fractions of the path length
 (``s_unit = "fraction"``); values are in m/s (``v``) or multiples of ``vc`` (``v_rel``).
+``t_ramp`` [s] ramps V_C linearly from 0 at start-up; ``qd_max`` [rad/s] caps q̇_trj.
 
 Motor-side outputs (motor = z × crank):  ω_ref = z·q̇_trj;  φ_ref = z·(q(0) + ∫q̇_trj dt), the
 integral taken by the trapezoidal rule over the control steps, so that the PID integral term
@@ -31,36 +34,156 @@ sample has no predecessor), the way a continuous d e/dt with e(0⁻) = 0 (e.g. S
 filtered derivative with zero initial state) would; default false: the step is not
 differentiated.
 
-The object keeps state (previous time, φ_ref, q̇_trj): it must be called once per control step
-with non-decreasing t; ``reset()`` clears it (a call with t below the previous one also does).
-Scalars or arrays of shape (nsim,) are accepted for the measurement (and ``vc``).
+**Laws** (one formula for the kernel, compiled or not, and the methods): the profile
+``PROFILE(s_lap, P) → (V_C, dV_C/ds)`` (:func:`profile_constant`, :func:`profile_piecewise`,
+:func:`profile_table`: breaks and values as arrays in P); the target :func:`coupler_target`
+(Eq 17 with the ramp and the cap: S(q), dS/dq by the four-bar's
+:func:`~mjbench.mechanisms.fourbar.coupler_speed_ratio_law`, s(q) by its
+:func:`~mjbench.mechanisms.fourbar.arc_length_law` on the tabulated arc length); the reference
+:func:`coupler_speed_law` (state: previous time, φ_ref, q̇_trj, the derivative memory, the last
+ω̇_ref).  ``crank_speed``, ``vc_at`` and the FourBar methods run the same laws elementwise.
+
+The object keeps the state of its Python calls: it must be called once per control step with
+non-decreasing t; ``reset()`` clears it (a call with t below the previous one also does).  The
+kernel starts every run from a fresh state.
 """
 from __future__ import annotations
 
 import math
-
-import numpy as np
-
+from collections import namedtuple
 from typing import Literal
 
+import numpy as np
 from pydantic import Field
 
+from mjbench.compiled import law
 from mjbench.errors import ParameterError
+from mjbench.mechanisms.fourbar import arc_length_law, coupler_speed_ratio_law
 from mjbench.schema import Bool, Q, Strict
+
+from ..reference import Reference
 
 PROFILES = ("constant", "piecewise", "table")
 DERIVATIVES = ("difference", "analytic", "zero")
 
+#: a profile's parameters: vc [m/s]; n breaks s [m] with values v [m/s], the jump at each break
+#: (v_i − v_{i−1}, periodic) and the blend length [m]; path length L [m]; the table's nodes sp
+#: (s and L), values vp and slopes dv (n of them)
+ProfileP = namedtuple("ProfileP", "vc n s v jumps blend L sp vp dv")
 
-class CouplerSpeed:
-    """On-line Eq 17 reference.  ``mechanism`` needs ``coupler_speed_ratio_derivative(q)`` and
-    ``arc_length(q)``/``path_length()`` (FourBar); ``z`` is the gear ratio (motor per crank)."""
+
+@law
+def profile_constant(sl, P):
+    """V_C = vc, dV_C/ds = 0."""
+    return P.vc, 0.0
+
+
+@law
+def profile_piecewise(sl, P):
+    """V_C = v_i on [s_i, s_{i+1}) of the lap, each break blended over ±blend/2 by a half cosine
+    (periodic); → (V_C, dV_C/ds)."""
+    i = 0
+    for k in range(1, P.n):
+        if P.s[k] <= sl:
+            i = k
+    out = P.v[i]
+    dout = 0.0
+    bl = P.blend
+    if bl > 0.0:
+        L = P.L
+        for k in range(P.n):
+            d = (sl - P.s[k] + 0.5 * L) % L - 0.5 * L
+            if abs(d) < 0.5 * bl:
+                w = 0.5 * (1.0 + math.sin(math.pi * d / bl))
+                out = out + P.jumps[k] * (w - (1.0 if d >= 0.0 else 0.0))
+                dout = dout + P.jumps[k] * 0.5 * math.pi / bl * math.cos(math.pi * d / bl)
+    return out, dout
+
+
+@law
+def profile_table(sl, P):
+    """V_C linear in s between the nodes (s_i, v_i) (and (L, v_0): periodic) → (V_C, dV_C/ds)."""
+    j = 0
+    for k in range(1, P.n):
+        if P.sp[k] <= sl:
+            j = k
+    return P.vp[j] + P.dv[j] * (sl - P.sp[j]), P.dv[j]
+
+
+#: the target's parameters: the four-bar's kinematic P, its arc-length P, the path length L [m],
+#: whether the profile needs s, the start-up ramp [s], the cap q̇_max [rad/s], the profile's P
+TargetP = namedtuple("TargetP", "kin arc L need_s t_ramp qd_max profile")
+
+
+@law
+def coupler_target(PROFILE, t, q, P):
+    """Eq 17 at crank angle q [rad] and time t [s]: → (q̇_trj, V_C, dV_C/ds, S, dS/dq, ramp) with
+    V_C = PROFILE(s_lap)·ramp(t), q̇_trj = min(V_C/S(q), q̇_max)."""
+    Sq, dS = coupler_speed_ratio_law(q, P.kin)
+    sl = 0.0
+    if P.need_s:
+        sl = arc_length_law(q, P.arc) % P.L
+    V, dV = PROFILE(sl, P.profile)
+    ramp = 1.0
+    if P.t_ramp > 0.0 and t < P.t_ramp:
+        ramp = t / P.t_ramp
+    V = V * ramp
+    qdt = V / Sq
+    if qdt > P.qd_max:
+        qdt = P.qd_max
+    return qdt, V, dV, Sq, dS, ramp
+
+
+#: the reference's parameters: gear ratio z, derivative (0 difference, 1 analytic, 2 zero), kick,
+#: the target's P
+CouplerRefP = namedtuple("CouplerRefP", "z derivative kick target")
+
+
+@law
+def coupler_speed_law(TARGET, t, q, qd, qdd, I, P, S):
+    """(φ_ref, ω_ref, ω̇_ref) motor side (module docstring).  S = [t_last (NaN: no sample yet),
+    φ_ref, q̇_trj at t_last, the derivative memory, the last ω̇_ref/z]."""
+    qdt, V, dV, Sq, dS, ramp = TARGET(t, q, P.target)
+    z = P.z
+    if math.isnan(S[0]) or t < S[0]:  # first call of a run
+        S[0] = t
+        S[1] = z * q
+        S[2] = qdt
+        S[3] = 0.0 * qdt if P.kick else qdt
+        acc = 0.0 * qdt
+    elif t == S[0]:  # repeated call at the same instant: do not advance
+        acc = S[4]
+    else:
+        h = t - S[0]
+        S[1] = S[1] + 0.5 * h * z * (qdt + S[2])
+        if P.derivative == 0:
+            acc = (qdt - S[3]) / h
+        elif P.derivative == 1:
+            # d/dt (V/S) along the measured motion: (dV/ds·S − V·dS/dq/S)·q̇/S
+            acc = (dV * ramp - V * dS / (Sq * Sq)) * qd
+        else:
+            acc = 0.0 * qdt
+        S[0] = t
+        S[2] = qdt
+        S[3] = qdt
+    S[4] = acc
+    return S[1], z * qdt, z * acc
+
+
+class CouplerSpeed(Reference):
+    """On-line Eq 17 reference.  ``mechanism`` needs ``kinematic_params()`` and ``arc_params()``
+    (FourBar); ``z`` is the gear ratio (motor per crank)."""
+
+    STATE = ("t_last", "phi", "qd_last", "qd_diff", "acc_last")
+    law = coupler_speed_law
 
     def __init__(self, mechanism, z=1.0, vc=0.1, profile="constant", s=None, v=None, v_rel=None,
                  s_unit="m", blend=0.0, derivative="difference", qd_max=math.inf, t_ramp=0.0, kick=False):
         self.mechanism = mechanism
-        self.z = z
-        self.vc = vc
+        self.z = float(z)
+        if not (np.ndim(vc) == 0 and math.isfinite(float(vc)) and float(vc) >= 0):
+            raise ParameterError(f"reference.vc = {vc!r}: desired coupler speed must be finite >= 0 [m/s]")
+        self.vc = float(vc)
         self.derivative = str(derivative)
         if self.derivative not in DERIVATIVES:
             raise ParameterError(f"reference.derivative = {derivative!r}: choose one of {DERIVATIVES}")
@@ -72,19 +195,20 @@ class CouplerSpeed:
         if not (np.isfinite(self.t_ramp) and self.t_ramp >= 0):
             raise ParameterError(f"reference.t_ramp = {t_ramp!r}: must be finite >= 0 [s]")
         self.L = float(mechanism.path_length())
-        self._fn = None
+        self._user_fn = None
+        self._profile = None
         if callable(profile):
             self.profile = "callable"
-            self._fn = profile
+            self._user_fn = profile
         else:
             self.profile = str(profile)
             if self.profile not in PROFILES:
                 raise ParameterError(f"reference.profile = {profile!r}: choose one of {PROFILES}")
             if self.profile == "constant":
-                if not np.all(np.isfinite(vc)) or np.any(np.asarray(vc) < 0):
-                    raise ParameterError(f"reference.vc = {vc!r}: desired coupler speed must be finite >= 0 [m/s]")
+                self._profile = ProfileP(self.vc, 0, *(np.zeros(1),) * 3, 0.0, self.L, *(np.zeros(1),) * 3)
             else:
-                self._fn = self._make_profile(s, v, v_rel, s_unit, float(blend))
+                self._profile = self._make_profile(s, v, v_rel, s_unit, float(blend))
+        self._target = None
         self.reset()
 
     # ------------------------------------------------------------------ profile V_C(s)
@@ -110,65 +234,63 @@ class CouplerSpeed:
         if not (np.isfinite(blend) and blend >= 0):
             raise ParameterError(f"reference.blend = {blend!r}: must be finite >= 0 [m]")
         L = self.L
-        if self.profile == "table":
-            sp = np.concatenate((s, [L]))
-            vp = np.concatenate((vals, [vals[0]]))
-            dv = np.diff(vp) / np.diff(sp)
+        sp = np.concatenate((s, [L]))
+        vp = np.concatenate((vals, [vals[0]]))
+        dv = np.diff(vp) / np.diff(sp)
+        jumps = vals - np.roll(vals, 1)  # value before each break (periodic)
+        c = np.ascontiguousarray
+        return ProfileP(self.vc, int(len(s)), c(s), c(vals), c(jumps), blend, L, c(sp), c(vp), c(dv))
 
-            def fn(sl):
-                return np.interp(sl, sp, vp)
+    def profile_form(self):
+        """The profile's form: ``Form(PROFILE, ProfileP)``, or a Python adapter of a callable."""
+        from mjbench import compiled as C
 
-            def dfn(sl):
-                i = np.clip(np.searchsorted(sp, sl, side="right") - 1, 0, len(dv) - 1)
-                return dv[i]
-        else:
-            prev = np.roll(vals, 1)  # value before each break (periodic)
-            jumps = vals - prev
+        if self._user_fn is not None:
+            fn = self._user_fn
+            dfn = getattr(fn, "derivative", None)
 
-            def fn(sl):
-                i = np.searchsorted(s, sl, side="right") - 1
-                out = vals[i]
-                if blend > 0:
-                    for k in range(len(s)):  # smooth each break over ±blend/2, periodic
-                        d = (sl - s[k] + 0.5 * L) % L - 0.5 * L
-                        inside = np.abs(d) < 0.5 * blend
-                        w = 0.5 * (1.0 + np.sin(np.pi * d / blend))
-                        out = np.where(inside, out + jumps[k] * (w - (d >= 0)), out)
-                return out
+            def adapter(sl, P):
+                return float(fn(sl)), (float(dfn(sl)) if dfn is not None else 0.0)
+            return C.python_form(adapter, "coupler-speed profile is a Python callable (no law)")
+        law_ = {"constant": profile_constant, "piecewise": profile_piecewise, "table": profile_table}[self.profile]
+        return C.Form(law_, self._profile)
 
-            def dfn(sl):
-                out = np.zeros_like(np.asarray(sl, dtype=float))
-                if blend > 0:
-                    for k in range(len(s)):
-                        d = (sl - s[k] + 0.5 * L) % L - 0.5 * L
-                        inside = np.abs(d) < 0.5 * blend
-                        out = np.where(inside, out + jumps[k] * 0.5 * np.pi / blend * np.cos(np.pi * d / blend), out)
-                return out
-        fn.derivative = dfn
-        return fn
+    def target_form(self):
+        """Eq 17's target as a form: ``Form(coupler_target, TargetP, fn_args=(profile,))``."""
+        from mjbench import compiled as C
+
+        pf = self.profile_form()
+        m = self.mechanism
+        P = TargetP(m.kinematic_params(), m.arc_params(), self.L, self.profile != "constant", self.t_ramp,
+                    self.qd_max, pf.P)
+        return C.Form(coupler_target, P, fn_args=(pf,))
+
+    def _tgt(self):
+        if self._target is None:
+            f = self.target_form()
+            self._target = (f.bound(), f.P)
+        return self._target
+
+    def _target_at(self, q, t, k):
+        fn, P = self._tgt()
+        tt = math.inf if t is None else t
+        qa, ta = np.broadcast_arrays(np.asarray(q, dtype=float), np.asarray(tt, dtype=float))
+        if qa.ndim == 0:
+            return fn(float(ta), float(qa), P)[k]
+        out = np.array([fn(b, a, P)[k] for a, b in zip(qa.ravel().tolist(), ta.ravel().tolist())])
+        return out.reshape(qa.shape)
 
     def vc_at(self, q, t=None):
         """Desired coupler speed V_C [m/s] at crank angle(s) q [rad] (and time t, for the ramp)."""
-        if self._fn is None:
-            v = self.vc + 0.0 * np.asarray(q, dtype=float) if not isinstance(q, float) else self.vc
-        else:
-            sl = np.mod(self.mechanism.arc_length(np.asarray(q, dtype=float)), self.L)
-            v = self._fn(sl)
-        if t is not None and self.t_ramp > 0:
-            v = v * np.minimum(np.asarray(t, dtype=float) / self.t_ramp, 1.0)
-        return v
+        return self._target_at(q, t, 1)
 
     def _dvc_ds(self, q):
-        if self._fn is None or not hasattr(self._fn, "derivative"):
-            return 0.0 * q
-        sl = np.mod(self.mechanism.arc_length(np.asarray(q, dtype=float)), self.L)
-        return self._fn.derivative(sl)
+        """dV_C/ds [1/s] of the profile at crank angle(s) q (0 for a constant speed)."""
+        return self._target_at(q, None, 2)
 
     def crank_speed(self, q, t=None):
         """q̇_trj(q) of Eq 17 [rad/s] (clamped to ``qd_max``)."""
-        S = self.mechanism.coupler_speed_ratio(q)
-        qd = self.vc_at(q, t) / S
-        return np.minimum(qd, self.qd_max) if not isinstance(qd, float) else min(qd, self.qd_max)
+        return self._target_at(q, t, 0)
 
     @classmethod
     def from_params(cls, p, drive=None, mechanism=None):
@@ -179,51 +301,51 @@ class CouplerSpeed:
                    v_rel=p.v_rel or None, s_unit=p.s_unit, blend=p.blend, derivative=p.derivative,
                    qd_max=p.qd_max, t_ramp=p.t_ramp, kick=p.kick)
 
-    # ------------------------------------------------------------------ controller protocol
-    STATE = ("t_last", "phi", "qd_last", "qd_diff", "acc_last")
+    # ------------------------------------------------------------------ the law's form
+    def initial_state(self):
+        return np.array([math.nan, 0.0, 0.0, 0.0, 0.0])
 
-    def reset(self):
-        self.t_last = None
-        self.phi = None
-        self.qd_last = None
-        self.qd_diff = None
-        self.acc_last = None
+    def form(self, T, z):
+        """``Form(coupler_speed_law, CouplerRefP, S0, fn_args=(target,))`` (z: the reference's own
+        gear ratio, set from the drive when built)."""
+        from mjbench import compiled as C
 
-    def __call__(self, t, y):
-        q = y.q
-        S, dS = self.mechanism.coupler_speed_ratio_derivative(q)
-        if self._fn is None:
-            V, dV = self.vc, 0.0
-        else:
-            V = self.vc_at(q)
-            dV = self._dvc_ds(q)
-        ramp = 1.0
-        if self.t_ramp > 0 and t < self.t_ramp:
-            ramp = t / self.t_ramp
-        V = V * ramp
-        qd = V / S
-        if self.qd_max != math.inf:
-            qd = min(qd, self.qd_max) if isinstance(qd, float) else np.minimum(qd, self.qd_max)
-        z = self.z
-        if self.t_last is None or t < self.t_last:  # first call of a run
-            self.t_last, self.phi, self.qd_last = t, z * q, qd
-            self.qd_diff = 0.0 * qd if self.kick else qd
-            acc = 0.0 * qd
-        elif t == self.t_last:  # repeated call at the same instant: do not advance
-            acc = self.acc_last
-        else:
-            h = t - self.t_last
-            self.phi = self.phi + 0.5 * h * z * (qd + self.qd_last)
-            if self.derivative == "difference":
-                acc = (qd - self.qd_diff) / h
-            elif self.derivative == "analytic":
-                # d/dt (V/S) along the measured motion: (dV/ds·S − V·dS/dq/S)·q̇/S
-                acc = (dV * ramp - V * dS / (S * S)) * y.qd
-            else:
-                acc = 0.0 * qd
-            self.t_last, self.qd_last, self.qd_diff = t, qd, qd
-        self.acc_last = acc
-        return self.phi, z * qd, z * acc
+        tf = self.target_form()
+        P = CouplerRefP(self.z, DERIVATIVES.index(self.derivative), self.kick, tf.P)
+        return C.Form(coupler_speed_law, P, self.initial_state(), fn_args=(tf,))
+
+    def parameters(self, T, z):
+        return self.form(T, z).P
+
+    # ------------------------------------------------------------------ capabilities
+    def crank_speed_at(self, machine, q):
+        return float(self.crank_speed(float(q)))
+
+    def linear(self, machine, op, T, h, feedback=True):
+        """Seed 002 Eq 17: q̇_trj = V_C/S(q) of the MEASURED angle: δq̇_trj = δqd_set + g·δq,
+        g = ∂q̇_trj/∂q (central differences; ``feedback = False``: g = 0, the speed loop).
+        States: r1 = integral part of q_ref (trapezoidal, as the reference integrates φ_ref),
+        r2 = q̇_trj and r3 = q at the previous sample (for the trapezoid and the difference); the
+        derivative as configured (difference: (q̇_trj − q̇_trj,prev)/T, the set-point part not
+        differentiated; analytic: g·δq̇ + g'·q̇*·δq; zero)."""
+        import control as ct
+
+        from mjbench.linear import REF_INPUTS, REF_OUTPUTS
+
+        e = 1e-4
+        c0, cp, cm = (float(self.crank_speed(op.q + s)) for s in (0.0, e, -e))
+        g = (cp - cm) / (2 * e) if feedback else 0.0
+        gp = (cp - 2 * c0 + cm) / (e * e) if feedback else 0.0
+        A = np.array([[1.0, 0.5 * T, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        B = np.array([[0.0, 0.5 * T, 0.5 * T * g, 0.0], [0.0, 1.0, g, 0.0], [0.0, 0.0, 1.0, 0.0]])
+        C = np.array([[1.0, 0.5 * T, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        D = np.array([[1.0, 0.5 * T, 0.5 * T * g, 0.0], [0.0, 1.0, g, 0.0], [0.0, 0.0, 0.0, 0.0]])
+        if self.derivative == "difference":
+            C[2, 2], D[2, 2] = -g / T, g / T
+        elif self.derivative == "analytic":
+            D[2, 2], D[2, 3] = gp * op.qd, g
+        return ct.ss(A, B, C, D, T, inputs=list(REF_INPUTS), outputs=list(REF_OUTPUTS),
+                     states=["qref_int", "qdtrj_prev", "q_prev"], name="reference")
 
 
 class CouplerSpeedParams(Strict):

@@ -3,15 +3,24 @@
 ``[modes.NAME.reference] type = "law"`` uses the scenario's ``[law]`` table; ``t0`` [s] delays the
 start of the move.  The law gives φ, φ̇, φ̈ of the motor; the reference is exactly that (motor
 side), so a servo's feed-forward sees the law's own derivatives.
+
+The reference is the law :func:`law_reference`, which takes the motion law's own scalar law
+(``MOTION(t, order, P)``: :func:`mjbench.motionlaws.pseudopoly_motion`,
+:func:`~mjbench.motionlaws.bezier_motion`, :func:`~mjbench.motionlaws.shaped_motion`) as its
+first argument: the kernel, compiled or not, and ``law.evaluate`` run the same formula.
 """
 from __future__ import annotations
 
+from collections import namedtuple
 from typing import Literal
 
 from pydantic import Field
 
+from mjbench.compiled import law
 from mjbench.errors import ParameterError
 from mjbench.schema import Q, Strict
+
+from ..reference import Reference
 
 
 class LawReferenceParams(Strict):
@@ -20,7 +29,44 @@ class LawReferenceParams(Strict):
 
 
 def from_params(p, drive=None, mechanism=None, scenario=None):
-    law = getattr(scenario, "law", None)
-    if law is None:
+    motion = getattr(scenario, "law", None)
+    if motion is None:
         raise ParameterError("reference type 'law' needs a [law] table in the scenario")
-    return law.build().as_reference(t0=p.t0)
+    return motion.build().as_reference(t0=p.t0)
+
+
+#: the reference's parameters: scale (motor rad per law rad), start time [s], the motion law's P
+LawRefP = namedtuple("LawRefP", "scale t0 motion")
+
+
+@law
+def law_reference(MOTION, t, q, qd, qdd, I, P, S):
+    """(φ, φ̇, φ̈) of the motion law at t − t0, times ``scale`` (at rest before and after the move)."""
+    p, v, a, j = MOTION(t - P.t0, 2, P.motion)
+    s = P.scale
+    return s * p, s * v, s * a
+
+
+class LawReference(Reference):
+    """A motion law (:class:`mjbench.motionlaws.MotionLaw`) as the motor-side reference:
+    φ_ref(t) = scale·φ(t − t0) and its derivatives.  ``motion``: the law object."""
+
+    STATE = ()
+    law = law_reference
+
+    def __init__(self, motion, scale=1.0, t0=0.0):
+        self.motion, self.scale, self.t0 = motion, float(scale), float(t0)
+        self.reset()
+
+    def form(self, T, z):
+        from mjbench import compiled as C
+
+        mf = self.motion.motion_form()
+        return C.Form(law_reference, LawRefP(self.scale, self.t0, mf.P), self.initial_state(), fn_args=(mf,))
+
+    def parameters(self, T, z):
+        return self.form(T, z).P
+
+    def crank_speed_at(self, machine, q):
+        """The law's mean input speed Φ/(T·z) [rad/s]."""
+        return float(self.motion.Phi) / float(self.motion.T) / float(machine.drive.z)

@@ -123,7 +123,7 @@ def _module_hash(modname: str) -> str:
         return ""
 
 
-def loop_for(program, loop_fn):
+def loop_for(program, loop_fn, loop_source: str | None = None):
     """The compiled loop of ``program``'s composition (generated, cached, loaded on first use)."""
     init()
     key = program.key
@@ -133,7 +133,7 @@ def loop_for(program, loop_fn):
     with _LOCK:
         fn = _LOOPS.get(key)
         if fn is None:
-            fn = _LOOPS[key] = _build(program, loop_fn)
+            fn = _LOOPS[key] = _build(program, loop_source or inspect.getsource(loop_fn))
             _KEEP.append(dict(program.slots))  # the key holds the laws' ids: keep them alive
     return fn
 
@@ -197,7 +197,7 @@ def _specialise(name, fn, argn, mods):
     return imports + ["", "", "@numba.njit", ast.unparse(fdef), ""]
 
 
-def _build(program, loop_fn):
+def _build(program, loop_source: str):
     flags = program.flags
     header = ["import numba", "from mjbench.kernel import MAX_SPEED, MAX_CURRENT",
               "from mjbench.compiled import clip, isfinite", ""]
@@ -206,7 +206,7 @@ def _build(program, loop_fn):
     mods = set()
     for s in sorted(program.slots):
         _bind_text(s, program.slots[s], header, mods, inmemory)
-    src = "\n".join(header) + "\n\n\n" + inspect.getsource(loop_fn) + \
+    src = "\n".join(header) + "\n\n\n" + loop_source + \
         "\n\nrun = numba.njit(cache=True, nogil=True)(_loop)\n"
     if inmemory:  # a law numba cannot import by name: compile in memory (no disk cache)
         env = {"__name__": "mjbench_kernel_inmemory", **inmemory}

@@ -33,15 +33,155 @@ current-limiting amplifier.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
-import numpy as np
-
+from .. import compiled as C
+from ..compiled import clip, law
 from ..errors import ParameterError
+
+#: the amplifier laws' parameters for one drive and step h: scheme (unipolar), bus voltage, dead
+#: time t_d and t_d·f, PWM frequency f and period T, current limit on/off with the drive's
+#: R, k_m, decay e^{−hR/L}, limiter gain R/(1 − decay) and i_max, τ = L/R, h and 1/h, and the
+#: end-current correction k_m/R·(1 − decay) per unit of mean-speed change
+AmpP = namedtuple("AmpP", "uni v_bus td tdf f T lim R k_m decay gain imax tau h inv_h corr")
+
+
+@law
+def pwm_limit(I, V, w0, P):
+    """V limited so that the end-of-step current stays within ±i_max (exact update, speed held)."""
+    e = P.k_m * w0
+    hi = P.gain * (P.imax - I * P.decay) + e
+    lo = P.gain * (-P.imax - I * P.decay) + e
+    return hi if V > hi else (lo if V < lo else V)
+
+
+@law
+def pwm_averaged(t, I, V, w0, P, S):
+    """The kernel's AMP slot, averaged model: the period-mean bridge voltage [V] for the command V
+    (current limit, bus clip, dead-time error by the current's sign)."""
+    if P.lim:
+        V = pwm_limit(I, V, w0, P)
+    Vb = P.v_bus
+    V = Vb if V > Vb else (-Vb if V < -Vb else V)
+    tdf = P.tdf
+    if tdf == 0.0 or I == 0.0:
+        return V
+    if P.uni:
+        s = 1.0 if V >= 0 else -1.0
+        d = abs(V) / Vb
+        if 0.0 < d < 1.0:
+            sig = s if I > 0 else -s
+            d -= sig * tdf
+            d = clip(d, 0.0, 1.0)
+        return s * Vb * d
+    d = 0.5 * (1.0 + V / Vb)
+    if 0.0 < d < 1.0:
+        d -= tdf if I > 0 else -tdf
+        d = clip(d, 0.0, 1.0)
+    return Vb * (2.0 * d - 1.0)
+
+
+@law
+def pwm_segment(I, acc, vacc, imin, imax, level, dt, e, P):
+    """The exact RL current over dt at a constant bridge level (speed held: back-EMF e) →
+    (I, ∫I dt, ∫V dt, I_min, I_max) accumulated."""
+    if dt > 0.0:
+        iss = (level - e) / P.R
+        ex = math.exp(-dt / P.tau)
+        acc += iss * dt + (I - iss) * P.tau * (1.0 - ex)
+        vacc += level * dt
+        I = iss + (I - iss) * ex
+        if I < imin:
+            imin = I
+        elif I > imax:
+            imax = I
+    return I, acc, vacc, imin, imax
+
+
+@law
+def pwm_edge(j, k0, a, b, T):
+    """Time of the j-th commanded edge from period k0 on: even j the rising one ((k + a)·T), odd j
+    the falling one ((k + b)·T) of period k = k0 + j // 2."""
+    return (k0 + j // 2 + (a if j % 2 == 0 else b)) * T
+
+
+@law
+def pwm_switching(t, I, V, w0, P, S):
+    """The kernel's AMP slot, switching model: the current inside [t, t + h] resolved edge by edge
+    (speed held at φ̇₀) → (mean current Ī, end current, mean bridge voltage, I_min, I_max)."""
+    if P.lim:
+        V = pwm_limit(I, V, w0, P)
+    Vb = P.v_bus
+    V = Vb if V > Vb else (-Vb if V < -Vb else V)
+    if P.uni:
+        on = Vb if V >= 0 else -Vb
+        off = 0.0
+        d = abs(V) / Vb
+    else:
+        on = Vb
+        off = -Vb
+        d = 0.5 * (1.0 + V / Vb)
+    lower_on = on < off  # the "on" level is the lower one (unipolar, V < 0)
+    e = P.k_m * w0
+    f = P.f
+    T = P.T
+    td = P.td
+    t1 = t + P.h
+    a = 0.5 * (1.0 - d)  # on during [a, b) of each period (phase)
+    b = 0.5 * (1.0 + d)
+    k0 = math.floor(t * f + 1e-9)
+    ph = t * f - k0
+    level = on if a <= ph < b else off
+    cur = t
+    acc = 0.0
+    vacc = 0.0
+    imin = I
+    imax = I
+    if 0.0 < d < 1.0:
+        # the commanded edges strictly inside (t, t1), in time order (a contiguous run of j)
+        ne = 2 * (math.floor(t1 * f + 1e-9) - k0 + 1)
+        for j in range(ne):
+            te = pwm_edge(j, k0, a, b, T)
+            if not (t < te < t1):
+                continue
+            lv = on if j % 2 == 0 else off
+            if lv == level:
+                continue
+            I, acc, vacc, imin, imax = pwm_segment(I, acc, vacc, imin, imax, level, te - cur, e, P)
+            cur = te
+            # dead time: the diodes hold the lower level for I > 0, the upper one for I < 0; if that
+            # is the old level, the edge is delayed by t_d (at most to the next edge or the step end)
+            if td != 0.0 and I != 0.0 and (I > 0.0) == ((level == on) == lower_on):
+                nxt = t1
+                if j + 1 < ne:
+                    tn = pwm_edge(j + 1, k0, a, b, T)
+                    if tn < t1:
+                        nxt = tn
+                te2 = te + td
+                if te2 > nxt:
+                    te2 = nxt
+                I, acc, vacc, imin, imax = pwm_segment(I, acc, vacc, imin, imax, level, te2 - cur, e, P)
+                if te2 - cur > 0.0:
+                    cur = te2
+            level = lv
+    I, acc, vacc, imin, imax = pwm_segment(I, acc, vacc, imin, imax, level, t1 - cur, e, P)
+    return acc * P.inv_h, I, vacc * P.inv_h, imin, imax
+
+
+@law
+def pwm_end_current(Iend, w0, wm, P):
+    """The kernel's AMP_END slot: the switching model's end current (at φ̇₀) corrected to the step's
+    mean speed, exactly (the RL equation is linear in φ̇), within ±i_max."""
+    return clip(Iend - P.corr * (wm - w0), -P.imax, P.imax)
 
 
 class Amplifier:
     """H-bridge PWM amplifier (see the module docstring).  ``model``: "averaged" | "switching";
-    ``frequency`` [Hz], ``v_bus`` [V], ``scheme``: "unipolar" | "bipolar", ``dead_time`` [s]."""
+    ``frequency`` [Hz], ``v_bus`` [V], ``scheme``: "unipolar" | "bipolar", ``dead_time`` [s].
+
+    Its laws: :func:`pwm_averaged`, or :func:`pwm_switching` with :func:`pwm_end_current` (the
+    kernel's AMP and AMP_END slots, :meth:`form`); :meth:`bridge_voltage`, :meth:`switching_step`
+    and :meth:`end_current` run the same laws from Python."""
 
     def __init__(self, model="averaged", frequency=20e3, v_bus=48.0, scheme="unipolar", dead_time=0.0):
         if model not in ("averaged", "switching"):
@@ -49,11 +189,12 @@ class Amplifier:
         if scheme not in ("unipolar", "bipolar"):
             raise ParameterError(f"drive.pwm.scheme = {scheme!r}: choose 'unipolar' or 'bipolar'")
         self.model, self.scheme = model, scheme
-        self.frequency, self.v_bus, self.dead_time = frequency, v_bus, dead_time
+        self.frequency, self.v_bus, self.dead_time = float(frequency), float(v_bus), float(dead_time)
         for name in ("frequency", "v_bus"):
-            if not np.all(np.asarray(getattr(self, name), dtype=float) > 0):
-                raise ParameterError(f"drive.pwm.{name} = {getattr(self, name)!r}: must be > 0")
-        if np.any(np.asarray(dead_time) < 0) or np.any(np.asarray(dead_time) * np.asarray(frequency) >= 0.5):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise ParameterError(f"drive.pwm.{name} = {v!r}: must be > 0")
+        if not (self.dead_time >= 0 and self.dead_time * self.frequency < 0.5):
             raise ParameterError(f"drive.pwm.dead_time = {dead_time!r}: must be in [0, half a PWM period)")
 
     @property
@@ -61,237 +202,43 @@ class Amplifier:
         return self.model == "switching"
 
     def describe(self) -> dict:
-        return {"model": self.model, "frequency_Hz": _plain(self.frequency), "v_bus_V": _plain(self.v_bus),
-                "scheme": self.scheme, "dead_time_s": _plain(self.dead_time)}
+        return {"model": self.model, "frequency_Hz": self.frequency, "v_bus_V": self.v_bus,
+                "scheme": self.scheme, "dead_time_s": self.dead_time}
 
-    # ------------------------------------------------------------------ current limit
-    def _limiter(self, drive, h, batch):
-        """V ↦ V limited so that |I_end| ≤ i_max (exact update over h, speed held); None if no limit."""
-        if drive._no_ilimit:
-            return None
-        decay = drive._decay
-        R, k_m, imax = drive.R, drive.k_m, drive.i_max
-        gain = R / (1.0 - decay) if np.all(np.asarray(decay) < 1.0) else R
-
-        if not batch:
-            decay, R, k_m, imax, gain = float(decay), float(R), float(k_m), float(imax), float(gain)
-
-            def lim(I, V, w0):
-                e = k_m * w0
-                hi = gain * (imax - I * decay) + e
-                lo = gain * (-imax - I * decay) + e
-                return hi if V > hi else (lo if V < lo else V)
-            return lim
-
-        def lim_a(I, V, w0):
-            e = k_m * w0
-            return np.minimum(np.maximum(V, gain * (-imax - I * decay) + e), gain * (imax - I * decay) + e)
-        return lim_a
-
-    # ------------------------------------------------------------------ averaged
-    def bind_averaged(self, drive, h, batch):
-        """(I, V, φ̇₀) ↦ the period-mean bridge voltage [V] (bus clip, dead time, current limit)."""
-        lim = self._limiter(drive, h, batch)
-        uni = self.scheme == "unipolar"
-        Vb, td, f = self.v_bus, self.dead_time, self.frequency
-        tdf = td * f
-        if not batch:
-            Vb, tdf = float(Vb), float(tdf)
-
-            def avg(I, V, w0):
-                if lim is not None:
-                    V = lim(I, V, w0)
-                V = Vb if V > Vb else (-Vb if V < -Vb else V)
-                if tdf == 0.0 or I == 0.0:
-                    return V
-                if uni:
-                    s = 1.0 if V >= 0 else -1.0
-                    d = abs(V) / Vb
-                    if 0.0 < d < 1.0:
-                        sig = s if I > 0 else -s
-                        d -= sig * tdf
-                        d = 0.0 if d < 0.0 else (1.0 if d > 1.0 else d)
-                    return s * Vb * d
-                d = 0.5 * (1.0 + V / Vb)
-                if 0.0 < d < 1.0:
-                    d -= tdf if I > 0 else -tdf
-                    d = 0.0 if d < 0.0 else (1.0 if d > 1.0 else d)
-                return Vb * (2.0 * d - 1.0)
-            return avg
-
-        def avg_a(I, V, w0):
-            if lim is not None:
-                V = lim(I, V, w0)
-            V = np.minimum(np.maximum(V, -Vb), Vb)
-            if np.all(np.asarray(tdf) == 0.0):
-                return V
-            sI = np.sign(I)
-            if uni:
-                s = np.where(V >= 0, 1.0, -1.0)
-                d = np.abs(V) / Vb
-                edges = (d > 0.0) & (d < 1.0)
-                d = np.where(edges, np.clip(d - s * sI * tdf, 0.0, 1.0), d)
-                return s * Vb * d
-            d = 0.5 * (1.0 + V / Vb)
-            edges = (d > 0.0) & (d < 1.0)
-            d = np.where(edges, np.clip(d - sI * tdf, 0.0, 1.0), d)
-            return Vb * (2.0 * d - 1.0)
-        return avg_a
-
-    # ------------------------------------------------------------------ switching
-    def bind_switching(self, drive, h, batch):
-        """(t, I, V, φ̇₀) ↦ (Ī, I_end at φ̇₀, mean bridge voltage, I_min, I_max) over [t, t+h]."""
-        lim = self._limiter(drive, h, batch)
-        if np.any(np.asarray(drive.L) <= 0):
+    # ------------------------------------------------------------------ the laws' form
+    def params(self, drive, h: float) -> AmpP:
+        """The laws' parameters for ``drive`` at the co-simulation step h [s]."""
+        sp = drive.step_params(h)  # the drive's own constants at this step (decay e^{−hR/L})
+        R, k_m, decay, imax = sp.R, sp.k_m, sp.decay, sp.i_max
+        L = float(drive.L)
+        if self.switching and not L > 0:
             raise ParameterError("drive.pwm.model = 'switching' needs an armature inductance drive.L > 0")
-        if np.ndim(self.frequency):
-            raise ParameterError("drive.pwm.frequency: the switching model needs one PWM frequency for every "
-                                 "simulation of a batch")
-        uni = self.scheme == "unipolar"
-        f = float(self.frequency)
-        T = 1.0 / f
-        if not batch:
-            return self._switching_scalar(drive, h, lim, uni, f, T)
-        return self._switching_array(drive, h, lim, uni, f, T)
+        f = self.frequency
+        return AmpP(self.scheme == "unipolar", self.v_bus, self.dead_time, self.dead_time * f, f, 1.0 / f,
+                    math.isfinite(imax), R, k_m, decay, R / (1.0 - decay) if decay < 1.0 else R, imax,
+                    L / R, float(h), 1.0 / h, k_m / R * (1.0 - decay))
 
-    def _switching_scalar(self, drive, h, lim, uni, f, T):
-        R, L, k_m = float(drive.R), float(drive.L), float(drive.k_m)
-        tau = L / R
-        Vb, td = float(self.v_bus), float(self.dead_time)
-        inv_h = 1.0 / h
-        exp, floor = math.exp, math.floor
+    def form(self, drive, h: float) -> C.Form:
+        """The kernel's AMP form (switching: flagged, with its AMP_END law)."""
+        P = self.params(drive, h)
+        if self.switching:
+            return C.Form(pwm_switching, P, laws={"end": pwm_end_current}, flags={"switching": True})
+        return C.Form(pwm_averaged, P)
 
-        def sw(t, I, V, w0):
-            if lim is not None:
-                V = lim(I, V, w0)
-            V = Vb if V > Vb else (-Vb if V < -Vb else V)
-            if uni:
-                on = Vb if V >= 0 else -Vb
-                off = 0.0
-                d = abs(V) / Vb
-            else:
-                on, off = Vb, -Vb
-                d = 0.5 * (1.0 + V / Vb)
-            lower_on = on < off  # the "on" level is the lower one (unipolar, V < 0)
-            e = k_m * w0
-            t1 = t + h
-            a, b = 0.5 * (1.0 - d), 0.5 * (1.0 + d)  # on during [a, b) of each period (phase)
-            k0 = floor(t * f + 1e-9)
-            ph = t * f - k0
-            level = on if a <= ph < b else off
-            # commanded edges strictly inside (t, t1), in time order
-            edges = []
-            if 0.0 < d < 1.0:
-                for k in range(k0, floor(t1 * f + 1e-9) + 1):
-                    for ph_e, lv in ((a, on), (b, off)):
-                        te = (k + ph_e) * T
-                        if t < te < t1:
-                            edges.append((te, lv))
-            cur = t
-            acc = vacc = 0.0
-            imin = imax = I
-            ne = len(edges)
-            for i in range(ne + 1):
-                if i < ne:
-                    te, lv = edges[i]
-                    if lv == level:
-                        continue
-                else:
-                    te, lv = t1, level
-                for rep in range(2):  # up to the commanded edge, then through a dead time that delays it
-                    dt = te - cur
-                    if dt > 0.0:
-                        iss = (level - e) / R
-                        ex = exp(-dt / tau)
-                        acc += iss * dt + (I - iss) * tau * (1.0 - ex)
-                        vacc += level * dt
-                        I = iss + (I - iss) * ex
-                        if I < imin:
-                            imin = I
-                        elif I > imax:
-                            imax = I
-                        cur = te
-                    if rep or i == ne or td == 0.0 or I == 0.0:
-                        break
-                    # dead time: the diodes hold the lower level for I > 0, the upper one for I < 0;
-                    # if that is the old level, the edge is delayed by t_d
-                    if (I > 0.0) != ((level == on) == lower_on):
-                        break
-                    nxt = edges[i + 1][0] if i + 1 < ne else t1
-                    te = te + td
-                    if te > nxt:
-                        te = nxt
-                level = lv
-            return acc * inv_h, I, vacc * inv_h, imin, imax
+    # ------------------------------------------------------------------ Python use of the laws
+    def bridge_voltage(self, I, V, w0, drive, h: float):
+        """Averaged model: the period-mean bridge voltage [V] for current I, command V, motor speed
+        φ̇₀ (scalars or arrays, elementwise)."""
+        P = self.params(drive, h)
+        return C.vectorize(lambda i, v, w: pwm_averaged(0.0, i, v, w, P, C.NO_STATE), I, V, w0)
 
-        return sw
+    def switching_step(self, t, I, V, w0, drive, h: float):
+        """Switching model over [t, t + h] (speed held) → (Ī, I_end, mean bridge voltage, I_min, I_max)."""
+        return pwm_switching(float(t), float(I), float(V), float(w0), self.params(drive, h), C.NO_STATE)
 
-    def _switching_array(self, drive, h, lim, uni, f, T):
-        R, L, k_m = drive.R, drive.L, drive.k_m
-        tau = L / R
-        Vb, td = self.v_bus, self.dead_time
-        has_td = bool(np.any(np.asarray(td) > 0))
-        inv_h = 1.0 / h
-
-        def sw(t, I, V, w0):
-            if lim is not None:
-                V = lim(I, V, w0)
-            V = np.minimum(np.maximum(V, -Vb), Vb)
-            if uni:
-                on = np.where(V >= 0, 1.0, -1.0) * Vb
-                off = np.zeros_like(on)
-                d = np.abs(V) / Vb
-            else:
-                on = np.zeros_like(V) + Vb
-                off = -on
-                d = 0.5 * (1.0 + V / Vb)
-            lower_on = on < off
-            e = k_m * w0
-            t1 = t + h
-            a, b = 0.5 * (1.0 - d), 0.5 * (1.0 + d)
-            k0 = math.floor(t * f + 1e-9)
-            ph = t * f - k0
-            level = np.where((a <= ph) & (ph < b), on, off)
-            has_edges = (d > 0.0) & (d < 1.0)
-            edges = []
-            for k in range(k0, math.floor(t1 * f + 1e-9) + 1):
-                edges.append(((k + a) * T, on))
-                edges.append(((k + b) * T, off))
-            cur = np.full_like(V, t)
-            acc = np.zeros_like(V)
-            vacc = np.zeros_like(V)
-            I = np.array(I, dtype=float, copy=True)
-            imin, imax = I.copy(), I.copy()
-            ne = len(edges)
-
-            def segment(I, acc, vacc, level, dt):
-                iss = (level - e) / R
-                ex = np.exp(-dt / tau)
-                acc = acc + iss * dt + (I - iss) * tau * (1.0 - ex)
-                vacc = vacc + level * dt
-                return iss + (I - iss) * ex, acc, vacc
-
-            for i in range(ne):
-                te, lv = edges[i]
-                inside = has_edges & (te > t) & (te < t1) & (lv != level)
-                te_eff = np.where(inside, te, cur)
-                I, acc, vacc = segment(I, acc, vacc, level, np.maximum(te_eff - cur, 0.0))
-                imin, imax = np.minimum(imin, I), np.maximum(imax, I)
-                cur = te_eff
-                if has_td:
-                    level_is_lower = (level == on) == lower_on
-                    delayed = inside & (I != 0.0) & ((I > 0.0) == level_is_lower)
-                    nxt = np.minimum(edges[i + 1][0], t1) if i + 1 < ne else t1
-                    te2 = np.where(delayed, np.minimum(te_eff + td, nxt), cur)
-                    I, acc, vacc = segment(I, acc, vacc, level, np.maximum(te2 - cur, 0.0))
-                    imin, imax = np.minimum(imin, I), np.maximum(imax, I)
-                    cur = te2
-                level = np.where(inside, lv, level)
-            I, acc, vacc = segment(I, acc, vacc, level, np.maximum(t1 - cur, 0.0))
-            imin, imax = np.minimum(imin, I), np.maximum(imax, I)
-            return acc * inv_h, I, vacc * inv_h, imin, imax
-
-        return sw
+    def end_current(self, Iend, w0, wm, drive, h: float):
+        """The switching step's end current corrected from φ̇₀ to the mean speed φ̇̄ (clipped to ±i_max)."""
+        return pwm_end_current(float(Iend), float(w0), float(wm), self.params(drive, h))
 
 
 def ripple_formula(v_bus, L, f, scheme="unipolar"):
@@ -299,6 +246,3 @@ def ripple_formula(v_bus, L, f, scheme="unipolar"):
     levels {0, V_bus}), V_bus/(2·L·f) (bipolar, levels ±V_bus)."""
     return v_bus / ((4.0 if scheme == "unipolar" else 2.0) * L * f)
 
-
-def _plain(v):
-    return v.tolist() if isinstance(v, np.ndarray) else float(v)

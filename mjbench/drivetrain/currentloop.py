@@ -8,24 +8,68 @@ is not advanced while the output is clipped in the direction of the error).  ``b
 gives K_p = L·ω_c, K_i = R·ω_c (ω_c = 2πf_c): the PI zero cancels the armature pole R/L and the
 locked-rotor closed loop is the first-order lag 1/(1 + s/ω_c) (back-EMF: a slow disturbance the
 integral removes).
+
+The measured current I_k carries the sensor's current noise (``[drive.sensor] noise_current``)
+from a stream of its own (:mod:`mjbench.drivetrain.noise`), drawn at the loop's sample k.
 """
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
+from .. import compiled as C
+from ..compiled import law
 from ..errors import ParameterError
+from .noise import STREAM_CURRENT_LOOP, gauss, stream_key
+
+#: the loop's parameters: co-steps per sample, K_p, K_i·T_c, output bound V_max (inf: none),
+#: current-noise deviation and its stream's key
+CurrentLoopP = namedtuple("CurrentLoopP", "every kp kiT vmax sc key")
+#: the loop's state: the integral x, the held output V
+STATE = ("integral", "voltage")
+
+
+@law
+def current_loop_law(n, iref, I, P, S):
+    """The kernel's CLOOP slot at co-step n: a PI sample every ``P.every`` steps (clip ±V_max,
+    conditional integration), the output held in between → the armature voltage command [V]."""
+    every = P.every
+    if n % every != 0:
+        return S[1]
+    Im = I + P.sc * gauss(P.key, n // every) if P.sc > 0.0 else I
+    e = iref - Im
+    x = S[0]
+    xn = x + P.kiT * e
+    V = P.kp * e + xn
+    vm = P.vmax
+    if V > vm:
+        if e > 0:
+            xn = x
+        V = P.kp * e + xn
+        V = vm if V > vm else V
+    elif V < -vm:
+        if e < 0:
+            xn = x
+        V = P.kp * e + xn
+        V = -vm if V < -vm else V
+    S[0] = xn
+    S[1] = V
+    return V
 
 
 class CurrentLoop:
-    """PI current controller (see the module docstring).  kp [V/A], ki [V/(A·s)], period [s]."""
+    """PI current controller (see the module docstring).  kp [V/A], ki [V/(A·s)], period [s].
+
+    Its law is :func:`current_loop_law` (the kernel's CLOOP slot, :meth:`form`); :meth:`start` and
+    :meth:`__call__` run the same law from Python."""
 
     def __init__(self, kp, ki, period=0.0, bandwidth=None):
         for name, v in (("kp", kp), ("ki", ki)):
-            if not np.all(np.isfinite(np.asarray(v, dtype=float))) or np.any(np.asarray(v) < 0):
+            if not (math.isfinite(float(v)) and float(v) >= 0):
                 raise ParameterError(f"drive.current_loop.{name} = {v!r}: must be finite and >= 0")
-        self.kp, self.ki = kp, ki
+        self.kp, self.ki = float(kp), float(ki)
         self.period = float(period)
         self.bandwidth = bandwidth
 
@@ -35,64 +79,38 @@ class CurrentLoop:
         return cls(L * w, R * w, period, bandwidth)
 
     def describe(self) -> dict:
-        return {"kp_V_per_A": _plain(self.kp), "ki_V_per_As": _plain(self.ki), "period_s": self.period,
-                "bandwidth_Hz": None if self.bandwidth is None else _plain(self.bandwidth)}
+        return {"kp_V_per_A": self.kp, "ki_V_per_As": self.ki, "period_s": self.period,
+                "bandwidth_Hz": None if self.bandwidth is None else float(self.bandwidth)}
 
-    def bind(self, h, vmax, nsim, measure=None):
-        """(i*, I) ↦ V [V]; ``vmax`` output bound [V]; ``measure(I)`` the current sensor."""
-        every = 1 if self.period <= 0 else int(round(self.period / h))
-        if every < 1 or abs(self.period - every * h) > 1e-9 * max(self.period, h) and self.period > 0:
+    def every(self, h: float) -> int:
+        """Co-simulation steps per loop sample (the period must be a whole multiple of h)."""
+        if self.period <= 0:
+            return 1
+        k = int(round(self.period / h))
+        if k < 1 or abs(self.period - k * h) > 1e-9 * max(self.period, h):
             raise ParameterError(f"drive.current_loop.period = {self.period:g} s must be a whole multiple of "
                                  f"the co-simulation step {h:g} s")
-        Tc = every * h
-        kp, kiT = self.kp, self.ki * Tc
-        st = self._state = {"n": 0, "x": 0.0 if nsim is None else np.zeros(nsim), "V": 0.0}
-        batch = nsim is not None
-        unlimited = bool(np.all(np.isinf(vmax)))
-        if not batch:
-            kp, kiT, vm = float(kp), float(kiT), float(vmax)
+        return k
 
-            def loop(iref, I):
-                n = st["n"]
-                st["n"] = n + 1
-                if n % every:
-                    return st["V"]
-                e = iref - (measure(I) if measure is not None else I)
-                x = st["x"]
-                xn = x + kiT * e
-                V = kp * e + xn
-                if not unlimited:
-                    if V > vm:
-                        if e > 0:
-                            xn = x
-                        V = kp * e + xn
-                        V = vm if V > vm else V
-                    elif V < -vm:
-                        if e < 0:
-                            xn = x
-                        V = kp * e + xn
-                        V = -vm if V < -vm else V
-                st["x"], st["V"] = xn, V
-                return V
-            return loop
+    # ------------------------------------------------------------------ the law's form
+    def params(self, h: float, vmax: float, noise_current: float = 0.0, seed: int = 0) -> CurrentLoopP:
+        """The law's parameters at co-step h [s] with output bound ``vmax`` [V] (inf: none) and the
+        current sensor's noise deviation [A] and seed."""
+        every = self.every(h)
+        return CurrentLoopP(every, self.kp, self.ki * (every * h), float(vmax), float(noise_current),
+                            stream_key(seed, STREAM_CURRENT_LOOP))
 
-        def loop_a(iref, I):
-            n = st["n"]
-            st["n"] = n + 1
-            if n % every:
-                return st["V"]
-            e = iref - (measure(I) if measure is not None else I)
-            x = st["x"]
-            xn = x + kiT * e
-            V = kp * e + xn
-            if not unlimited:
-                frozen = ((V > vmax) & (e > 0)) | ((V < -vmax) & (e < 0))
-                xn = np.where(frozen, x, xn)
-                V = np.minimum(np.maximum(kp * e + xn, -vmax), vmax)
-            st["x"], st["V"] = xn, V
-            return V
-        return loop_a
+    def form(self, h: float, vmax: float, noise_current: float = 0.0, seed: int = 0) -> C.Form:
+        """The kernel's CLOOP form (:func:`current_loop_law`)."""
+        return C.Form(current_loop_law, self.params(h, vmax, noise_current, seed), np.zeros(len(STATE)))
 
+    # ------------------------------------------------------------------ Python use of the law
+    def start(self, h: float, vmax: float = math.inf, noise_current: float = 0.0, seed: int = 0) -> "CurrentLoop":
+        """Fresh state for :meth:`__call__` (a run at co-step h)."""
+        self._P = self.params(h, vmax, noise_current, seed)
+        self._S = np.zeros(len(STATE))
+        return self
 
-def _plain(v):
-    return v.tolist() if isinstance(v, np.ndarray) else float(v)
+    def __call__(self, n: int, iref, I) -> float:
+        """Co-step n (after :meth:`start`): the voltage command for reference i* and current I."""
+        return current_loop_law(int(n), float(iref), float(I), self._P, self._S)
