@@ -135,26 +135,80 @@ def write_record(path, rec, current=True):
     return path
 
 
-def read_record(path):
+MIN_SAMPLES = 20
+
+
+def read_record(path, option="--data"):
     """CSV with a header → dict t, V, omega[, I] (column names: see ``COLUMNS``; an mjbench
-    trajectory CSV works as is)."""
-    with open(path, newline="") as f:
-        header = next(csv.reader(f))
-    arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    names = [h.strip() for h in header]
-    out = {}
+    trajectory CSV works as is).  Every problem is ONE :class:`ParameterError` naming the file,
+    and the row (line number in the file) and column where it is: a missing file, a folder, an
+    empty or header-only file, another separator, a ragged row, text, NaN or inf in a number
+    column, times that do not increase, too few samples."""
+    import os
+
+    where = f"{option} {path}"
+    if not os.path.exists(path):
+        raise ParameterError(f"{where}: no such file")
+    if os.path.isdir(path):
+        raise ParameterError(f"{where} is a folder: give the CSV file of the record")
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            lines = f.read().splitlines()
+    except UnicodeDecodeError:
+        raise ParameterError(f"{where}: not a UTF-8 text file (a CSV record is expected)") from None
+    except OSError as e:
+        raise ParameterError(f"{where}: cannot read it ({e.strerror})") from None
+    numbered = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip()]
+    if not numbered:
+        raise ParameterError(f"{where} is empty: expected a header row ({', '.join(c[0] for c in COLUMNS.values())}) "
+                             f"and at least {MIN_SAMPLES} samples")
+    hline, head = numbered[0]
+    if "," not in head:
+        for sep, name in ((";", "semicolons"), ("\t", "tabs")):
+            if sep in head:
+                raise ParameterError(f"{where} row {hline}: the columns are separated by {name}; mjbench reads "
+                                     f"comma-separated values with a '.' decimal point (e.g. 0.5,12,3.1)")
+    names = [h.strip() for h in next(csv.reader([head]))]
+    cols = {}
     for key, cands in COLUMNS.items():
         for c in cands:
             if c in names:
-                out[key] = arr[:, names.index(c)]
+                cols[key] = (names.index(c), c)
                 break
-    missing = [k for k in ("t", "V", "omega") if k not in out]
+    missing = [k for k in ("t", "V", "omega") if k not in cols]
     if missing:
-        raise ParameterError(f"{path}: no column for {missing} (accepted names: "
-                             f"{ {k: COLUMNS[k] for k in missing} }); found {names}")
-    if len(out["t"]) < 20 or np.any(np.diff(out["t"]) <= 0):
-        raise ParameterError(f"{path}: need ≥ 20 samples with increasing time")
-    return out
+        raise ParameterError(f"{where} row {hline}: no column for {', '.join(missing)} (accepted names: "
+                             + "; ".join(f"{k}: {', '.join(COLUMNS[k])}" for k in missing) + f"); the header has "
+                             f"{', '.join(map(repr, names))}")
+    body = numbered[1:]
+    if not body:
+        raise ParameterError(f"{where} holds a header but no samples: need at least {MIN_SAMPLES} rows of numbers")
+    data = {k: np.empty(len(body)) for k in cols}
+    for j, row in enumerate(csv.reader([ln for _, ln in body])):
+        line = body[j][0]
+        if len(row) != len(names):
+            raise ParameterError(f"{where} row {line}: {len(row)} field{'s' if len(row) != 1 else ''}, the header has "
+                                 f"{len(names)} (a ragged row)")
+        for k, (ci, cname) in cols.items():
+            text = row[ci].strip()
+            try:
+                v = float(text)
+            except ValueError:
+                what = "an empty cell" if not text else f"{text!r}"
+                raise ParameterError(f"{where} row {line}, column {cname}: {what} is not a number") from None
+            if not math.isfinite(v):
+                raise ParameterError(f"{where} row {line}, column {cname}: {text} is not a finite number (remove or "
+                                     f"interpolate the sample)")
+            data[k][j] = v
+    t = data["t"]
+    if len(t) < MIN_SAMPLES:
+        raise ParameterError(f"{where}: {len(t)} samples; the fit needs at least {MIN_SAMPLES}")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        j = int(bad[0]) + 1
+        raise ParameterError(f"{where} row {body[j][0]}, column {cols['t'][1]}: time {t[j]:g} s is not after the "
+                             f"previous sample's {t[j - 1]:g} s (times must increase)")
+    return data
 
 
 # ======================================================================== fit

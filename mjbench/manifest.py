@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import datetime
+import hashlib
+import os
 import platform
 import subprocess
 import sys
@@ -45,11 +47,67 @@ def git_commit() -> str | None:
 def manifest(scn, argv=None, extra=None) -> dict:
     """Run manifest: the fully resolved scenario (every value, SI, defaults filled in — a run can be
     repeated from it: ``mjbench run manifest.json``), where it came from, the overrides applied,
-    plausibility warnings, versions, command and git commit."""
-    return {"created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "command": list(sys.argv if argv is None else argv), "versions": versions(),
-            "git_commit": git_commit(), "scenario_source": scn.source, "overrides": list(scn.overrides),
-            "warnings": list(scn.warnings), "scenario": scn.resolved(), **(extra or {})}
+    plausibility warnings, versions, command and git commit.  A scenario that reads a model file
+    (``[mechanism] type = "mjcf"``) also records the file's SHA-256 (``model_files``): repeating
+    the run after the file changed is refused (:func:`check_model_files`)."""
+    out = {"created_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+           "command": list(sys.argv if argv is None else argv), "versions": versions(),
+           "git_commit": git_commit(), "scenario_source": scn.source, "overrides": list(scn.overrides),
+           "warnings": list(scn.warnings), "scenario": scn.resolved()}
+    files = model_files(scn)
+    if files:
+        out["model_files"] = files
+    out.update(extra or {})
+    return out
+
+
+def model_files(scn) -> dict:
+    """{absolute path: {"sha256": ..., "bytes": n, "copy": name in the run folder}} of the model files the
+    scenario reads (the ``file`` of an ``mjcf`` mechanism), {} for the others."""
+    path = getattr(scn.mechanism, "file", None)
+    if not isinstance(path, str) or not path:
+        return {}
+    path = os.path.abspath(path)
+    with open(path, "rb") as f:
+        data = f.read()
+    return {path: {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data),
+                   "copy": f"{MODEL_COPY_DIR}/{os.path.basename(path)}"}}
+
+
+#: folder of a run's outputs holding a copy of each model file it read (for the record)
+MODEL_COPY_DIR = "model"
+
+
+def copy_model_files(scn, out_dir) -> None:
+    """Copy the scenario's model files into ``out_dir/model/`` (the record of what ran)."""
+    import shutil
+
+    for path, info in model_files(scn).items():
+        dst = Path(out_dir) / info["copy"]
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, dst)
+
+
+def check_model_files(man: dict, where: str) -> None:
+    """Refuse to repeat a run whose model file changed (or vanished) since the manifest was
+    written: its results would silently differ.  ``where``: the manifest's path (messages)."""
+    from .errors import ScenarioError
+
+    for path, info in (man.get("model_files") or {}).items():
+        want = info.get("sha256") if isinstance(info, dict) else None
+        if not want:
+            continue
+        copy = os.path.join(os.path.dirname(os.path.abspath(where)), info.get("copy", "")) if info.get("copy") else ""
+        keep = f"; the run's copy is {copy}" if copy and os.path.isfile(copy) else ""
+        if not os.path.isfile(path):
+            raise ScenarioError(f"{where}: the model file {path} of that run no longer exists, so the manifest cannot "
+                                f"repeat it{keep}")
+        with open(path, "rb") as f:
+            now = hashlib.sha256(f.read()).hexdigest()
+        if now != want:
+            raise ScenarioError(f"{where}: the model file {path} changed since that run (SHA-256 {want[:12]}… then, "
+                                f"{now[:12]}… now): the manifest would run another model; restore the file{keep}, or "
+                                f"run the scenario TOML to simulate the new model")
 
 
 def json_default(o):

@@ -362,10 +362,17 @@ def output_file(path, what="--out", suffixes=None):
         raise OutputError(f"{what} {out}: cannot create {e.filename or out.parent} ({e.strerror})") from None
     try:
         yield out
-    except BaseException:
+    except BaseException as e:
         with _signals_deferred():
             _remove_empty(made)
+        if isinstance(e, OSError) and not isinstance(e, MjbenchError) and e.errno in _DISK_ERRNOS:
+            raise OutputError(f"{what} {out}: cannot write it ({e.strerror or e}); an existing file there was "
+                              f"left as it was") from e
         raise
+
+
+#: errors of the disk itself (full, over quota, read-only, I/O): reported naming --out, no traceback
+_DISK_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EIO, errno.EFBIG)
 
 
 @contextlib.contextmanager
@@ -399,7 +406,10 @@ def staged_dir(out, force=False, what="--out"):
         if isinstance(e, OSError) and not isinstance(e, MjbenchError) and \
                 str(getattr(e, "filename", "") or "").startswith(str(staging)):
             raise OutputError(f"{what} {out}: cannot write {Path(e.filename).name} "
-                              f"({e.strerror or e})") from e
+                              f"({e.strerror or e}); {out} was left as it was") from e
+        if isinstance(e, OSError) and not isinstance(e, MjbenchError) and e.errno in _DISK_ERRNOS:
+            raise OutputError(f"{what} {out}: cannot write the outputs ({e.strerror or e}); {out} was left as it "
+                              f"was") from e
         raise
 
 

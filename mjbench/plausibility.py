@@ -21,11 +21,12 @@ import math
 BACKENDS_TOLERANCE = 1e-3  #: max |multibody − reduced| crank speed / peak |crank speed|
 
 
-def backends(compare: dict) -> dict:
-    """The ``plausibility`` entry of a mode's metrics from its ``multibody_vs_reduced`` entry."""
+def backends(compare: dict, tolerance: float = BACKENDS_TOLERANCE) -> dict:
+    """The ``plausibility`` entry of a mode's metrics from its ``multibody_vs_reduced`` entry
+    (``tolerance``: the scenario's ``metrics.backend_tolerance``, default :data:`BACKENDS_TOLERANCE`)."""
     mx = compare.get("max_rel_diff")
-    agree = mx is not None and math.isfinite(mx) and mx <= BACKENDS_TOLERANCE
-    out = {"backends_agree": bool(agree), "max_rel_diff": mx, "tolerance": BACKENDS_TOLERANCE,
+    agree = mx is not None and math.isfinite(mx) and mx <= tolerance
+    out = {"backends_agree": bool(agree), "max_rel_diff": mx, "tolerance": float(tolerance),
            "column": compare.get("column", "crank_speed_rad_s"),
            "normalisation": compare.get("normalisation", "peak |reference| over the run")}
     if not agree:
@@ -36,8 +37,17 @@ def backends(compare: dict) -> dict:
 
 
 def warnings_of(res: dict) -> list:
-    """Warning lines for the CLI from a mode's metrics dict (runner.mode_metrics)."""
-    p = res.get("plausibility")
+    """Warning lines for the CLI from a mode's metrics dict (runner.mode_metrics): the backends'
+    agreement, the reduced model against MuJoCo's (``model``), the step size (``step``)."""
+    p = res.get("plausibility") or {}
+    out = model_warnings(p.get("model"))
+    for b, st in (p.get("step") or {}).items():
+        if not st.get("step_ok", True):
+            out.append(f"{b}: {st['note']} (metrics.json \"plausibility\": {{\"step\": ...}})")
+    return _backend_warnings(p) + out
+
+
+def _backend_warnings(p: dict) -> list:
     if not p or p.get("backends_agree", True):
         return []
     mx = p.get("max_rel_diff")
@@ -45,3 +55,153 @@ def warnings_of(res: dict) -> list:
     return [f"multibody and reduced crank speeds differ by {mx_txt} (tolerance "
             f"{100 * p['tolerance']:g} %): the results are not plausible; metrics.json has "
             f"\"plausibility\": {{\"backends_agree\": false}}"]
+
+
+# ============================================================================ the reduced model vs MuJoCo, directly
+#: angles of one period at which :func:`reduced_vs_mujoco` compares the two models
+MODEL_ANGLES = 24
+#: largest relative error of the reduced model's J(q), J'(q) and E_p'(q) against MuJoCo's mass
+#: matrix and bias forces along the closed chain.  Measured on the built-in mechanisms: ≤ 3e-10
+#: (closed forms, generic linkages, the MJCF table), 1.3e-6 / 4.1e-7 for the Hülako & Çakar
+#: four-bars, whose joint masses are point masses in the reduced model but bodies with a 1e-9
+#: kg·m² inertia in MuJoCo; 1e-5 is 7.7 times that (docs/outputs.md)
+MODEL_TOLERANCE = 1e-5
+
+
+def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
+    """Compare the reduced (Eksergian) model of ``mech`` with MuJoCo's own dynamics of its MJCF
+    model at ``n`` input angles over one period — cheap (a few ms) and independent of any
+    controller or trajectory, so a controller cannot hide a wrong J(q) (issue 26, item 8).
+
+    At each angle q the chain is assembled (``initial_qpos``) and Γ = ∂qpos/∂q the velocity of every
+    joint per unit input speed (``initial_qvel`` at q̇ = 1).  Projected on Γ (constraint forces do no
+    work along it), MuJoCo's M·q̈ + bias = forces gives
+
+    * J_mj(q) = Γᵀ·M·Γ  (``mj_fullM``, armature of the input joint 0);
+    * E_p'_mj(q) = Γᵀ·(qfrc_bias − qfrc_spring) at zero velocity (gravity and springs);
+    * J'_mj(q): 4th-order central difference of J_mj over ±δ, ±2δ (δ = 1e-3 rad).
+
+    Errors: max |J − J_mj| / max|J_mj|; max |J' − J'_mj| / max|J_mj| (per radian); max |E_p' −
+    E_p'_mj| / max(max|E_p'_mj|, max|J_mj|·1 rad/s²) (a torque scale that stays finite without
+    gravity).  Also the assembled pose's loop-closure residual (MuJoCo's efc_pos, m) and Γ's
+    violation of the velocity constraints |efc_J·Γ| (relative to |efc_J|·|Γ|), which check the
+    mechanism's kinematics against the model's constraints.  Mechanisms with internal (elastic)
+    coordinates are not compared (their reduced model is not a J(q))."""
+    import mujoco
+    import numpy as np
+
+    out = {"n_angles": int(n), "tolerance": MODEL_TOLERANCE,
+           "method": "J = Γᵀ M Γ (mj_fullM), E_p' = Γᵀ(qfrc_bias − qfrc_spring) at zero speed, J' by 4th-order "
+                     "differences; Γ = d qpos / d q from the mechanism's kinematics"}
+    if getattr(mech, "internal", ()):
+        out.update(applicable=False, note="not compared: the mechanism has internal (elastic) coordinates")
+        return out
+    opts = dict(options or {})
+    model = mech.build_spec(0.0, opts).compile()
+    data = mujoco.MjData(model)
+    nv = model.nv
+    M = np.zeros((nv, nv))
+    period = getattr(mech, "reduced_period", None)
+    if period:
+        qs = np.linspace(0.0, float(period), int(n), endpoint=False)
+        delta = 1e-3
+    else:  # a slide input (a user MJCF): over the range its reduced model covers
+        table = getattr(getattr(mech, "_m", None), "table", None)
+        if table is None or not hasattr(table, "lo"):
+            out.update(applicable=False, note="not compared: the input is not periodic and its range is unknown")
+            return out
+        lo, hi = float(table.lo), float(table.hi)
+        delta = 1e-3 * (hi - lo)
+        qs = np.linspace(lo + 2 * delta, hi - 2 * delta, int(n))
+
+    def state(q, velocity):
+        data.qpos[:] = mech.initial_qpos(model, float(q))
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(model, data)
+        G = np.asarray(mech.initial_qvel(model, float(q), 1.0), dtype=float)
+        mujoco.mj_fullM(model, data, M)
+        J = float(G @ M @ G)
+        if not velocity:
+            return J
+        dEp = float(G @ (data.qfrc_bias - data.qfrc_spring))
+        ne = int(data.ne)
+        pos = float(np.max(np.abs(data.efc_pos[:ne]))) if ne else 0.0
+        vel = 0.0
+        if ne:
+            Jc = np.asarray(data.efc_J).reshape(-1)[:ne * nv].reshape(ne, nv)
+            vel = float(np.max(np.abs(Jc @ G)) / max(np.linalg.norm(Jc) * np.linalg.norm(G), 1e-300))
+        return J, dEp, pos, vel
+
+    rows = []
+    for q in qs:
+        J, dEp, pos, vel = state(q, True)
+        Jp = [state(q + k * delta, False) for k in (-2, -1, 1, 2)]
+        dJ = (8.0 * (Jp[2] - Jp[1]) - (Jp[3] - Jp[0])) / (12.0 * delta)
+        Jr, dJr, dEpr = (float(v) for v in mech.reduced(float(q)))
+        rows.append((q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel))
+    a = np.array(rows)
+    q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel = a.T
+    jscale = float(np.max(np.abs(J)))
+    if not jscale > 0:
+        out.update(applicable=False, note="not compared: MuJoCo's model has no inertia at the input (J = 0)")
+        return out
+    tscale = max(float(np.max(np.abs(dEp))), jscale * 1.0)
+    err = {"J_rel_err": float(np.max(np.abs(Jr - J)) / jscale),
+           "dJ_rel_err": float(np.max(np.abs(dJr - dJ)) / jscale),
+           "dEp_rel_err": float(np.max(np.abs(dEpr - dEp)) / tscale)}
+    worst = {k: float(q[int(np.argmax(np.abs(d)))]) for k, d in
+             (("J_rel_err", Jr - J), ("dJ_rel_err", dJr - dJ), ("dEp_rel_err", dEpr - dEp))}
+    out.update(applicable=True, **err, at_q_rad=worst,
+               J_range_kg_m2=[float(np.min(J)), float(np.max(J))],
+               closure_position_m=float(np.max(pos)), closure_velocity_rel=float(np.max(vel)))
+    bad = [k for k, v in err.items() if not (np.isfinite(v) and v <= MODEL_TOLERANCE)]
+    if out["closure_velocity_rel"] > MODEL_TOLERANCE or not np.isfinite(out["closure_velocity_rel"]):
+        bad.append("closure_velocity_rel")
+    out["models_agree"] = not bad
+    if bad:
+        what = {"J_rel_err": "J(q)", "dJ_rel_err": "J'(q)", "dEp_rel_err": "E_p'(q)",
+                "closure_velocity_rel": "the joint velocities per unit input speed (they break the loop constraints)"}
+        out["note"] = ("the reduced model differs from MuJoCo's model of the same mechanism: "
+                       + ", ".join(f"{what[k]} by {out[k]:.3g}" + (f" (worst at q = {worst[k]:.4g} rad)" if k in worst else "")
+                                   for k in bad)
+                       + f" (tolerance {MODEL_TOLERANCE:g}); one of the two models is wrong")
+    return out
+
+
+def model_warnings(check: dict) -> list:
+    """Warning lines for the CLI from a :func:`reduced_vs_mujoco` result."""
+    if not check:
+        return []
+    if check.get("models_agree", True) is None:  # the comparison itself failed
+        return [f"the reduced model could not be compared with MuJoCo's: {check.get('note', '')}"]
+    if check.get("models_agree", True):
+        return []
+    return [f"{check['note']}; metrics.json has \"plausibility\": {{\"model\": {{\"models_agree\": false}}}}"]
+
+
+# ============================================================================ step size
+#: largest input-angle change per co-simulation step before a run is flagged (0.05 rad = 2.9°).
+#: Measured (docs/outputs.md): the built-in scenarios turn at most 0.022 rad per step at their
+#: default dt (incerti-bezier's motor); the Incerti 2012 open loop at 48 V ends 1.7e-5 rad from a
+#: 4× finer run at 0.0085 rad/step and 4.4e-4 rad at 0.041 rad/step (the co-step's error grows with
+#: the square of the step); the seven-body linkage of issue 26 ran 0.11 rad/step and ended 8.9e-5
+#: rad off
+STEP_ANGLE_LIMIT = 0.05
+
+
+def step_check(traj, dt: float) -> dict:
+    """Whether the co-simulation step ``dt`` is fine enough for the motion: the largest input-angle
+    change per step, max |q̇|·dt, against :data:`STEP_ANGLE_LIMIT` (the record's peak speed)."""
+    import numpy as np
+
+    qd = np.asarray(traj.qd, dtype=float)
+    fin = qd[np.isfinite(qd)]
+    peak = float(np.max(np.abs(fin))) if fin.size else 0.0
+    per_step = peak * float(dt)
+    out = {"max_input_step_rad": per_step, "limit_rad": STEP_ANGLE_LIMIT, "dt_s": float(dt),
+           "peak_input_speed_rad_s": peak, "step_ok": bool(per_step <= STEP_ANGLE_LIMIT)}
+    if not out["step_ok"]:
+        out["note"] = (f"the input turns {per_step:.3g} rad ({per_step * 57.2958:.2g}°) per co-simulation step (peak "
+                       f"|q̇| = {peak:.4g} rad/s at simulation.dt = {dt:g} s), more than {STEP_ANGLE_LIMIT:g} rad: the "
+                       f"step is too coarse for this motion; reduce simulation.dt below {STEP_ANGLE_LIMIT / peak:.2g} s")
+    return out

@@ -92,5 +92,7 @@ def finish(fig, title=None):
 
 def new(nrows=1, ncols=1, **kw):
     """``plt.subplots`` with the mjbench style active for the created figure."""
+    import matplotlib.pyplot as plt
+
     with context():
         return plt.subplots(nrows, ncols, **kw)

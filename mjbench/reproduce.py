@@ -275,7 +275,8 @@ GLOSSARY = [
     ("J(α)", "reduced (generalised) inertia of the mechanism seen at the crank [kg·m²]; it varies with the "
              "crank angle α."),
     ("χ", "speed fluctuation of Incerti 2012 Eq 22: (φ̇_max − φ̇_min)/φ̇_average of the motor speed over a "
-          "crank cycle or a time window, in percent."),
+          "crank cycle or a time window, in percent, from the recorded samples (their interval is "
+          "chi_sampling_s in metrics.json: a coarser record misses the extremes and gives a smaller χ)."),
     ("last cycle from α(0)", "the last complete crank cycle counted from the initial angle α(0): it may end up "
                              "to one period before the end of the run."),
     ("last 2π to t_end", "the last 2π of crank travel, ending at the end of the run."),

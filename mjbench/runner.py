@@ -10,7 +10,7 @@ from . import metrics as M
 from . import plausibility
 from . import scenario as S
 from .backends import simulate
-from .manifest import manifest, write_json
+from .manifest import copy_model_files, manifest, write_json
 
 BACKENDS = ("multibody", "reduced")
 
@@ -89,10 +89,19 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
             res["backends"][b]["coupler_speed"] = M.coupler_tracking(tr, mach.mechanism, mach.controller.reference, **cfg)
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
-        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"], mt.backend_tolerance)
+        # the reduced model against MuJoCo's own mass matrix and bias forces: controller-independent
+        try:
+            res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(S.make_mechanism(scn), scn.multibody_options())
+        except Exception as e:  # noqa: BLE001 - a diagnostic must not lose the run: reported instead
+            res["plausibility"]["model"] = {"applicable": False, "models_agree": None,
+                                            "note": f"not compared: {type(e).__name__}: {e}"}
         if mujoco_derived(scn):
             res["multibody_vs_reduced"]["note"] = ("reduced model MuJoCo-derived (from the same MJCF): "
                                                    "not an independent check")
+    # a step too coarse for the motion (per-step input-angle bound)
+    res.setdefault("plausibility", {})["step"] = {
+        b: plausibility.step_check(tr, float(tr.meta.get("dt", scn.simulation.dt))) for b, tr in trajs.items()}
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 
@@ -152,6 +161,7 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
         name = "trajectory.csv" if len(trajs) == 1 else f"trajectory_{b}.csv"
         tr.write_csv(out / name)
     write_json(out / "metrics.json", res)
+    copy_model_files(scn, out)
     write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(backends),
                                                             "reduced_model": res["reduced_model"],
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
@@ -204,4 +214,7 @@ def chi_text(res):
         lines.append(f"({bs[0]}; {', '.join(bs[1:])}: the same)")
     elif lines and len(bs) > 1:
         lines.insert(0, f"{bs[0]}:")
+    dts = {res["backends"][b].get("chi_sampling_s") for b in bs} - {None}
+    if lines and dts:  # χ is max − min of the recorded samples: it depends on their interval
+        lines.append(f"(from samples every {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms)")
     return "\n".join(lines)

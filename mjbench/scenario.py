@@ -46,6 +46,9 @@ def read_raw(name_or_path: str) -> tuple[dict, str]:
                 raise ScenarioError(f"{name_or_path}: not valid JSON ({e})") from None
             if not isinstance(man, dict) or not isinstance(man.get("scenario"), dict):
                 raise ScenarioError(f"{name_or_path}: not an mjbench manifest (no 'scenario' table)")
+            from .manifest import check_model_files
+
+            check_model_files(man, name_or_path)  # a changed model file would silently run another model
             return copy.deepcopy(man["scenario"]), source
     else:
         res = importlib.resources.files("mjbench").joinpath(SCENARIO_DIR, f"{name_or_path}.toml")

@@ -24,7 +24,7 @@ documented on each field; nothing physical is silently zero.
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator,
                       model_validator)
@@ -205,10 +205,23 @@ class LawParams(Strict):
     interior: list[float] | None = Field(None, description="bezier interior ordinates [rad]")
     interior_over_Phi: list[float] | None = None
 
+    #: keys of each law family (the others' keys are refused, never ignored)
+    FAMILY_KEYS: ClassVar[dict] = {"pseudopoly": ("gammas",), "bezier": ("m", "p", "interior", "interior_over_Phi")}
+
     @model_validator(mode="after")
     def _phi(self):
         if (self.Phi is None) == (self.revolutions is None):
             raise PydanticCustomError("mjbench_value", "give exactly one of Phi [rad] or revolutions")
+        foreign = [(k, fam) for fam, keys in self.FAMILY_KEYS.items() if fam != self.kind for k in keys
+                   if k in self.model_fields_set]
+        if foreign:
+            raise PydanticCustomError(
+                "mjbench_value", "{keys} is a key of the {fam} law family, but this law is kind = {kind}, whose shape "
+                "keys are {own} (a key of another family would be ignored)",
+                {"keys": ", ".join(f"law.{k}" for k, _ in foreign), "fam": foreign[0][1], "kind": repr(self.kind),
+                 "own": ", ".join(self.FAMILY_KEYS[self.kind])})
+        if self.kind == "bezier" and self.interior is not None and self.interior_over_Phi is not None:
+            raise PydanticCustomError("mjbench_value", "give law.interior or law.interior_over_Phi, not both")
         return self
 
     @property
@@ -526,6 +539,12 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
                 problems.append(f"aliases.{alias}: target {target!r} is not a key of this scenario")
         if mech is not None and drive is not None:
             problems += drive.check_against(scn)  # drive-train tables vs modes and step
+        for tbl in ("optimize", "check"):
+            if getattr(scn, tbl) is not None and scn.law is None:
+                problems.append(f"{tbl}: the [{tbl}] table belongs to a motion-law study and this scenario has no "
+                                f"[law] table (it would be ignored)")
+        problems += _figure_problems(scn.paper, mraw_all)
+        _initial_from_stated_pose(scn, mech, raw)
     if problems:
         where = f" ({source})" if source else ""
         name = (raw.get("scenario") or {}).get("name", "?") if isinstance(raw.get("scenario"), dict) else "?"
@@ -544,6 +563,68 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
         _plausibility(mp, f"modes.{name}", sink)
     scn.warnings = sink
     return scn
+
+
+#: keys of a ``[[paper.figures]]`` entry (runner.paper_rows, verdicts.from_figure)
+FIGURE_KEYS = ("name", "mode", "metric", "value", "band", "max", "min", "tolerance", "fitted", "unit", "note")
+
+
+def _figure_problems(paper: dict, modes: dict) -> list:
+    """``[[paper.figures]]`` entries checked like the rest of the file: a table each, known keys,
+    an existing ``mode``, a ``metric`` a run computes, exactly one of value/band/max/min — else a
+    figure would silently vanish from the report or read 'not computed'."""
+    import difflib
+
+    from . import metrics as M
+    from .verdicts import from_figure
+
+    figs = (paper or {}).get("figures")
+    if figs is None:
+        return []
+    if not isinstance(figs, list):
+        return ["paper.figures: must be an array of tables ([[paper.figures]])"]
+    out, known = [], None
+    for i, fig in enumerate(figs):
+        where = f"paper.figures[{i}]"
+        if not isinstance(fig, dict):
+            out.append(f"{where}: must be a table, got {fig!r}")
+            continue
+        where = f"{where} ({fig.get('name', 'unnamed')!r})"
+        extra = [k for k in fig if k not in FIGURE_KEYS]
+        if extra:
+            out.append(f"{where}: unknown key {', '.join(map(repr, extra))}; allowed: {', '.join(FIGURE_KEYS)}")
+        if not isinstance(fig.get("name"), str):
+            out.append(f"{where}.name: required (a string)")
+        mode = fig.get("mode")
+        if mode is not None and mode not in modes:
+            near = difflib.get_close_matches(str(mode), list(modes), n=1)
+            out.append(f"{where}.mode: {mode!r} is not one of the [modes.*] tables ({', '.join(sorted(modes)) or 'none'})"
+                       + (f"; did you mean {near[0]!r}?" if near else ""))
+        metric = fig.get("metric")
+        if known is None:
+            known = M.known_metrics()
+        if not isinstance(metric, str):
+            out.append(f"{where}.metric: required (the name of a metric of the run)")
+        elif metric not in known:
+            near = difflib.get_close_matches(metric, known, n=1)
+            out.append(f"{where}.metric: {metric!r} is not a metric mjbench computes"
+                       + (f"; did you mean {near[0]!r}?" if near else "") + f" (known: {', '.join(known)})")
+        try:
+            from_figure(fig)
+        except (ValueError, TypeError) as e:
+            out.append(f"{where}: {e}")
+    return out
+
+
+def _initial_from_stated_pose(scn, mech, raw) -> None:
+    """A mechanism described in a stated pose (``input_angle``: a generic linkage, a user MJCF)
+    starts there unless ``[initial] q0`` says otherwise: q0 defaults to the stated input angle,
+    never silently to 0 (a description drawn at 90° would otherwise start a quarter turn away)."""
+    angle = getattr(mech, "input_angle", None)
+    init = raw.get("initial") if isinstance(raw.get("initial"), dict) else {}
+    if angle is None or "q0" in init:
+        return
+    scn.initial.q0 = float(angle)
 
 
 def _path_exists(raw, dotted, scn) -> bool:

@@ -25,6 +25,7 @@ summary plots.  A rerun with the same specification skips the rows already in th
 """
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import io
@@ -89,23 +90,99 @@ def auto_chunk(nrows: int, backend: str, workers: int = 1) -> int:
 
 
 # ======================================================================== parsing (CLI)
+#: most rows a sweep runs unless ``MJBENCH_MAX_SWEEP_ROWS`` says otherwise: the table is held in
+#: memory and rewritten after every chunk; 100 000 rows of a 0.5 s run are ≈ 5e8 co-steps
+MAX_ROWS = 100_000
+#: memory of one result row held by the sweep [bytes] (measured: ≈ 2.4 kB for the ≈ 20 metrics of
+#: a four-bar row in a dict; rounded up)
+ROW_BYTES = 4096
+
+
+def max_rows() -> int:
+    """The row limit: ``MJBENCH_MAX_SWEEP_ROWS`` if set, else :data:`MAX_ROWS`."""
+    env = os.environ.get("MJBENCH_MAX_SWEEP_ROWS")
+    if not env:
+        return MAX_ROWS
+    try:
+        n = int(float(env))
+    except ValueError:
+        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be a whole number of rows") from None
+    if n < 1:
+        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be >= 1")
+    return n
+
+
+def check_size(nrows: int, detail: str = "") -> None:
+    """Refuse, before anything runs, a sweep of more rows than :func:`max_rows` or than half the
+    available memory holds (ROW_BYTES each)."""
+    from .kernel import memory_limit
+
+    lim = max_rows()
+    need = nrows * ROW_BYTES
+    mem = memory_limit()
+    if nrows > lim or need > mem:
+        why = (f"more than the limit of {lim:,} rows (MJBENCH_MAX_SWEEP_ROWS overrides)" if nrows > lim else
+               f"its table would need {need / 2 ** 20:,.0f} MiB, more than {mem / 2 ** 20:,.0f} MiB (half the "
+               f"available memory; MJBENCH_MAX_RECORD_MB overrides)")
+        raise ParameterError(f"the sweep has {nrows:,} rows{' (' + detail + ')' if detail else ''}: {why}; use fewer "
+                             f"--grid values or --samples, or split it into several sweeps")
+
+
+def _range_values(item: str, key: str, text: str) -> list:
+    """``lo:hi:n`` → n evenly spaced floats (n checked before anything is allocated)."""
+    lo_t, hi_t, n_t = text.split(":")
+    try:
+        lo, hi = float(lo_t), float(hi_t)
+        nf = float(n_t)
+    except ValueError:
+        raise ScenarioError(f"--grid {item!r}: expected {key}=lo:hi:n with numbers lo, hi and a whole number n") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ScenarioError(f"--grid {item!r}: lo and hi must be finite numbers")
+    if not (math.isfinite(nf) and nf == int(nf) and nf >= 2):
+        raise ScenarioError(f"--grid {item!r}: n = {n_t!r} must be a whole number >= 2 (values from lo to hi)")
+    n = int(nf)
+    check_size(n, f"--grid {key}: {n:,} values")
+    if lo == hi:
+        raise ScenarioError(f"--grid {item!r}: lo = hi gives {n} identical rows; give lo < hi or one value")
+    return [float(v) for v in np.linspace(lo, hi, n)]
+
+
 def parse_grid(items) -> dict:
     """``["key=v1,v2", ...]`` → {key: [values]} (values parsed as TOML, like --set);
-    ``key=lo:hi:n`` gives n evenly spaced values."""
-    grid = {}
+    ``key=lo:hi:n`` gives n evenly spaced values.  A key given twice, a repeated value or an empty
+    list is an error (each would silently drop or repeat rows)."""
+    grid, src = {}, {}
     for item in items or ():
         if "=" not in item:
             raise ScenarioError(f"--grid {item!r}: expected key=v1,v2,... or key=lo:hi:n")
         key, text = (s.strip() for s in item.split("=", 1))
+        if not key:
+            raise ScenarioError(f"--grid {item!r}: no key before '='")
+        if key in grid:
+            raise ScenarioError(f"--grid {key} is given twice ({src[key]!r} and {item!r}): give all its values in one "
+                                f"--grid {key}=V1,V2,...")
         if text.count(":") == 2 and "," not in text:
-            lo, hi, n = text.split(":")
-            vals = [float(v) for v in np.linspace(float(lo), float(hi), int(n))]
+            vals = _range_values(item, key, text)
         else:
             vals = [S.parse_value(v.strip()) for v in text.split(",") if v.strip()]
         if not vals:
             raise ScenarioError(f"--grid {item!r}: no values")
-        grid[key] = vals
+        seen = []
+        for v in vals:
+            if any(_same(v, w) for w in seen):
+                raise ScenarioError(f"--grid {item!r}: the value {v!r} is repeated (each row would run twice); "
+                                    f"give each value once")
+            seen.append(v)
+        grid[key], src[key] = vals, item
     return grid
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, bool) or isinstance(b, bool):
+        return a is b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return float(a) == float(b)
+    return a == b
 
 
 def parse_perturb(items) -> dict:
@@ -115,14 +192,62 @@ def parse_perturb(items) -> dict:
         if "=" not in item:
             raise ScenarioError(f"--perturb {item!r}: expected key=5% (relative half-width)")
         key, text = (s.strip() for s in item.split("=", 1))
+        if key in out:
+            raise ScenarioError(f"--perturb {key} is given twice: give it once")
         try:
             r = float(text[:-1]) / 100 if text.endswith("%") else float(text)
         except ValueError:
             raise ScenarioError(f"--perturb {item!r}: {text!r} is not a number or percentage") from None
         if not (math.isfinite(r) and r >= 0):
             raise ScenarioError(f"--perturb {item!r}: the relative half-width must be >= 0")
+        if r >= 1:
+            raise ScenarioError(f"--perturb {item!r}: a half-width of {100 * r:g} % can change the value's sign "
+                                f"(factor 1 ± r); use less than 100 %")
         out[key] = r
     return out
+
+
+def check_scheduler(address: str) -> str:
+    """A Dask scheduler address, checked for its form: ``tcp://HOST:PORT`` (also tls, ws, wss,
+    ucx, inproc; a bare ``HOST:PORT`` means tcp)."""
+    from urllib.parse import urlsplit
+
+    text = address.strip()
+    full = text if "://" in text else f"tcp://{text}"
+    try:
+        u = urlsplit(full)
+        port = u.port
+    except ValueError:
+        port, u = None, None
+    ok = u is not None and (u.scheme == "inproc" or (u.scheme in ("tcp", "tls", "ws", "wss", "ucx") and u.hostname
+                                                       and port is not None and 0 < port < 65536 and u.path in ("", "/")))
+    if not ok:
+        raise ParameterError(f"--scheduler {address!r}: not a Dask scheduler address; expected tcp://HOST:PORT, e.g. "
+                             f"tcp://127.0.0.1:8786 (start one with `dask scheduler`)")
+    return full
+
+
+#: seconds a sweep waits for a Dask scheduler to answer before giving up (``MJBENCH_DASK_TIMEOUT``)
+CONNECT_TIMEOUT = 5.0
+
+
+def connect(address: str):
+    """A ``dask.distributed.Client`` of ``address``, or ONE error within :data:`CONNECT_TIMEOUT` s."""
+    from dask.distributed import Client
+
+    full = check_scheduler(address)
+    try:
+        timeout = float(os.environ.get("MJBENCH_DASK_TIMEOUT") or CONNECT_TIMEOUT)
+    except ValueError:
+        raise ParameterError(f"MJBENCH_DASK_TIMEOUT = {os.environ['MJBENCH_DASK_TIMEOUT']!r}: must be seconds") from None
+    try:
+        return Client(full, timeout=timeout)
+    except (OSError, TimeoutError) as e:
+        raise ParameterError(f"--scheduler {address}: no Dask scheduler answered within {timeout:g} s "
+                             f"({type(e).__name__}: {str(e).splitlines()[0] if str(e) else 'no answer'}); check the "
+                             f"address and that `dask scheduler` runs there") from None
+    except ValueError as e:
+        raise ParameterError(f"--scheduler {address!r}: {e}") from None
 
 
 # ======================================================================== rows
@@ -132,18 +257,28 @@ def _resolve(scn, key):
 
 def make_rows(spec: SweepSpec, scn) -> list[dict]:
     """All rows of the sweep: [{"row": i, key: value, ...}] (deterministic)."""
+    if int(spec.samples) < 0:
+        raise ParameterError(f"--samples {spec.samples}: must be >= 0 (Monte Carlo draws per grid point)")
+    nsamp = int(spec.samples)
+    pkeys = list(spec.perturb)
+    if nsamp and not pkeys:
+        raise ParameterError(f"--samples {nsamp} needs at least one --perturb KEY=R% (the keys to draw)")
+    if pkeys and not nsamp:
+        raise ParameterError(f"--perturb {pkeys[0]} needs --samples N (how many draws)")
+    first = {}
+    for key in list(spec.grid) + pkeys:  # one scenario key given twice under two names (an alias)
+        k = _resolve(scn, key)
+        if k in first and first[k] != key:
+            raise ParameterError(f"--grid/--perturb {key} and {first[k]} are the same scenario key {k}: give it once")
+        first.setdefault(k, key)
+    nrows = math.prod(len(v) for v in spec.grid.values()) * max(nsamp, 1)
+    check_size(nrows, " × ".join([f"{len(v)} {k}" for k, v in spec.grid.items()] + ([f"{nsamp} samples"] if nsamp else [])))
     for key in spec.keys():  # fail early on a typo or an invalid value, naming the key
         vals = spec.grid.get(key) or [S.get(scn, _resolve(scn, key))]
-        for v in vals:
+        for v in _probe(vals):
             S.with_values(scn, {_resolve(scn, key): v})
     grid_keys = list(spec.grid)
     points = list(itertools.product(*[spec.grid[k] for k in grid_keys])) if grid_keys else [()]
-    nsamp = max(int(spec.samples), 0)
-    pkeys = list(spec.perturb)
-    if nsamp and not pkeys:
-        raise ParameterError("--samples needs at least one --perturb key=r%")
-    if pkeys and not nsamp:
-        raise ParameterError("--perturb needs --samples N")
     rng = np.random.default_rng(spec.seed)
     u = rng.uniform(-1.0, 1.0, size=(len(points) * max(nsamp, 1), len(pkeys)))
     rows = []
@@ -161,6 +296,16 @@ def make_rows(spec: SweepSpec, scn) -> list[dict]:
                     row[k] = float(nominal) * (1.0 + spec.perturb[k] * float(u[i, j]))
             rows.append(row)
     return rows
+
+
+def _probe(vals, n=64):
+    """The values checked before running: all of up to ``n``, else the extremes and an even spread
+    (every row is validated again when it runs; an invalid one is then an error row)."""
+    if len(vals) <= n:
+        return vals
+    nums = [v for v in vals if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    idx = np.linspace(0, len(vals) - 1, n).astype(int)
+    return ([min(nums), max(nums)] if nums else []) + [vals[i] for i in idx]
 
 
 def row_scenario(scn, row: dict, keys):
@@ -326,83 +471,189 @@ def read_table(path) -> list[dict]:
             if k in ("status", "message"):
                 d[k] = v
                 continue
-            try:
-                d[k] = int(v) if k in ("row", "sample") else float(v)
-            except ValueError:
-                d[k] = v
+            d[k] = _number(v)
         out.append(d)
     return out
 
 
+def _number(text: str):
+    """A table cell back as written: an integer literal as ``int`` (``n_cycles`` 7, a grid value
+    2), anything else ``float`` (written by ``repr``: exact), else the text.  So a resumed row is
+    written back byte for byte as a fresh one (never ``7.0`` for ``7``)."""
+    t = text.strip()
+    if t.lstrip("+-").isdigit():
+        return int(t)
+    try:
+        return float(t)
+    except ValueError:
+        return text
+
+
 # ======================================================================== driver
+def sweep_metrics(scn) -> dict:
+    """The metrics a row of this scenario's sweep can hold ({name: description}): the numeric
+    metrics of :func:`mjbench.metrics.summary` (χ in the window only with ``metrics.chi_window``)."""
+    return {k: d for k, d in M.SUMMARY_METRICS.items() if k != "chi_window" or scn.metrics.chi_window is not None}
+
+
+def check_metric(metric, scn):
+    """``--metric``: a known metric name of the sweep's rows, or ONE error listing them."""
+    if metric is None:
+        return None
+    known = sweep_metrics(scn)
+    if metric not in known:
+        import difflib
+
+        near = difflib.get_close_matches(metric, list(known), n=1)
+        hint = f"did you mean {near[0]!r}? " if near else ""
+        why = (" (it needs metrics.chi_window in the scenario)" if metric == "chi_window" else "")
+        raise ParameterError(f"--metric {metric!r} is not a metric of the sweep's rows{why}; {hint}metrics: "
+                             f"{', '.join(known)}")
+    return metric
+
+
 def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = None, nthread: int = 0,
               progress: bool = True, plots: bool = True, metric: str | None = None) -> dict:
     """Run (or resume) a sweep into ``out_dir``.  ``client``: a ``dask.distributed.Client``, or
     ``scheduler``: its address (tcp://host:port) — chunks then run on the cluster.
-    Returns {"table": path, "rows": n, "ran": n_new, "plots": [paths]}."""
+    Returns {"table": path, "rows": n, "ran": n_new, "plots": [paths], "verified": [...],
+    "notes": [warnings]}.
+
+    Everything is checked before anything is written (keys, values, --metric, the number of rows,
+    the scheduler's answer).  A failure before the first row is saved leaves no folder behind; a
+    later one leaves the rows saved so far, and the same call resumes."""
     scn = S.load(spec.scenario, spec.overrides)
+    metric = check_metric(metric, scn)
     rows = make_rows(spec, scn)
     keys = spec.keys()
     st = settings(spec, scn)
-    os.makedirs(out_dir, exist_ok=True)
+    own_client = None
+    if client is None and scheduler:
+        own_client = client = connect(scheduler)  # one line within a few seconds if nobody answers
     spec_path = os.path.join(out_dir, SPEC)
     table = os.path.join(out_dir, RESULTS)
     spec_json = outputs.dumps(spec.to_json(), sort_keys=True, indent=1)
-    done = {}
-    if os.path.exists(spec_path):
-        with open(spec_path) as f:
-            old = f.read()
-        if json.loads(old) != json.loads(spec_json):
-            raise ScenarioError(f"{out_dir} holds a different sweep ({SPEC} differs); use another --out "
-                                f"or delete the folder")
-        if os.path.exists(table):
-            done = {r["row"]: r for r in read_table(table) if r.get("status") in ("ok", "diverged", "error")}
-    else:
-        atomic_write(spec_path, lambda f: f.write(spec_json))
-    pending = [r for r in rows if r["row"] not in done]
-    results = dict(done)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(rows), initial=len(done), desc="sweep", unit="sim")
-
-    def collect(chunk_result):
-        for r in chunk_result:
-            results[r["row"]] = r
-        write_table(table, list(results.values()), keys)
-        if bar is not None:
-            bar.update(len(chunk_result))
-
-    own_client = None
+    results, bar, notes = {}, None, []
+    made = []
     try:
-        if client is None and scheduler:
-            from dask.distributed import Client
-            own_client = client = Client(scheduler)
+        made = outputs._make_parents(outputs.Path(os.path.abspath(out_dir)))
+        done = {}
+        if os.path.exists(spec_path):
+            with open(spec_path) as f:
+                old = f.read()
+            try:
+                same = json.loads(old) == json.loads(spec_json)
+            except ValueError:
+                same = False
+            if not same:
+                raise ScenarioError(f"{out_dir} holds a different sweep ({SPEC} differs); use another --out "
+                                    f"or delete the folder")
+            if os.path.exists(table):
+                done = {r["row"]: r for r in read_table(table) if r.get("status") in ("ok", "diverged", "error")}
+        else:
+            atomic_write(spec_path, lambda f: f.write(spec_json))
+        pending = [r for r in rows if r["row"] not in done]
+        results.update(done)
+        if progress:
+            from tqdm import tqdm
+            bar = tqdm(total=len(rows), initial=len(done), desc="sweep", unit="sim")
+
+        def collect(chunk_result):
+            for r in chunk_result:
+                results[r["row"]] = r
+            write_table(table, list(results.values()), keys)
+            if bar is not None:
+                bar.update(len(chunk_result))
+
         workers = len(client.scheduler_info().get("workers", {})) if client is not None else 1
         size = max(1, int(spec.chunk_size)) if spec.chunk_size else auto_chunk(len(pending), spec.backend, workers)
         chunks = [pending[i:i + size] for i in range(0, len(pending), size)]
         if client is not None and chunks:
-            from dask.distributed import as_completed
-            scn_f = scatter_scenario(client, scn)
-            futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False) for ch in chunks]
-            for fut in as_completed(futs):
-                collect(fut.result())
+            _run_on_dask(client, scn, chunks, keys, st, nthread, collect, table, len(rows), len(done))
         else:
             for ch in chunks:
                 collect(run_chunk(scn, ch, keys, st, nthread))
         if not chunks and not os.path.exists(table):
             write_table(table, list(results.values()), keys)
+    except BaseException as e:
+        if not os.path.exists(table):  # nothing saved yet: leave no folder behind
+            if made:
+                with contextlib.suppress(OSError):
+                    os.unlink(spec_path)
+            outputs._remove_empty(made)
+        if isinstance(e, OSError) and not isinstance(e, MjbenchError):
+            saved = f"{len(results)} of {len(rows)} rows are saved in {table}; the same command resumes" \
+                if os.path.exists(table) else "nothing was written"
+            raise outputs.OutputError(f"--out {out_dir}: cannot write {os.path.basename(e.filename or '') or 'its files'}"
+                                      f" ({e.strerror or e}); {saved}") from None
+        raise
     finally:
         if bar is not None:
             bar.close()
         if own_client is not None:
             own_client.close()
-    out = {"table": table, "rows": len(rows), "ran": len(pending), "plots": [], "verified": []}
+    out = {"table": table, "rows": len(rows), "ran": len(pending), "plots": [], "verified": [], "notes": notes}
+    final = read_table(table)
+    use = metric or default_metric(final)
+    if use is not None and not any(r.get("status") == "ok" and use in r for r in final):
+        notes.append(f"no row has the metric {use!r} (every run diverged or failed, or the runs are too short for "
+                     f"it: e.g. chi_last_cycle needs a complete crank cycle): no summary plot"
+                     + (", no verification on the multibody backend" if spec.backend != "multibody" and spec.verify
+                        else ""))
     if spec.backend != "multibody" and spec.verify > 0:
-        out["verified"] = verify_best(spec, scn, read_table(table), keys, st, metric, out_dir, nthread)
+        out["verified"] = verify_best(spec, scn, final, keys, st, use, out_dir, nthread)
     if plots:
-        out["plots"] = summary_plots(spec, read_table(table), out_dir, metric=metric)
+        out["plots"] = summary_plots(spec, final, out_dir, metric=use)
     return out
+
+
+#: times Dask re-runs a chunk whose worker died or raised (then the sweep stops cleanly)
+DASK_RETRIES = 2
+
+
+def _run_on_dask(client, scn, chunks, keys, st, nthread, collect, table, nrows, ndone):
+    """Submit every chunk (``DASK_RETRIES`` retries each: a chunk whose worker is lost runs again
+    elsewhere) and collect them as they complete.  If the cluster still loses a chunk, stop
+    cleanly: ONE error saying how many rows are saved and that the same command resumes."""
+    from dask.distributed import as_completed
+
+    scn_f = ship_scenario(client, scn)
+    futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False, retries=DASK_RETRIES)
+            for ch in chunks]
+    saved = ndone
+    try:
+        for fut in as_completed(futs):
+            res = fut.result()
+            collect(res)
+            saved += len(res)
+    except (MjbenchError, KeyboardInterrupt):
+        raise
+    except Exception as e:  # noqa: BLE001 - the cluster's failures: lost workers, cancelled futures, comms
+        for f in futs:
+            f.cancel()
+        first = (str(e).splitlines() or [""])[0][:200]
+        raise MjbenchError(f"the Dask cluster lost a chunk of the sweep ({type(e).__name__}: {first}) after "
+                           f"{DASK_RETRIES} retries; {saved} of {nrows} rows are saved in {table}: run the same "
+                           f"command again to resume") from None
+
+
+def ship_scenario(client, scn):
+    """The scenario on the cluster as the result of ONE task whose input (the scenario itself) is
+    held in the task graph by the scheduler, under a key of its own
+    (``mjbench-scenario-<content hash>-<random>``).  Unlike scattered data, a task result lost with
+    its worker is recomputed by the scheduler, so a worker killed mid-sweep does not cancel the
+    chunks that need the scenario (``FutureCancelledError ... lost dependencies``).  The random
+    part keeps two clients of one scheduler from sharing the key (see :func:`scatter_scenario`)."""
+    import hashlib
+    import uuid
+
+    digest = hashlib.sha256(outputs.dumps(scn.resolved(), sort_keys=True, indent=None).encode()).hexdigest()[:16]
+    key = f"mjbench-scenario-{digest}-{uuid.uuid4().hex[:12]}"
+    return client.submit(_identity, scn, key=key, pure=False, retries=DASK_RETRIES)
+
+
+def _identity(x):
+    return x
 
 
 def scatter_scenario(client, scn):

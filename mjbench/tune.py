@@ -315,6 +315,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     t0 = time.perf_counter()
     prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
                    margin_mode=margin_mode, margin_angles=margin_angles)
+    search_box(prob.params, prob.x0, span, bounds)  # bad bounds: one message before any simulation
     if backend == "reduced":  # the compiled co-step (numba, same bits) when the planned work pays for loading it
         from . import kernel
         h = float(prob.options.get("timestep", scn.simulation.dt))
@@ -325,18 +326,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     lim.setdefault("current", base_m["peak_current_A"])
     prob.limits = lim
     base_m["score"] = prob.score(base_m)
-    lo = np.empty(len(prob.params))
-    hi = np.empty(len(prob.params))
-    for k, p in enumerate(prob.params):
-        b = (bounds or {}).get(p)
-        x0 = prob.x0[k]
-        if b is None:
-            if x0 <= 0:
-                raise ParameterError(f"tune: {p} = {x0} in the scenario; give --bounds {p}=lo:hi (both > 0)")
-            b = (x0 / span, x0 * span)
-        if not (0 < b[0] < b[1]):
-            raise ParameterError(f"--bounds {p}={b[0]}:{b[1]}: need 0 < lo < hi (searched in log scale)")
-        lo[k], hi[k] = math.log(b[0]), math.log(b[1])
+    lo, hi = search_box(prob.params, prob.x0, span, bounds)
     sob = qmc.Sobol(len(lo), scramble=True, seed=seed)
     n_global = max(1, int(n_global))
     U = sob.random_base2(max(0, math.ceil(math.log2(n_global))))[:n_global]  # first n of 2^m points
@@ -380,23 +370,33 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
                 pick.append((sc, x))
             if len(pick) == verify:
                 break
-        Xv = np.array([x for _, x in pick])
-        sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
-        for k, (sc, x) in enumerate(pick):
-            verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
-                             "score_multibody": float(sv[k]),
-                             "objective_multibody": (mv[k] or {}).get("objective", float("nan"))})
-        kbest = int(np.argmin(sv[:len(pick)]))
-        if kbest != 0:
-            log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
-        best_x = pick[kbest][1]
-        log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
-        tuned_m = mv[kbest]
+        if not pick:  # no candidate ran (all diverged, or none met --margin-mode constraint)
+            log("verification: no candidate ran to the end on the search backend; the closest one is validated")
+        else:
+            Xv = np.array([x for _, x in pick])
+            sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
+            for k, (sc, x) in enumerate(pick):
+                verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
+                                 "score_multibody": float(sv[k]),
+                                 "objective_multibody": (mv[k] or {}).get("objective", float("nan"))})
+            kbest = int(np.argmin(sv[:len(pick)]))
+            if kbest != 0:
+                log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
+            best_x = pick[kbest][1]
+            log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
+            tuned_m = mv[kbest]
     if not verified or tuned_m is None:
-        tuned_m, _ = prob.validate(best_x)
+        try:
+            tuned_m, _ = prob.validate(best_x)
+        except MjbenchError as e:  # the closest candidate diverges: reported, not a traceback
+            tuned_m = {"objective": float("nan"), "score": DIVERGED, "diverged": str(e),
+                       **({"margins": prob.linear_margins(best_x)} if prob.margins else {})}
     search = {"baseline": base_m}
     if backend != "multibody":
-        search["tuned"], _ = prob.run(best_x)
+        try:
+            search["tuned"], _ = prob.run(best_x)
+        except MjbenchError as e:
+            search["tuned"] = {"objective": float("nan"), "score": DIVERGED, "diverged": str(e)}
         base_mb, _ = prob.validate(prob.x0, baseline=True)
         base_mb["score"] = prob.score(base_mb)
     else:
@@ -412,6 +412,61 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
                       dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
                       {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
                       verified=verified, margins=list(prob.margins))
+
+
+def search_box(params, x0, span, bounds):
+    """(lo, hi) log-bounds of the search: ``bounds`` {gain: (lo, hi)} where given, else the
+    scenario's gain ×/÷ ``span``.  Bad values are ONE error naming the option."""
+    if not (math.isfinite(span) and span > 1.0):
+        raise ParameterError(f"--span {span:g}: must be a factor > 1 (each gain is searched within ×/÷ span of the "
+                             f"scenario's)")
+    unknown = [k for k in (bounds or {}) if k not in params]
+    if unknown:
+        raise ParameterError(f"--bounds {unknown[0]}: not a gain of this controller; its gains are {', '.join(params)}")
+    lo, hi = np.empty(len(params)), np.empty(len(params))
+    for k, p in enumerate(params):
+        b = (bounds or {}).get(p)
+        if b is None:
+            if not x0[k] > 0:
+                raise ParameterError(f"tune: {p} = {x0[k]:g} in the scenario, so ×/÷ --span gives no interval; give "
+                                     f"--bounds {p}=LO:HI (0 < LO < HI)")
+            b = (x0[k] / span, x0[k] * span)
+        elif not (math.isfinite(b[0]) and math.isfinite(b[1]) and 0 < b[0] < b[1]):
+            raise ParameterError(f"--bounds {p}={b[0]:g}:{b[1]:g}: need finite 0 < LO < HI (gains are searched in log "
+                                 f"scale)")
+        lo[k], hi[k] = math.log(b[0]), math.log(b[1])
+    return lo, hi
+
+
+def constraint_status(res: "TuneResult") -> tuple:
+    """([violated --margin bounds], [exceeded peak limits]) of the winner, one text each: the
+    margins at the worst frozen angle (linear model), the peak |V|, |I| against ``--limit``
+    (multibody validation; always a penalty) and a divergence."""
+    from .linear import MARGIN_KEYS
+
+    out, lim_out = [], []
+    tuned = res.validation.get("tuned") or {}
+    w = tuned.get("margins") or {}
+    for key, op, val in res.margins:
+        name, _, label = MARGIN_KEYS[key]
+        v = w.get(name)
+        if not w.get("all_stable", True):
+            out.append(f"{key}{op}{val:g}: some frozen-angle loops are unstable")
+        elif v is None or (isinstance(v, float) and math.isnan(v)):
+            out.append(f"{key}{op}{val:g}: the {label} cannot be computed")
+        elif op == ">=" and v < val:
+            out.append(f"{key}{op}{val:g}: worst {label} is {v:.4g}, short by {val - v:.3g}")
+        elif op == "<=" and v > val:
+            out.append(f"{key}{op}{val:g}: worst {label} is {v:.4g}, over by {v - val:.3g}")
+    for key, lim, label in (("peak_voltage_V", res.limits.get("voltage"), "voltage"),
+                            ("peak_current_A", res.limits.get("current"), "current")):
+        v = tuned.get(key)
+        if lim is not None and v is not None and v > lim * (1 + 1e-9):
+            unit = "V" if label == "voltage" else "A"
+            lim_out.append(f"--limit {label}={lim:.4g}: peak |{label}| is {v:.4g} {unit}, over by {v - lim:.3g} {unit}")
+    if tuned.get("diverged"):
+        out.append(f"the candidate diverges on the multibody backend ({tuned['diverged']})")
+    return out, lim_out
 
 
 def report(res: TuneResult) -> str:

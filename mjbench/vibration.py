@@ -24,7 +24,7 @@ Three independent evaluations of E(T):
 * ``multibody``: the MuJoCo model of :mod:`mjbench.mechanisms.platform`, RK4, the driven joint
   kinematically imposed at every integrator stage (:func:`simulate_multibody`).
 
-Also: residual amplitude, ZV / ZVD input shapers (Singer & Seering 1990) applied to a law,
+Also: residual envelope at T and peak after T, ZV / ZVD input shapers (Singer & Seering 1990) applied to a law,
 ±ω_n sensitivity, and the optimiser (:func:`optimize`: BFGS, or SLSQP when constraints on peak
 speed / acceleration / torque are given; both quasi-Newton).
 """
@@ -34,12 +34,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.special import roots_jacobi
 
 from .errors import ParameterError
+from .metrics import RESIDUAL_METRICS  # noqa: F401 - the names residual_from_trajectory writes
 from .mechanisms.platform import Oscillator
-from .motionlaws import BezierLaw, MotionLaw, PseudoPolynomialLaw
+from .motionlaws import BezierLaw, MotionLaw, PseudoPolynomialLaw, shaped_form
 
 
 # ====================================================================== shaped laws
@@ -58,15 +57,9 @@ class ShapedLaw(MotionLaw):
         self.name = name
         super().__init__(law.Phi, law.T + float(self.tj.max()))
 
-    def evaluate(self, t, order: int = 3):
-        t = np.asarray(t, dtype=float)
-        acc = None
-        for a, tj in zip(self.A, self.tj):
-            part = self.base.evaluate(t - tj, order)
-            acc = [a * p for p in part] if acc is None else [x + a * p for x, p in zip(acc, part)]
-        return tuple(acc)
-
-    __call__ = evaluate
+    def motion_form(self):
+        """Σ A_j·φ(t − t_j) as a law: :func:`mjbench.motionlaws.shaped_motion` over the base law's."""
+        return shaped_form(self.base, self.A, self.tj)
 
     def describe(self):
         return {"kind": self.kind, "name": self.name, "base": self.base.describe(),
@@ -116,6 +109,8 @@ def _gauss_jacobi_01(e: float, n: int):
     key = (e, n)
     r = _JACOBI_CACHE.get(key)
     if r is None:
+        from scipy.special import roots_jacobi
+
         x, w = roots_jacobi(n, 0.0, e)  # weight (1+x)^e on [-1, 1]
         r = (0.5 * (x + 1.0), w * 0.5 ** (e + 1.0))
         if len(_JACOBI_CACHE) > 256:
@@ -213,16 +208,32 @@ def residual_peak(law, osc, window: float = PEAK_WINDOW, n: int = 20001) -> floa
     return float(np.max(np.abs(psi)))
 
 
-def residual_amplitude(psi, psid, osc) -> float:
-    """Amplitude [rad, platform] of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
-    that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²)."""
+def residual_envelope(psi, psid, osc) -> float:
+    """Envelope [rad, platform] at T of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
+    that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²).  An envelope, not a
+    peak actually reached: the damped motion stays below it (:func:`residual_peak` is the peak)."""
     return float(math.hypot(psi, (psid + osc.xi * osc.omega_n * psi) / osc.omega_d))
 
 
+residual_amplitude = residual_envelope  # the former name (it computes the envelope above)
+
+
 # ====================================================================== reduced ODE
-def ode_response(law, osc, t_end=None, t_eval=None, rtol=1e-12, atol=None, method="DOP853"):
+#: right-hand-side evaluations an ODE check may spend (a healthy law needs ≈ 2 500 at rtol 1e-12;
+#: a degenerate one, the small difference of 1e6-sized terms, needed 1.1e7 — two minutes)
+ODE_MAX_NFEV = 200_000
+
+
+class ODEBudgetExceeded(ParameterError):
+    """The ODE check needed more right-hand-side evaluations than :data:`ODE_MAX_NFEV`."""
+
+
+def ode_response(law, osc, t_end=None, t_eval=None, rtol=1e-12, atol=None, method="DOP853",
+                 max_nfev=ODE_MAX_NFEV):
     """Integrate ψ̈ + 2ξω_nψ̇ + ω_n²ψ = −ρφ̈ from rest; returns (t, ψ, ψ̇) at ``t_eval``
-    (default: 2001 points on [0, t_end]); the integration is split at T (end of the law)."""
+    (default: 2001 points on [0, t_end]); the integration is split at T (end of the law).
+    Raises :class:`ODEBudgetExceeded` after ``max_nfev`` right-hand-side evaluations (None: no
+    budget), so a law too stiff to integrate at ``rtol`` cannot hang the caller."""
     t_end = law.T if t_end is None else float(t_end)
     if t_eval is None:
         t_eval = np.linspace(0.0, t_end, 2001)
@@ -232,14 +243,27 @@ def ode_response(law, osc, t_end=None, t_eval=None, rtol=1e-12, atol=None, metho
     scale = abs(rho * law.Phi) / max(wn * wn * law.T ** 2, 1e-300)
     atol = 1e-15 * max(scale, 1e-300) if atol is None else atol
 
+    count = [0]
+
+    def spend():
+        count[0] += 1
+        if max_nfev is not None and count[0] > max_nfev:
+            raise ODEBudgetExceeded(f"the ODE check of the {law.kind} law needed more than {max_nfev:,} right-hand-side "
+                                    f"evaluations at rtol = {rtol:g} (a healthy law needs a few thousand): the law is "
+                                    f"too stiff or degenerate to integrate")
+
     def rhs(t, y):
+        spend()
         return (y[1], -2 * xi * wn * y[1] - wn * wn * y[0] - rho * float(acc(t)))
 
     def rhs_free(t, y):
+        spend()
         return (y[1], -2 * xi * wn * y[1] - wn * wn * y[0])
 
     Tm = min(law.T, t_end)
     ev1 = t_eval[t_eval <= Tm]
+    from scipy.integrate import solve_ivp
+
     s1 = solve_ivp(rhs, (0.0, Tm), [0.0, 0.0], method=method, rtol=rtol, atol=atol, t_eval=ev1)
     ts, ys = [s1.t], [s1.y]
     yT = s1.y[:, -1] if s1.t.size and s1.t[-1] == Tm else \
@@ -333,6 +357,10 @@ def simulate_multibody(platform, law, t_end=None, dt=1e-4, record_dt=None):
     return out
 
 
+#: MuJoCo steps the E(T) check may take per law (4 mj_forward each: ≈ 1 min)
+MB_MAX_STEPS = 1_000_000
+
+
 def residual_energy_multibody(platform, law, dt=1e-4) -> float:
     r = simulate_multibody(platform, law, t_end=law.T, dt=dt, record_dt=law.T)
     osc = platform.oscillator()
@@ -351,6 +379,18 @@ def law_warnings(law) -> list:
     collapsing together or at their validity limit, large cancelling coefficients (the law is
     the small difference of huge terms: sensitive to every digit), a Bezier polygon leaving
     [0, Φ], a motor that reverses during the move.  Empty when the law is healthy."""
+    out = degeneracy(law)
+    v = law.velocity(np.linspace(0.0, law.T, 2001))
+    if np.any(np.sign(law.Phi) * v < -1e-9 * np.max(np.abs(v))):
+        out.append("the motor reverses during the move (the speed changes sign)")
+    return out
+
+
+def degeneracy(law) -> list:
+    """The numerical signs of :func:`law_warnings` (collapsing or edge exponents, huge cancelling
+    coefficients, a far-away Bezier polygon): laws the optimiser does not enter (see
+    :func:`optimize`) — their E(T) is the small difference of huge terms, and the ODE check of
+    such a law needs millions of steps."""
     out = []
     if isinstance(law, PseudoPolynomialLaw):
         g = np.sort(law.gammas)
@@ -371,9 +411,6 @@ def law_warnings(law) -> list:
         if np.any(y < -POLYGON_MARGIN) or np.any(y > 1.0 + POLYGON_MARGIN):
             out.append(f"control polygon far outside [0, Φ]: interior ordinates / Φ = "
                        f"{', '.join(f'{v:.3g}' for v in y)} (large cancelling terms)")
-    v = law.velocity(np.linspace(0.0, law.T, 2001))
-    if np.any(np.sign(law.Phi) * v < -1e-9 * np.max(np.abs(v))):
-        out.append("the motor reverses during the move (the speed changes sign)")
     return out
 
 
@@ -404,6 +441,8 @@ class OptResult:
     message: str
     method: str
     history: list = field(default_factory=list)
+    held: int = 0         #: trial laws refused as degenerate during the search
+    held_reason: str = ""  #: why the last one was refused (degeneracy())
 
 
 def _residual_vector(law, osc):
@@ -427,16 +466,28 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
     x0 = np.asarray(law0.params, dtype=float)
     if x0.size == 0:
         raise ParameterError(f"the {law0.kind} law has no shape parameter to optimise (e.g. law.p = 0)")
+    bad = degeneracy(law0)
+    if bad:
+        raise ParameterError(f"the initial {law0.kind} law is degenerate ({'; '.join(bad)}): optimize-law searches "
+                             f"healthy laws only (exponent gaps >= {GAMMA_GAP_MIN:g}, |C_i| <= {COEFF_MAX:g}, Bezier "
+                             f"ordinates within [-{POLYGON_MARGIN:g}, {1 + POLYGON_MARGIN:g}]·Φ); start from one")
     r0 = _residual_vector(law0, osc)
     E0 = float(r0 @ r0)
     scale = 1.0 / E0 if E0 > 0 else 1.0
     hist = []
+    held = {"n": 0, "why": ""}
 
     def resid(x):
         try:
-            return _residual_vector(law0.with_params(x), osc)
+            law = law0.with_params(x)
         except ParameterError:
             return None
+        why = degeneracy(law)
+        if why:  # a wall: the line search backs off, the search stays among healthy laws
+            held["n"] += 1
+            held["why"] = why[0]
+            return None
+        return _residual_vector(law, osc)
 
     def fun(x):
         r = resid(x)
@@ -488,20 +539,22 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
     else:
         res = minimize(fun, x0, jac=True, method=method, options={"maxiter": maxiter})
     law = law0.with_params(res.x)
+    if degeneracy(law):  # (the walls keep every accepted point healthy; a last guard)
+        law = law0
     return OptResult(law0=law0, law=law, E0=E0, E=residual_energy(law, osc), nit=int(res.get("nit", 0)),
-                     nfev=int(res.nfev), message=str(res.message), method=method, history=hist)
+                     nfev=int(res.nfev), message=str(res.message), method=method, history=hist,
+                     held=held["n"], held_reason=held["why"])
 
 
 # ====================================================================== summaries
 def summary(law, osc, J_motor=0.0) -> dict:
-    """E(T) (closed form), residual state, the free-vibration envelope at T (``residual_envelope_at_T_rad``,
-    also under its old name ``residual_amplitude_rad``) and the actual peak |ψ| over [T, T + 2 s]
-    (``residual_peak_after_T_rad``), peaks of the motor law."""
+    """E(T) (closed form), residual state, the free-vibration envelope at T (``residual_envelope_at_T_rad``)
+    and the actual peak |ψ| over [T, T + 2 s] (``residual_peak_after_T_rad``), peaks of the motor law."""
     psi, psid = residual_state(law, osc)
     pk = law.peaks()
-    env = residual_amplitude(psi, psid, osc)
+    env = residual_envelope(psi, psid, osc)
     return {"E_T_J": residual_energy(law, osc), "psi_T_rad": psi, "psid_T_rad_s": psid,
-            "residual_amplitude_rad": env, "residual_envelope_at_T_rad": env,
+            "residual_envelope_at_T_rad": env,
             "residual_peak_after_T_rad": residual_peak(law, osc), "residual_peak_window_s": PEAK_WINDOW,
             "peak_motor_speed_rad_s": pk["speed"], "peak_motor_accel_rad_s2": pk["accel"],
             "peak_motor_jerk_rad_s3": pk["jerk"], "T_total_s": law.T,
@@ -509,15 +562,15 @@ def summary(law, osc, J_motor=0.0) -> dict:
 
 
 def sensitivity(laws: dict, osc: Oscillator, errors=(-0.05, -0.025, 0.0, 0.025, 0.05), keep="xi"):
-    """E(T_end) and residual amplitude of each law when the plant's ω_n is off by ``errors``
-    (fractions) while the law was designed for ``osc``.  Returns {name: [(err, E, amp), ...]}."""
+    """E(T_end) and residual envelope at T_end of each law when the plant's ω_n is off by ``errors``
+    (fractions) while the law was designed for ``osc``.  Returns {name: [(err, E, envelope), ...]}."""
     out = {}
     for name, law in laws.items():
         rows = []
         for err in errors:
             o = osc.scaled(1.0 + err, keep=keep)
             psi, psid = residual_state(law, o)
-            rows.append((float(err), float(energy_from_state(psi, psid, o)), residual_amplitude(psi, psid, o)))
+            rows.append((float(err), float(energy_from_state(psi, psid, o)), residual_envelope(psi, psid, o)))
         out[name] = rows
     return out
 
@@ -563,6 +616,10 @@ def study(scn, progress=None, multibody=None) -> dict:
     cons = Constraints(_limit(opt.max_speed), _limit(opt.max_accel), _limit(opt.max_torque), J_motor=J_motor)
     do_mb = chk.multibody if multibody is None else bool(multibody)
     tick = (lambda: progress.update(1)) if progress is not None else (lambda: None)
+    if do_mb and law0.T / chk.multibody_dt > MB_MAX_STEPS:  # before any work
+        raise ParameterError(f"the MuJoCo check of a {law0.T:g} s law at check.multibody_dt = {chk.multibody_dt:g} s is "
+                             f"{law0.T / chk.multibody_dt:,.0f} steps per law (more than {MB_MAX_STEPS:,}): raise "
+                             f"check.multibody_dt, or skip it with --no-multibody")
 
     res = optimize(law0, osc, cons if cons.active() else None,
                    method=None if cons.active() else opt.method, gtol=opt.gtol, maxiter=opt.maxiter)
@@ -577,13 +634,21 @@ def study(scn, progress=None, multibody=None) -> dict:
            "optimiser": {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
                          "message": res.message,
                          "constraints": {"max_speed": cons.max_speed, "max_accel": cons.max_accel,
-                                         "max_torque": cons.max_torque}},
+                                         "max_torque": cons.max_torque},
+                         "degenerate_trials_refused": res.held,
+                         "degenerate_bounds": {"gamma_gap_min": GAMMA_GAP_MIN, "gamma_limit_margin": GAMMA_LIMIT_MARGIN,
+                                               "coeff_max": COEFF_MAX, "polygon_margin": POLYGON_MARGIN},
+                         **({"held_back": f"{res.held} trial laws were degenerate and refused (last: {res.held_reason}); "
+                                          f"the optimum may lie at the edge of the healthy laws"} if res.held else {})},
            "laws": {}, "paper": {k: v for k, v in paper.items()}}
     for name, law in laws.items():
         rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor), "warnings": law_warnings(law)}
     for name, law in laws.items():
-        rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
-        rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
+        try:
+            rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
+            rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
+        except ODEBudgetExceeded as e:  # reported, never a hang
+            rep["laws"][name].update(E_T_ode_J=None, peak_torque_elastic_Nm=None, ode_note=str(e))
     tick()
     shaped = {}
     for kind in chk.shapers:
@@ -598,7 +663,7 @@ def study(scn, progress=None, multibody=None) -> dict:
     errs = chk.sensitivity
     sens_laws = {**laws, **shaped}
     rep["sensitivity"] = {"omega_n_errors": list(errs), "keep": "xi",
-                          "table": {k: [{"err": e, "E_J": E, "amplitude_rad": a} for e, E, a in rows]
+                          "table": {k: [{"err": e, "E_J": E, "envelope_rad": a} for e, E, a in rows]
                                     for k, rows in sensitivity(sens_laws, osc, errs).items()}}
     fine = np.linspace(-0.05, 0.05, 81)
     sens_fine = sensitivity(sens_laws, osc, fine)
@@ -641,7 +706,7 @@ def servo_machine(scn, mode, law):
 def residual_from_trajectory(tr, osc, T, t_after):
     """Residual-vibration figures of a machine run (columns deflection_rad, deflection_rate_rad_s):
     E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (Incerti belt Eq 25, with the actual
-    motor speed), the free-vibration envelope at T (``residual_amplitude``), the actual peak |ψ|
+    motor speed), the free-vibration envelope at T (``residual_envelope_at_T_rad``), the actual peak |ψ|
     over [T, T + t_after] (``residual_peak_after_T_rad``, window in ``residual_peak_window_s``;
     cut at the end of the run), the energy at the end of the run."""
     t = tr.t
@@ -651,7 +716,7 @@ def residual_from_trajectory(tr, osc, T, t_after):
     E_end = float(energy_from_state(psi[-1], psid[-1], osc, om[-1]))
     after = (t >= T - 1e-12) & (t <= T + t_after + 1e-12)
     return {"E_T_J": E_T, "E_end_J": E_end,
-            "residual_envelope_at_T_rad": residual_amplitude(float(psi[iT]), float(psid[iT]), osc),
+            "residual_envelope_at_T_rad": residual_envelope(float(psi[iT]), float(psid[iT]), osc),
             "residual_peak_after_T_rad": float(np.max(np.abs(psi[after]))),
             "residual_peak_window_s": float(min(t_after, t[-1] - T)),
             "peak_current_A": float(np.max(np.abs(tr.current))),
@@ -676,7 +741,7 @@ def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced"
         r["max_tracking_error_rad"] = float(np.max(np.abs(err)))
         psi, psid = residual_state(law, osc)
         r["ideal_E_T_J"] = residual_energy(law, osc)
-        r["ideal_residual_envelope_rad"] = residual_amplitude(psi, psid, osc)
+        r["ideal_residual_envelope_at_T_rad"] = residual_envelope(psi, psid, osc)
         r["ideal_residual_peak_after_T_rad"] = residual_peak(law, osc, peak_window)
         out["laws"][name] = r
         if runs is not None:

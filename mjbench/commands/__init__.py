@@ -1,5 +1,78 @@
 """CLI subcommands.  Each module here defines ``register(subparsers)`` adding one (or a few)
-subcommands whose parser sets ``func=callable(args) -> int``.  ``mjbench.cli`` discovers them."""
+subcommands whose parser sets ``func=callable(args) -> int``.  ``mjbench.cli`` discovers them.
+
+Every option value is checked when the command line is parsed, the way scenario values are
+(:mod:`mjbench.schema`): :func:`integer` and :func:`quantity` are argparse ``type=`` functions
+with bounds (a quantity may carry a unit: ``--t-end "500 ms"``); a bad value is ONE line naming the
+option and what is wrong (``--samples: must be an integer >= 0, got '-3'``), exit 2, before any
+work.  An option the chosen run does not use is refused (:func:`refuse_unused`), never ignored.
+"""
+import argparse
+import math
+
+#: largest frame [px] ``render``/``reproduce`` accept: 8K UHD, within H.264 level 6.2 and the
+#: 16384-px renderbuffer limit of the usual OpenGL drivers (Mesa, NVIDIA)
+MAX_WIDTH, MAX_HEIGHT = 7680, 4320
+
+
+def integer(ge=None, le=None, what="an integer"):
+    """argparse ``type=``: a whole number within [ge, le] (1e3 is accepted as 1000)."""
+    def conv(text):
+        try:
+            x = float(text)
+            ok = math.isfinite(x) and x == int(x)
+        except (ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise argparse.ArgumentTypeError(f"must be {what}, got {text!r}")
+        v = int(x)
+        if ge is not None and v < ge:
+            raise argparse.ArgumentTypeError(f"must be {what} >= {ge}, got {text!r}")
+        if le is not None and v > le:
+            raise argparse.ArgumentTypeError(f"must be {what} <= {le:,}, got {text!r}")
+        return v
+    return conv
+
+
+def quantity(kind, gt=None, ge=None, lt=None, le=None):
+    """argparse ``type=``: a finite number in the SI unit of ``kind`` (:data:`mjbench.units.KINDS`),
+    or a string with a unit ("500 ms", "60 rpm"), within the bounds (as the scenario schema)."""
+    def conv(text):
+        from .. import units as U
+
+        try:
+            try:
+                x = float(text)
+            except ValueError:
+                x = U.to_si(text, kind)
+            U.Bound(gt, ge, lt, le, True).check(x, U.KINDS[kind][1])
+        except U.UnitError as e:
+            raise argparse.ArgumentTypeError(f"{e}{'' if str(text) in str(e) else f' ({text!r})'}") from None
+        return x
+    return conv
+
+
+def given(args, name) -> bool:
+    """Whether option ``name`` was given on the command line (its default is the None sentinel)."""
+    return getattr(args, name, None) is not None
+
+
+def refuse_unused(option, why):
+    """An option the run would ignore: one line naming it and why (exit 2)."""
+    from ..errors import ParameterError
+
+    raise ParameterError(f"{option} has no effect here: {why}")
+
+
+def check_frame(width, height, option="--width/--height"):
+    """Video frame size: even (H.264), 16 px to 8K (:data:`MAX_WIDTH` × :data:`MAX_HEIGHT`)."""
+    from ..errors import ParameterError
+
+    if width is None or height is None:
+        return
+    if not (16 <= width <= MAX_WIDTH and 16 <= height <= MAX_HEIGHT) or width % 2 or height % 2:
+        raise ParameterError(f"{option} = {width}x{height}: need even sizes from 16x16 to {MAX_WIDTH}x{MAX_HEIGHT} px "
+                             f"(H.264 and the offscreen OpenGL framebuffer)")
 
 
 def add_fast_multibody(p):
@@ -47,5 +120,7 @@ def parse_numbers(items, option, keys, suffix=""):
                 raise ParameterError(f"{option} {part!r}: {v!r} is not a number") from None
             if not math.isfinite(x):
                 raise ParameterError(f"{option} {part!r}: must be finite")
+            if k in out:
+                raise ParameterError(f"{option} {k} is given twice ({k}={out[k]:g} and {part.strip()})")
             out[k] = x
     return out

@@ -22,8 +22,9 @@ def run(args) -> int:
 
     from .. import reproduce as R
     from ..outputs import staged_dir
-    from .reproduce import with_gl
+    from .reproduce import check_video_options, with_gl
 
+    check_video_options(args)
     t0 = time.perf_counter()
     with_gl(args)
     progress = not args.no_progress and sys.stderr.isatty()

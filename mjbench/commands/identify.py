@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 
 from ..outputs import add_force_option, maybe_staged_dir, write_json
+from . import quantity
 
 
 def register(sub):
@@ -19,7 +20,7 @@ def register(sub):
                    help="hold a parameter (R, L, K, J, b, T_c) at a known value; needed (≥ 2) without current")
     p.add_argument("--guess", action="append", default=[], metavar="P=VALUE", help="starting value of a parameter")
     p.add_argument("--no-current", action="store_true", help="ignore a current column (voltage/speed fit)")
-    p.add_argument("--omega-s", type=float, default=0.05,
+    p.add_argument("--omega-s", type=quantity("angular_velocity", gt=0.0), default=0.05,
                    help="speed scale of the smoothed Coulomb friction tanh(ω/ω_s) [rad/s] (default 0.05)")
     p.add_argument("--synthetic", action="store_true",
                    help="first write a synthetic noisy record of the Incerti 2012 motor to --data (demo/check)")
@@ -32,17 +33,31 @@ SEED000_MOTOR = {"R": 2.0, "L": 9e-3, "K": 0.48, "J": 13e-4 + 9.8e-5, "b": 0.08,
 
 
 def _kv(items, what):
+    """``--fix/--guess P=VALUE`` → {P: value}: P one of the fitted parameters (given once), the
+    value finite, > 0 for R, L, K, J and >= 0 for the frictions b, T_c (the fit's bounds)."""
+    import math
+
     from ..errors import ParameterError
+    from ..identify import PARAMS, UNITS
 
     out = {}
     for it in items:
         if "=" not in it:
-            raise ParameterError(f"--{what} {it!r}: expected P=VALUE")
-        k, v = it.split("=", 1)
+            raise ParameterError(f"--{what} {it!r}: expected P=VALUE with P one of {', '.join(PARAMS)}")
+        k, v = (x.strip() for x in it.split("=", 1))
+        if k not in PARAMS:
+            raise ParameterError(f"--{what} {it!r}: {k!r} is not a parameter of the fit; choose {', '.join(PARAMS)}")
+        if k in out:
+            raise ParameterError(f"--{what} {k} is given twice")
         try:
-            out[k.strip()] = float(v)
+            x = float(v)
         except ValueError:
-            raise ParameterError(f"--{what} {it!r}: {v!r} is not a number") from None
+            raise ParameterError(f"--{what} {it!r}: {v!r} is not a number [{UNITS[k]}]") from None
+        low_ok = x >= 0 if k in ("b", "T_c") else x > 0
+        if not (math.isfinite(x) and low_ok):
+            raise ParameterError(f"--{what} {it!r}: must be a finite number {'>= 0' if k in ('b', 'T_c') else '> 0'} "
+                                 f"[{UNITS[k]}]")
+        out[k] = x
     return out
 
 
@@ -57,10 +72,19 @@ def cmd_identify(args):
         truth = SEED000_MOTOR
         ID.write_record(args.data, ID.synthetic_record(truth, seed=0, omega_s=args.omega_s))
         print(f"synthetic record (Incerti 2012 motor, T_c = 0.05 N·m, noise 0.05 rad/s and 0.05 A) -> {args.data}")
+    fixed, guess = _kv(args.fix, "fix"), _kv(args.guess, "guess")
+    from ..errors import ParameterError
+    if len(fixed) == len(ID.PARAMS):
+        raise ParameterError("--fix: every parameter is fixed, nothing is left to fit")
+    both = sorted(set(fixed) & set(guess))
+    if both:
+        raise ParameterError(f"--guess {both[0]}: the parameter is also fixed (--fix); a start value of a fixed "
+                             f"parameter has no effect")
     rec = ID.read_record(args.data)
+    if args.no_current and "I" not in rec:
+        raise ParameterError(f"--no-current: {args.data} has no current column to ignore")
     I = None if args.no_current else rec.get("I")
-    res = ID.fit(rec["t"], rec["V"], rec["omega"], I, fixed=_kv(args.fix, "fix"), guess=_kv(args.guess, "guess"),
-                 omega_s=args.omega_s)
+    res = ID.fit(rec["t"], rec["V"], rec["omega"], I, fixed=fixed, guess=guess, omega_s=args.omega_s)
     print(ID.report(res, truth))
     if args.out:
         with maybe_staged_dir(args.out, force=args.force) as out:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 
 from ..outputs import add_force_option, staged_dir, write_json
-from . import parse_numbers
+from . import integer, parse_numbers
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -24,7 +24,8 @@ def register(sub):
     p.add_argument("--mode", help="controller mode (default: the scenario's)")
     p.add_argument("--at", action="append", default=[], metavar="q=..,omega=..",
                    help="operating point: q [rad], omega [rad/s, input side], I [A], t [s] (comma-separated)")
-    p.add_argument("--angles", type=int, default=36, help="frozen angles over one turn (0: none; default 36)")
+    p.add_argument("--angles", type=integer(ge=0, le=3600), default=36,
+                   help="frozen angles over one turn (0: none; default 36)")
     p.add_argument("--no-multibody", action="store_true", help="skip the MuJoCo linearisation")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--out", required=True, help="output directory (written whole or not at all)")
@@ -32,9 +33,26 @@ def register(sub):
     p.set_defaults(func=cmd_linearize)
 
 
+#: |value| limits of an operating point: beyond any motor a DC drive model covers (the plausible
+#: ranges of mjbench.units for angular velocity and current); t: a run length
+AT_LIMITS = {"omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
+
+
 def parse_at(items) -> dict:
-    """``--at q=..,omega=..,I=..,t=..`` → {q, qd, I, t} (floats, SI)."""
+    """``--at q=..,omega=..,I=..,t=..`` → {q, qd, I, t} (floats, SI), checked: finite, |ω| and
+    |I| ≤ 1e5, 0 ≤ t ≤ 1e5 s (t is the time of the K_p·t ramp: a negative one is a negative gain)."""
+    from ..errors import ParameterError
+
     got = parse_numbers(items, "--at", [("q", "rad"), ("omega", "rad/s"), ("qd", "rad/s"), ("I", "A"), ("t", "s")])
+    if "omega" in got and "qd" in got:
+        raise ParameterError("--at omega and qd are the same input speed: give one of them")
+    for k, v in got.items():
+        lim = AT_LIMITS.get(k)
+        if lim is not None and abs(v) > lim:
+            raise ParameterError(f"--at {k}={v:g}: |{k}| must be <= {lim:g} {dict(omega='rad/s', qd='rad/s', I='A', t='s')[k]} "
+                                 f"(beyond what the drive model covers)")
+    if got.get("t", 0.0) < 0:
+        raise ParameterError(f"--at t={got['t']:g}: must be >= 0 s (the time of the run; K_p·t would be a negative gain)")
     return {AT_KEYS[k]: v for k, v in got.items()}
 
 
@@ -45,14 +63,19 @@ def cmd_linearize(args):
     from .. import scenario as S
     from ..preflight import check_machine
 
+    from ..errors import SimulationDiverged
+
+    at = parse_at(args.at)
     scn = S.load(args.scenario, args.overrides)
     check_machine(scn, args.mode)
-    at = parse_at(args.at)
-    if args.angles < 0:
-        from ..errors import ParameterError
-        raise ParameterError(f"--angles {args.angles}: must be >= 0")
     with staged_dir(args.out, force=args.force) as out:
-        res = LN.study(scn, args.mode, n_angles=args.angles, multibody=not args.no_multibody, **at)
+        try:
+            res = LN.study(scn, args.mode, n_angles=args.angles, multibody=not args.no_multibody, **at)
+        except ArithmeticError as e:  # (ZeroDivisionError, OverflowError, FloatingPointError)
+            point = ", ".join(f"{k}={v:g}" for k, v in at.items()) or "the default operating point"
+            raise SimulationDiverged(f"linearize at {point}: the linear model cannot be computed there "
+                                     f"({type(e).__name__}: {e}); the state is out of the model's numerical range "
+                                     f"(a speed or current far beyond the motor's?)") from None
         js, objs = res["json"], res["objects"]
         write_json(os.path.join(out, "linear.json"), js, indent=1)
         with plotstyle.context():

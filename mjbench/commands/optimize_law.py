@@ -86,6 +86,10 @@ def _study(args, scn, name, final, out, mb, vibration, tqdm):
     for k, v in rep["laws"].items():
         for w in v.get("warnings") or []:
             print(f"mjbench: warning: the {k} law looks degenerate: {w}", file=sys.stderr)
+        if v.get("ode_note"):
+            print(f"mjbench: warning: the {k} law's E(T) ODE check was stopped: {v['ode_note']}", file=sys.stderr)
+    if rep["optimiser"].get("held_back"):
+        print(f"mjbench: warning: optimiser held back: {rep['optimiser']['held_back']}", file=sys.stderr)
     print("  sensitivity: E(T_end) [J] when the real ω_n is off by (ξ kept):")
     errs = rep["sensitivity"]["omega_n_errors"]
     print("  " + f"{'law':<16s}" + "".join(f"{100 * e:>+11.1f}%" for e in errs))

@@ -14,8 +14,12 @@ def add_common(p, out_required=True):
     p.add_argument("--quick", action="store_true",
                    help="short videos (≤ 2 s, 640x360); simulations and figures unchanged")
     p.add_argument("--no-video", action="store_true", help="skip the videos")
-    p.add_argument("--width", type=int, default=None, help="video width [px] (default 960, --quick 640)")
-    p.add_argument("--height", type=int, default=None, help="video height [px] (default 540, --quick 360)")
+    from . import MAX_HEIGHT, MAX_WIDTH, integer
+
+    p.add_argument("--width", type=integer(ge=16, le=MAX_WIDTH), default=None,
+                   help="video width [px] (even; default 960, --quick 640)")
+    p.add_argument("--height", type=integer(ge=16, le=MAX_HEIGHT), default=None,
+                   help="video height [px] (even; default 540, --quick 360)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--force", action="store_true",
                    help="replace a non-empty --out folder (the old one is kept until the new report is complete)")
@@ -51,6 +55,7 @@ def run(args) -> int:
         from ..errors import ParameterError
         raise ParameterError("mjbench reproduce: --out DIR is required (the report folder)")
     R.select(R.load_cases(), args.case)  # an unknown case name: an error before anything is written
+    check_video_options(args)
     with_gl(args)
     progress = not args.no_progress and sys.stderr.isatty()
     with staged_dir(args.out, force=args.force) as tmp:
@@ -58,6 +63,20 @@ def run(args) -> int:
                     width=args.width, height=args.height)
     print(f"results written to {args.out}")
     return 0
+
+
+def check_video_options(args):
+    """--width/--height: a valid frame, and only when videos are made (else they are refused)."""
+    from . import check_frame, given, refuse_unused
+
+    if args.no_video:
+        for opt in ("width", "height"):
+            if given(args, opt):
+                refuse_unused(f"--{opt}", "--no-video makes no video")
+        return
+    w, h = args.width, args.height
+    if w is not None or h is not None:
+        check_frame(w if w is not None else (640 if args.quick else 960), h if h is not None else (360 if args.quick else 540))
 
 
 def with_gl(args):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from . import add_fast_multibody, apply_fast_multibody
+from . import add_fast_multibody, apply_fast_multibody, quantity, refuse_unused
 from ..outputs import add_force_option
 
 
@@ -18,7 +18,7 @@ def register(sub):
                    help="simulator backend (default: the scenario's, else both)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value, e.g. --set drive.R=2.5 --set modes.pid.kp=100")
-    p.add_argument("--t-end", type=float, help="simulated time [s] (default: the scenario's)")
+    p.add_argument("--t-end", type=quantity("time", gt=0.0), help="simulated time [s] (default: the scenario's)")
     p.add_argument("--out", required=True, help="output directory (written whole or not at all: docs/outputs.md)")
     add_force_option(p)
     p.add_argument("--no-figure", action="store_true", help="skip the PNG")
@@ -47,6 +47,9 @@ def cmd_run(args):
         backend = backend or man.get("backend")
         t_end = t_end if t_end is not None else man.get("t_end_s")
     backend = backend or scn.simulation.backend
+    if getattr(args, "fast_multibody", None) and backend == "reduced":
+        refuse_unused("--fast-multibody", "it sets the multibody integrator and --backend reduced runs no multibody "
+                                          "simulation")
     check_machine(scn, mode)  # bad values: one message before simulating
     with staged_dir(args.out, force=args.force) as tmp, simulation_errors(scn):
         res = run(scn, tmp, mode=mode, backend=backend, t_end=t_end,
@@ -91,6 +94,10 @@ def _summary_text(res):
                 vals.append(f"{b}: " + (f"{100 * v:.3f}" if fmt == "pct" else fmt.format(v)))
         if vals:
             lines.append(f"  {label:<40s} " + "   ".join(vals))
+    dts = {m.get("chi_sampling_s") for m in res["backends"].values()} - {None}
+    if dts:  # χ is max − min of the record's samples: it depends on their interval
+        lines.append(f"  {'χ computed from samples every':<40s} {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms "
+                     f"(simulation.record_dt)")
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from . import add_fast_multibody, apply_fast_multibody
+from . import add_fast_multibody, apply_fast_multibody, given, integer, quantity, refuse_unused
 
 
 def register(sub):
@@ -17,25 +17,26 @@ def register(sub):
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--grid", action="append", default=[], metavar="KEY=V1,V2,...",
                    help="swept scenario key (dotted, as --set, or an alias) and its values; or KEY=lo:hi:n")
-    p.add_argument("--samples", type=int, default=0, help="Monte Carlo draws per grid point")
+    p.add_argument("--samples", type=integer(ge=0), default=0, help="Monte Carlo draws per grid point")
     p.add_argument("--perturb", action="append", default=[], metavar="KEY=R%",
                    help="perturb KEY uniformly within ±R%% of its nominal value (with --samples)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the Monte Carlo draws")
+    p.add_argument("--seed", type=integer(ge=0, le=2 ** 63 - 1), default=None,
+                   help="random seed of the Monte Carlo draws (default 0)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value in every row")
     p.add_argument("--mode", help="control mode (default: the scenario's)")
-    p.add_argument("--t-end", type=float, help="simulated time per run [s] (default: the scenario's)")
+    p.add_argument("--t-end", type=quantity("time", gt=0.0), help="simulated time per run [s] (default: the scenario's)")
     p.add_argument("--out", required=True, help="output directory (resumable)")
-    p.add_argument("--chunk", type=int, default=None,
+    p.add_argument("--chunk", type=integer(ge=1, le=100_000), default=None,
                    help="simulations per batch / Dask task (default: follows the number of rows — all in one batch "
                         "up to 256 (multibody) / 1024 (reduced), at least two chunks per Dask worker)")
     p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
                    help="reduced (default: the batched reduced model; the --verify best rows are then re-run on "
                         "the multibody backend) or multibody (mujoco.batch)")
-    p.add_argument("--verify", type=int, default=3,
+    p.add_argument("--verify", type=integer(ge=0, le=1000), default=None,
                    help="best rows (smallest --metric) re-run on the multibody backend, written to verify.csv "
                         "(default 3; 0: none)")
-    p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads per chunk (0: all CPUs)")
+    p.add_argument("--threads", type=integer(ge=0, le=1024), default=0, help="MuJoCo batch threads per chunk (0: all CPUs)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://host:port (pip install mjbench[dask])")
     p.add_argument("--metric", help="metric of the summary plots (default chi_window, else chi_last_cycle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -46,23 +47,34 @@ def register(sub):
 def cmd_sweep(args):
     from ..errors import ParameterError
     from ..outputs import check_out_dir
-    from ..sweep import SweepSpec, parse_grid, parse_perturb, run_sweep
+    from ..sweep import SweepSpec, check_scheduler, parse_grid, parse_perturb, run_sweep
 
     check_out_dir(args.out, must_be_empty=False)  # resumable: an existing sweep folder is fine
-
-    spec = SweepSpec(scenario=args.scenario, grid=parse_grid(args.grid), samples=args.samples,
-                     perturb=parse_perturb(args.perturb), seed=args.seed, mode=args.mode,
-                     t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides), chunk_size=args.chunk,
-                     backend=args.backend, verify=args.verify)
-    if not spec.grid and not spec.samples:
+    grid, perturb = parse_grid(args.grid), parse_perturb(args.perturb)
+    if not grid and not args.samples:
         raise ParameterError("sweep: give at least one --grid KEY=V1,V2 or --samples N --perturb KEY=R%")
+    if given(args, "seed") and not args.samples:
+        refuse_unused("--seed", "it seeds the Monte Carlo draws and --samples is 0")
+    if given(args, "verify") and args.backend == "multibody":
+        refuse_unused("--verify", "it re-runs the best rows of a reduced-model sweep on the multibody backend, and "
+                                  "--backend multibody already gives multibody figures")
+    if args.threads and args.backend != "multibody" and args.verify == 0:
+        refuse_unused("--threads", "it sets MuJoCo's batch threads, and --backend reduced with --verify 0 runs no "
+                                   "MuJoCo batch")
     if args.scheduler:
         try:
             import dask.distributed  # noqa: F401
         except ImportError:
             raise ParameterError("--scheduler needs Dask: pip install 'mjbench[dask]'") from None
+        check_scheduler(args.scheduler)  # a malformed address: one line, before anything else
+    spec = SweepSpec(scenario=args.scenario, grid=grid, samples=args.samples,
+                     perturb=perturb, seed=args.seed or 0, mode=args.mode,
+                     t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides), chunk_size=args.chunk,
+                     backend=args.backend, verify=3 if args.verify is None else args.verify)
     res = run_sweep(spec, args.out, scheduler=args.scheduler, nthread=args.threads,
                     progress=not args.quiet and sys.stderr.isatty(), metric=args.metric)
+    for note in res.get("notes", []):
+        print(f"mjbench: warning: {note}", file=sys.stderr)
     print(f"{res['rows']} simulations ({res['ran']} run now, {res['rows'] - res['ran']} resumed) -> {res['table']}")
     ver = res.get("verified") or []
     if ver:

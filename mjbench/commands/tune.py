@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 
-from . import add_fast_multibody, apply_fast_multibody, parse_numbers
+from . import add_fast_multibody, apply_fast_multibody, given, integer, parse_numbers, quantity, refuse_unused
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir, write_json
 
@@ -28,24 +28,28 @@ def register(sub):
     p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
                    help="robustness constraint on the linear model (worst frozen angle): pm>=DEG, gm>=DB, "
                         "ms<=PEAK_S, bw>=RAD_S (repeatable; docs/linear.md)")
-    p.add_argument("--margin-mode", choices=["penalty", "constraint"], default="penalty",
+    p.add_argument("--margin-mode", choices=["penalty", "constraint"], default=None,
                    help="penalty: objective + 10 × relative violation (default); constraint: violating "
-                        "candidates are not simulated")
-    p.add_argument("--margin-angles", type=int, default=12, help="frozen angles for the margins (default 12)")
+                        "candidates are not simulated, and exit status 1 when no candidate meets them")
+    p.add_argument("--margin-angles", type=integer(ge=1, le=3600), default=None,
+                   help="frozen angles for the margins (default 12)")
     p.add_argument("--bounds", action="append", default=[], metavar="GAIN=LO:HI",
                    help="search interval of a gain (default: scenario value ×/÷ --span)")
-    p.add_argument("--span", type=float, default=10.0, help="default search factor around the scenario's gains")
-    p.add_argument("--global", dest="n_global", type=int, default=64, help="global-stage candidates (default 64)")
-    p.add_argument("--starts", type=int, default=1, help="local refinements from the best global candidates")
-    p.add_argument("--maxfev", type=int, default=80, help="simulations per local refinement")
-    p.add_argument("--t-end", type=float, help="simulated time per candidate [s] (default: χ window end)")
+    p.add_argument("--span", type=quantity("ratio", gt=1.0), default=None,
+                   help="default search factor around the scenario's gains (> 1; default 10)")
+    p.add_argument("--global", dest="n_global", type=integer(ge=1, le=100_000), default=64,
+                   help="global-stage candidates (default 64)")
+    p.add_argument("--starts", type=integer(ge=0, le=1000), default=1,
+                   help="local refinements from the best global candidates")
+    p.add_argument("--maxfev", type=integer(ge=1, le=100_000), default=80, help="simulations per local refinement")
+    p.add_argument("--t-end", type=quantity("time", gt=0.0), help="simulated time per candidate [s] (default: χ window end)")
     p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
                    help="search backend (default reduced: the batched reduced model; the best candidates are then "
                         "re-run on the multibody backend and both figures reported)")
-    p.add_argument("--verify", type=int, default=3,
+    p.add_argument("--verify", type=integer(ge=0, le=1000), default=None,
                    help="best distinct candidates re-run on the multibody backend (default 3; 0: only the winner)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--threads", type=int, default=0, help="MuJoCo batch threads (0: all CPUs)")
+    p.add_argument("--seed", type=integer(ge=0, le=2 ** 32 - 1), default=0)
+    p.add_argument("--threads", type=integer(ge=0, le=1024), default=0, help="MuJoCo batch threads (0: all CPUs)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--out", help="write tune.json and a speed comparison plot here")
     add_force_option(p)
@@ -64,7 +68,11 @@ def parse_limits(items):
     return out
 
 
-def parse_bounds(items):
+def parse_bounds(items, gains=None):
+    """``--bounds GAIN=LO:HI`` → {gain: (lo, hi)}; ``gains``: the controller's gain names (an
+    unknown name, a gain given twice, or a bad interval is ONE error)."""
+    import math
+
     from ..errors import ParameterError
 
     out = {}
@@ -73,8 +81,17 @@ def parse_bounds(items):
             k, v = item.split("=", 1)
             lo, hi = (float(x) for x in v.split(":"))
         except ValueError:
-            raise ParameterError(f"--bounds {item!r}: expected GAIN=LO:HI") from None
-        out[k.strip()] = (lo, hi)
+            raise ParameterError(f"--bounds {item!r}: expected GAIN=LO:HI"
+                                 + (f" with GAIN one of {', '.join(gains)}" if gains else "")) from None
+        k = k.strip()
+        if gains is not None and k not in gains:
+            raise ParameterError(f"--bounds {item!r}: {k!r} is not a gain of this controller; its gains are "
+                                 f"{', '.join(gains)}")
+        if k in out:
+            raise ParameterError(f"--bounds {k} is given twice")
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+            raise ParameterError(f"--bounds {item!r}: need finite 0 < LO < HI (gains are searched in log scale)")
+        out[k] = (lo, hi)
     return out
 
 
@@ -82,20 +99,45 @@ def cmd_tune(args):
     from .. import scenario as S
     from ..tune import report, tune
 
+    import sys
+
+    from ..linear import parse_margin
+    from ..tune import CONTROLLERS, constraint_status
+
+    gains = CONTROLLERS[args.controller][1]
+    limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds, gains)
+    for m in args.margin:
+        parse_margin(m)  # a malformed --margin: one message before anything runs
+    if not args.margin:
+        for opt, name in (("--margin-mode", "margin_mode"), ("--margin-angles", "margin_angles")):
+            if given(args, name):
+                refuse_unused(opt, "it applies to --margin constraints and none is given")
+    if given(args, "span") and set(gains) <= set(bounds):
+        refuse_unused("--span", f"every gain ({', '.join(gains)}) has its --bounds")
+    if given(args, "verify") and args.backend == "multibody":
+        refuse_unused("--verify", "it re-runs the best candidates of a reduced-model search on the multibody "
+                                  "backend, and --backend multibody searches on MuJoCo itself")
+    if args.out:
+        from ..outputs import check_out_dir
+
+        check_out_dir(args.out, force=args.force)  # a bad --out: before the search, not after it
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     check_machine(scn)  # bad --set values: one message before any simulation
-    limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds)
+    span = 10.0 if args.span is None else args.span
     with maybe_staged_dir(args.out, force=args.force) as out:
         res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
-                   starts=args.starts, maxfev=args.maxfev, span=args.span, bounds=bounds,
+                   starts=args.starts, maxfev=args.maxfev, span=span, bounds=bounds,
                    seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
-                   verify=args.verify, margins=args.margin, margin_mode=args.margin_mode,
-                   margin_angles=args.margin_angles)
+                   verify=3 if args.verify is None else args.verify, margins=args.margin,
+                   margin_mode=args.margin_mode or "penalty", margin_angles=args.margin_angles or 12)
+        violated, exceeded = constraint_status(res)
         print(report(res))
         if out is not None:
             doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
                    "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
                    "limits": res.limits, "margins": [f"{k}{op}{v:g}" for k, op, v in res.margins],
+                   "margin_mode": args.margin_mode or "penalty",
+                   "feasible": not violated, "violated": violated, "limits_exceeded": exceeded,
                    "validation": res.validation, "improvement": res.improvement,
                    "search_backend": res.backend, "search": res.search, "verified": res.verified,
                    "history": res.history}
@@ -103,6 +145,17 @@ def cmd_tune(args):
             _plot(scn, res, os.path.join(out, "tune_speed.png"))
     if args.out:
         print(f"results written to {args.out}")
+    gtxt = ", ".join(f"{p} = {res.best[p]:.4g}" for p in res.params)
+    if exceeded:
+        print(f"mjbench: warning: the tuned gains ({gtxt}) exceed {'; '.join(exceeded)} (a penalty of the objective, "
+              f"not a hard limit)", file=sys.stderr)
+    if violated and args.margin_mode == "constraint" and res.margins:
+        print(f"mjbench: tune: no candidate meets the constraints; the closest ({gtxt}) violates "
+              f"{'; '.join(violated)}", file=sys.stderr)
+        return 1
+    if violated:
+        print(f"mjbench: warning: the tuned gains ({gtxt}) do not meet {'; '.join(violated)} (penalised, not "
+              f"enforced: use --margin-mode constraint to require the margins)", file=sys.stderr)
     return 0
 
 
@@ -110,6 +163,7 @@ def _plot(scn, res, path):
     import numpy as np
 
     from .. import plots as P
+    from ..errors import MjbenchError
     from ..tune import Problem
     import matplotlib.pyplot as plt
 
@@ -117,7 +171,10 @@ def _plot(scn, res, path):
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
     for label, gains, st in (("scenario controller", res.baseline, dict(color="tab:gray")),
                              (f"tuned {res.controller}", res.best, dict(color="tab:blue"))):
-        _, tr = prob.validate(np.array([gains[p] for p in prob.params]), baseline=gains is res.baseline)
+        try:
+            _, tr = prob.validate(np.array([gains[p] for p in prob.params]), baseline=gains is res.baseline)
+        except MjbenchError:  # (a diverging closest candidate: drawn without it)
+            continue
         axes[0].plot(tr.t, tr.omega, label=label, **st)
         axes[1].plot(tr.t, tr.voltage, **st)
         axes[2].plot(tr.t, tr.current, **st)

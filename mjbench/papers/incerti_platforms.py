@@ -207,7 +207,7 @@ def _servo_table(ctx, rep):
             "peak voltage [V]", "peak current [A]"]
     body = []
     for name, sv in servo["laws"].items():
-        body.append([LAW_NAMES.get(name, name), laws[name]["E_T_J"], sv["E_T_J"], 1e3 * sv["ideal_residual_envelope_rad"],
+        body.append([LAW_NAMES.get(name, name), laws[name]["E_T_J"], sv["E_T_J"], 1e3 * sv["ideal_residual_envelope_at_T_rad"],
                      1e3 * sv["residual_envelope_at_T_rad"], 1e3 * sv["ideal_residual_peak_after_T_rad"],
                      1e3 * sv["residual_peak_after_T_rad"], 1e3 * sv["max_tracking_error_rad"], sv["peak_voltage_V"],
                      sv["peak_current_A"]])
