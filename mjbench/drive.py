@@ -38,6 +38,7 @@ from .drivetrain.params import (CurrentLoopParams, EncoderParams, FrictionParams
                                 SensorParams, SUBTABLES)
 from . import compiled as C
 from .compiled import clip, sgn
+from .drivetrain.amplifier import current_limited_voltage
 from .errors import ParameterError
 from .schema import Q, Strict
 
@@ -155,15 +156,17 @@ class DCMotorDrive:
     def step_params(self, h: float) -> "DriveStep":
         """The parameters of the drive's laws for a fixed co-simulation step h [s]."""
         self.prepare(h)
+        d = float(self._decay)
         return DriveStep(float(self.R), float(self.k_m), float(self.z), float(self.T_0), float(self.lam),
-                         float(self._w), float(self._decay), float(self.i_max))
+                         float(self._w), d, float(self.i_max), float(self.R) / (1.0 - d) if d < 1.0 else float(self.R))
 
     def form(self, h: float) -> "C.Form":
         """The drive's compiled form for the kernel: its parameters at step h and its laws
         (``mean``: :func:`current_mean`, ``torque``: :func:`motor_torque`, ``step``:
         :func:`current_step`, ``record``: :func:`drive_torque`)."""
         return C.Form(current_mean, self.step_params(h), laws={"mean": current_mean, "torque": motor_torque,
-                                                               "step": current_step, "record": drive_torque})
+                                                               "step": current_step, "record": drive_torque,
+                                                               "limit": drive_voltage})
 
     def forms(self, h: float, every: int, plant) -> dict:
         """The compiled forms of the drive-train elements for the kernel's slots ({} = ideal)."""
@@ -239,8 +242,15 @@ class DCMotorDrive:
 
 
 #: the drive's parameters for its laws at one step h (``w``, ``decay``: the step's mean weight
-#: (1 − e^{−hR/L})/(hR/L) and decay e^{−hR/L}; 0 for L = 0)
-DriveStep = namedtuple("DriveStep", "R k_m z T_0 lam w decay i_max")
+#: (1 − e^{−hR/L})/(hR/L) and decay e^{−hR/L}, 0 for L = 0; ``gain`` = R/(1 − decay))
+DriveStep = namedtuple("DriveStep", "R k_m z T_0 lam w decay i_max gain")
+
+
+@C.law
+def drive_voltage(I, V, w, P):
+    """The voltage the drive's (ideal) amplifier applies for the command V: limited to what keeps the
+    end-of-step current within ±i_max (:func:`mjbench.drivetrain.amplifier.current_limited_voltage`)."""
+    return current_limited_voltage(I, V, w, P.k_m, P.decay, P.gain, P.i_max)
 
 
 @C.law

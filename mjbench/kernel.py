@@ -43,7 +43,8 @@ Slot signatures (P: the component's parameter tuple, S: its state array):
 * ``CLOOP(n, i*, I, P, S) → V``; ``AMP(t, I, V, φ̇₀, P, S) → (Ī, I_end, V_bridge, I_min, I_max)``
   (averaged: ``AMP(t, I, V, φ̇₀, P, S) → V_bridge``); ``AMP_END(I_end, φ̇₀, φ̇̄, P) → I₊``;
   ``EFF(T_m, φ̇, P) → T``;
-* the drive's ``DMEAN(I, V, φ̇, P) → Ī`` (step-mean current), ``DTORQUE(Ī, φ̇, P) → T_m`` (motor
+* the drive's ``DLIMIT(I, V, φ̇, P) → V_a`` (the voltage its amplifier applies: the command
+  limited so that the current stays within ±i_max over the step), ``DMEAN(I, V, φ̇, P) → Ī`` (step-mean current), ``DTORQUE(Ī, φ̇, P) → T_m`` (motor
   torque without its viscous part), ``DSTEP(I, V, φ̇̄, P) → I₊``, ``DREC(I, φ̇, P)`` (recorded crank
   torque); P has at least ``z`` and ``k_m``;
 * ``PLANT(τ, t, P, S) → (q, q̇, δ, δ̇)``; ``READ(P, S)`` the same at the start;
@@ -142,7 +143,7 @@ AMP_MODE = 0  # 0 ideal, 1 averaged (V → bridge V), 2 switching (the current w
 NEXTRA = 0  # plant columns
 SENSE_COLS = AMP_COLS = MINMAX_COLS = IREF_COL = False
 SENSE = REF = CTRL = CLOOP = AMP = AMP_END = EFF = PLANT = CLOSURE = UNSTABLE = PWRITE = None
-DMEAN = DTORQUE = DSTEP = DREC = None  # the drive's laws (a DC motor: mjbench.drive)
+DMEAN = DTORQUE = DSTEP = DREC = DLIMIT = None  # the drive's laws (a DC motor: mjbench.drive)
 
 
 def _loop(n0, n1, K, X):
@@ -231,7 +232,12 @@ def _loop(n0, n1, K, X):
                 break
             b = k * ncol
             w = z * (qd + dmd)  # motor speed φ̇ (a compliant gear: the motor's own)
-            volt = Vb if HAS_CLOOP else u
+            if HAS_CLOOP:
+                volt = Vb  # the current loop's output (its reference is recorded as current_ref_A)
+            elif AMP_MODE == 0:
+                volt = DLIMIT(I, u, w, Pd)  # the voltage the (current-limiting) amplifier applies next
+            else:
+                volt = u  # the command (the PWM bridge's mean voltage is voltage_bridge_V)
             out[b] = t
             out[b + 1] = q
             out[b + 2] = qd
@@ -279,7 +285,7 @@ def _loop(n0, n1, K, X):
             if AMP_MODE == 1:
                 Vb = AMP(t, I, V, w0, Pamp, Samp)
             else:
-                Vb = V
+                Vb = DLIMIT(I, V, w0, Pd)
             Ibar = DMEAN(I, Vb, w0, Pd)
         Tm = DTORQUE(Ibar, w0, Pd)
         if HAS_EFF:
@@ -317,7 +323,7 @@ def _loop(n0, n1, K, X):
 # =============================================================================== composition
 FLAGS = ("HAS_SENSE", "HAS_REF", "HAS_DELAY", "HAS_CLOOP", "HAS_EFF", "HAS_CLOSURE", "HAS_UNSTABLE",
          "AMP_MODE", "NEXTRA", "SENSE_COLS", "AMP_COLS", "MINMAX_COLS", "IREF_COL")
-SLOTS = ("DMEAN", "DTORQUE", "DSTEP", "DREC", "SENSE", "REF", "CTRL", "CLOOP", "AMP", "AMP_END", "EFF", "PLANT",
+SLOTS = ("DMEAN", "DTORQUE", "DSTEP", "DREC", "DLIMIT", "SENSE", "REF", "CTRL", "CLOOP", "AMP", "AMP_END", "EFF", "PLANT",
          "CLOSURE", "UNSTABLE", "PWRITE")
 
 
@@ -361,7 +367,8 @@ class Program:
         drive, ctrl = machine.drive, machine.controller
         df = drive.form(h)  # the drive's laws: step-mean current, motor torque, current update, recorded torque
         pr.drive = df.P
-        for slot, name in (("DMEAN", "mean"), ("DTORQUE", "torque"), ("DSTEP", "step"), ("DREC", "record")):
+        for slot, name in (("DMEAN", "mean"), ("DTORQUE", "torque"), ("DSTEP", "step"), ("DREC", "record"),
+                           ("DLIMIT", "limit")):
             pr.use(slot, df.laws[name], "drive")
         dforms = drive.forms(h, every, plant)  # the drive train's elements (empty: ideal)
         pr.u_lim = dforms.get("limit", (-float(drive.v_max), float(drive.v_max)))

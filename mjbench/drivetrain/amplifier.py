@@ -47,12 +47,21 @@ AmpP = namedtuple("AmpP", "uni v_bus td tdf f T lim R k_m decay gain imax tau h 
 
 
 @law
+def current_limited_voltage(I, V, w, k_m, decay, gain, i_max):
+    """The armature voltage limited to what keeps the end-of-step current within ±i_max (exact
+    update over the step with V and φ̇ = ``w`` held): I_end = I_ss + (I − I_ss)·e^{−hR/L} ≤ i_max
+    ⇔ V ≤ R/(1 − e^{−hR/L})·(i_max − I·e^{−hR/L}) + k_m·φ̇ — the mean-voltage action of a
+    current-limiting amplifier, so that the step-mean current (the torque) and the end current
+    are limited together (i_max = inf: V unchanged)."""
+    e = k_m * w
+    return clip(V, gain * (-i_max - I * decay) + e, gain * (i_max - I * decay) + e)
+
+
+@law
 def pwm_limit(I, V, w0, P):
-    """V limited so that the end-of-step current stays within ±i_max (exact update, speed held)."""
-    e = P.k_m * w0
-    hi = P.gain * (P.imax - I * P.decay) + e
-    lo = P.gain * (-P.imax - I * P.decay) + e
-    return hi if V > hi else (lo if V < lo else V)
+    """V limited so that the end-of-step current stays within ±i_max (exact update, speed held):
+    the drive's :func:`mjbench.drive.current_limited_voltage`."""
+    return current_limited_voltage(I, V, w0, P.k_m, P.decay, P.gain, P.imax)
 
 
 @law
