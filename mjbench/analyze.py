@@ -4,9 +4,11 @@ For any mechanism type with a rigid reduced model (fourbar, quickreturn, linkage
 
 * the reduced model J(q), J'(q), E_p'(q), E_p(q);
 * the velocity ratios of every joint (dq_j/dq) and the strokes of the prismatic joints;
-* the transmission angle(s) and the toggle / limit positions (generic linkages; the four-bar and
-  the quick-return through their equivalent generic linkage, :func:`linkage.equivalent`; an MJCF
-  model has velocity ratios and limit positions only: it has no link lines);
+* the transmission angle(s) and the toggle / limit positions: each mechanism's own
+  :meth:`~mjbench.mechanisms.base.Mechanism.kinematics` (generic linkages their own; the four-bar
+  and the quick-return through their equivalent generic linkage, ``linkage_view``; an MJCF model
+  has velocity ratios and limit positions only: it has no link lines); the rows a mechanism cannot
+  give are listed with the reason (``kinematics_unavailable``);
 * the input torque needed to run at a constant input speed ω (the seed 000 Eq 5 balance with
   q̈ = 0): T(q) = ½·J'(q)·ω² + E_p'(q) − Q_ext(q, ω) — inertial + gravity/springs + loads and
   viscous friction of the mechanism — and through the gearbox the motor torque
@@ -50,13 +52,9 @@ def default_speeds(scn) -> list:
 
 
 def _grid(mech, n):
-    """Input positions over one revolution (a slide MJCF input: over its range) and a label."""
-    tab = getattr(mech, "_tab", None)
-    lo = getattr(tab, "lo", None)
-    if lo is not None:  # slide input of an mjcf model: its range
-        return np.linspace(tab.lo, tab.hi, n), "m"
-    q0 = float(getattr(tab, "q0", 0.0))
-    return q0 + 2.0 * math.pi * np.arange(n) / n, "rad"
+    """Input positions over one revolution (a slide input: over its range) and their unit: the
+    mechanism's own :meth:`~mjbench.mechanisms.base.Mechanism.input_positions`."""
+    return mech.input_positions(n)
 
 
 def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> dict:
@@ -67,7 +65,7 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     drive = S.make_drive(scn)
     res = {"scenario": scn.name, "mechanism": scn.mechanism.type,
            "reduced_model": getattr(mech, "reduced_source", "")}
-    if mech.internal or getattr(mech, "view", "side") == "top":
+    if mech.internal or mech.render_view().kind == "top":
         res.update(applicable=False, reason=(
             f"mechanism type {scn.mechanism.type!r} has internal elastic coordinates "
             f"({', '.join(mech.internal) or 'rotary table'}): a constant-speed revolution analysis does not "
@@ -93,6 +91,7 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     # ---- kinematics
     kin = _kinematics(mech, q)
     res["kinematics_source"] = kin.pop("source")
+    res["kinematics_unavailable"] = kin.pop("unavailable", {})
     ratios = kin.pop("ratios")
     trans = kin.pop("transmission")
     curves.update({f"ratio:{k}": v for k, v in ratios.items()})
@@ -188,25 +187,10 @@ def _periodic_gradient(f, h):
 
 
 def _kinematics(mech, q) -> dict:
-    """Velocity ratios, transmission angles, toggles and limit positions (see the module doc)."""
-    from .mechanisms import linkage as LK
-
-    eq = LK.equivalent(mech)
-    if eq is not None:
-        out = eq.kinematic_analysis(q)
-        out["source"] = ("own linkage kinematics" if eq is mech else
-                         f"the equivalent generic linkage of the {mech.type_name} (mechanisms/linkage.py)")
-        return out
-    if hasattr(mech, "joint_rates"):  # MJCF model
-        from .mechanisms.linkage import _roots
-
-        ratios = {k: v for k, v in mech.joint_rates(q).items() if k != mech.input_joint}
-        periodic = getattr(getattr(mech, "_tab", None), "lo", None) is None
-        lim = {k: [float(x) for x in _roots(q, v)] for k, v in ratios.items()} if periodic else {}
-        return {"source": "MuJoCo model (constraint Jacobian null space); no link lines: no transmission angles",
-                "ratios": ratios, "ratio_units": {}, "transmission": {}, "toggles": {}, "limit_positions": lim}
-    return {"source": "not available for this mechanism type", "ratios": {}, "ratio_units": {},
-            "transmission": {}, "toggles": {}, "limit_positions": {}}
+    """Velocity ratios, transmission angles, toggles and limit positions: the mechanism's own
+    :meth:`~mjbench.mechanisms.base.Mechanism.kinematics` (through its linkage view, or its own
+    analysis), with the rows it cannot give and why (``unavailable``)."""
+    return mech.kinematics(q)
 
 
 # ============================================================================ outputs
@@ -312,6 +296,8 @@ def summary_text(res: dict) -> str:
         lines.append(f"  transmission angle {k}: {v['min']:.1f}° … {v['max']:.1f}°")
     for k, v in res["strokes_m"].items():
         lines.append(f"  stroke of {k}: {1000 * v:.2f} mm")
+    for row, why in res.get("kinematics_unavailable", {}).items():
+        lines.append(f"  no {row.replace('_', ' ')}: {why}")
     for row in res["speeds"]:
         t = row["input_torque_Nm"]
         lines.append(f"  at {row['input_speed_rad_s']:.4g} rad/s: input torque {t['min']:.3g} … {t['max']:.3g} N·m "

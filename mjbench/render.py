@@ -493,6 +493,37 @@ def _video_info(nframes, fps, width, height, t0, out, **extra):
             "path": os.fspath(out), **extra}
 
 
+def _check_mp4(tmp, path):
+    """Refuse an incomplete MP4 (ffmpeg could not write it whole, e.g. the disk is full): its
+    top-level boxes must tile the file and hold ``ftyp``, ``moov`` (the index) and ``mdat``."""
+    import errno
+    import struct
+
+    size = os.path.getsize(tmp)
+    kinds, pos = set(), 0
+    with open(tmp, "rb") as f:
+        while pos < size:
+            f.seek(pos)
+            head = f.read(16)
+            if len(head) < 8:
+                break
+            n, kind = struct.unpack(">I4s", head[:8])
+            if n == 1 and len(head) == 16:
+                n = struct.unpack(">Q", head[8:16])[0]
+            elif n == 0:
+                n = size - pos
+            if n < 8 or pos + n > size:
+                break
+            kinds.add(kind)
+            pos += n
+    if pos != size or not {b"ftyp", b"moov", b"mdat"} <= kinds:
+        st = os.statvfs(os.path.dirname(os.path.abspath(tmp)))
+        if st.f_bavail * st.f_frsize < 1 << 20:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+        raise RenderError(f"--out {path}: ffmpeg did not write a complete MP4 ({size} bytes, boxes "
+                          f"{sorted(k.decode('latin-1') for k in kinds)}); the video was not saved")
+
+
 class VideoWriter:
     """MP4 (H.264 via imageio-ffmpeg's bundled ffmpeg) or GIF (Pillow), written atomically."""
 
@@ -536,6 +567,8 @@ class VideoWriter:
                 imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
                              duration=int(round(1000 / self.fps)), loop=0, optimize=False)
             from .outputs import FILE_MODE, _test_hook
+            if self.ext == ".mp4":
+                _check_mp4(self.tmp, self.path)  # ffmpeg reports a failed write (disk full) only on its log
             os.chmod(self.tmp, FILE_MODE)  # mkstemp creates 0600
             os.replace(self.tmp, self.path)
             _test_hook(os.path.basename(self.path))
@@ -597,7 +630,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps)."""
 
     mech, drive = machine.mechanism, machine.drive
-    if mech.view == "top":
+    if mech.render_view().kind == "top":  # the mechanism's class says how it is shown
         return _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf)
     idx = frame_indices(traj.t, fps, t_end)
     t, q, qd, V = traj.t, traj.q, traj.qd, traj.voltage
@@ -656,12 +689,14 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
 
 # ============================================================================ platforms (seeds 001/003)
 class PlatformView:
-    """Top view of an elastic rotary platform (``mechanisms/platform.py``) driven by a motion law.
+    """Top view of a rotary table (a mechanism whose :meth:`~mjbench.mechanisms.base.Mechanism.render_view`
+    is ``"top"``: the elastic platforms of ``mechanisms/platform.py``) driven by a motion law.
 
-    The residual vibration is a deflection ψ of milliradians, invisible at true scale, so two
-    needles are drawn from the platform centre: grey at the rigid-transmission angle ρ·φ and
-    magenta at ρ·φ + G·ψ (G printed in the overlay, chosen so that the largest |ψ| of the
-    reference run maps to 30°)."""
+    The view names the table's hinge and body, the ratio ρ and the deflection coordinate ψ.  The
+    residual vibration is a deflection of milliradians, invisible at true scale, so two needles are
+    drawn from the table's centre: grey at the rigid-transmission angle ρ·φ and magenta at
+    ρ·φ + G·ψ (G printed in the overlay, chosen so that the largest |ψ| of the reference run maps
+    to 30°)."""
 
     def __init__(self, platform, width=960, height=540, gain=1.0):
         import mujoco
@@ -670,6 +705,9 @@ class PlatformView:
         if width < 16 or height < 16 or width % 2 or height % 2:
             raise ParameterError(f"--width/--height = {width}x{height}: need even sizes >= 16 px (H.264)")
         self.plat, self.width, self.height, self.gain = platform, int(width), int(height), float(gain)
+        self.rv = rv = platform.render_view()
+        if rv.kind != "top":
+            raise ParameterError(f"{platform.type_name}: its render view is {rv.kind!r}, not a top view")
         spec = platform.build_spec(options={"timestep": 1e-4})
         g = spec.visual.global_
         g.offwidth, g.offheight = max(int(g.offwidth), self.width), max(int(g.offheight), self.height)
@@ -708,8 +746,8 @@ class PlatformView:
         self.opt = mujoco.MjvOption()
         self._line = int(mujoco.mjtGeom.mjGEOM_LINE)
         self._qa = int(m.joint(platform.input_joint).qposadr[0])
-        self._plat = int(m.joint("platform").qposadr[0])
-        self._pbody = m.body("platform").id
+        self._plat = int(m.joint(rv.output_joint).qposadr[0])
+        self._pbody = m.body(rv.output_body).id
         self._needle = 0.9 * float(max(m.geom_rbound[i] for i in range(m.ngeom) if m.geom_bodyid[i] == self._pbody
                                        and m.geom_type[i] == mujoco.mjtGeom.mjGEOM_CYLINDER))
         mujoco.mj_kinematics(m, self.data)
@@ -724,7 +762,7 @@ class PlatformView:
         import mujoco
 
         m, d = self.model, self.data
-        rho = float(self.plat.ratio)
+        rho = float(self.rv.ratio)
         d.qpos[:] = m.qpos0
         d.qpos[self._qa] = phi
         d.qpos[self._plat] = theta
@@ -754,19 +792,20 @@ class PlatformView:
 def _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf):
     """Video of a platform machine run (motor + servo): top view with the deflection needle."""
     plat = machine.mechanism
+    rv = plat.render_view()
     idx = frame_indices(traj.t, fps, t_end)
     t, q, qd = traj.t, traj.q, traj.qd
-    psi = traj["deflection_rad"]
+    psi = traj[f"{rv.deflection}_rad"]
     psimax = float(np.max(np.abs(psi[idx]))) if len(idx) else 0.0
     gain = float(f"{math.radians(30.0) / psimax:.2g}") if psimax > 0 else 1.0
     t0 = time.perf_counter()
     view = PlatformView(plat, width, height, gain=gain)
-    rho = float(plat.ratio)
+    rho = float(rv.ratio)
     try:
         with VideoWriter(out, width, height, fps, crf=crf) as writer, _frame_bar(len(idx), out, progress) as bar:
             buf = np.empty((view.height, view.width, 3), np.uint8)
             for i in idx:
-                lines = [title or f"{plat.variant} platform",
+                lines = [title or rv.label,
                          f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
                          f"motor speed {qd[i]:8.2f} rad/s   voltage {traj.voltage[i]:7.1f} V",
                          f"deflection ψ {1e3 * psi[i]:+8.3f} mrad   needle ×{gain:g}"]
@@ -799,7 +838,7 @@ def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width
             for name, r in runs.items():
                 idx = frame_indices(r["t"], fps)
                 for i in idx:
-                    lines = [f"{platform.variant} platform — {name} law, T = {laws[name].T:g} s",
+                    lines = [f"{view.rv.label} — {name} law, T = {laws[name].T:g} s",
                              f"t = {r['t'][i]:6.3f} s   (real time, {fps:g} fps)",
                              f"motor speed {r['motor_speed'][i]:8.2f} rad/s",
                              f"deflection ψ {1e3 * r['psi'][i]:+8.3f} mrad   needle ×{gain:g}"]

@@ -84,3 +84,28 @@ def test_output_folder_whole_or_refused(tmp_path, capsys):
     assert "already holds" in capsys.readouterr().err and sorted(p.name for p in out.iterdir()) == ["old.txt"]
     assert main(["analyze", "sixbar-watt2", "--points", "64", "--out", str(out), "--force"]) == 0
     assert not (out / "old.txt").exists() and (out / "analysis.json").exists()
+
+
+def test_kinematics_come_from_the_mechanism_class():
+    """Each mechanism provides its kinematics (Mechanism.kinematics / linkage_view): the four-bar and
+    the quick-return through their generic-linkage twin, a linkage its own, an MJCF model its joint
+    rates — which says which rows it cannot give and why; a drive-train wrapper delegates."""
+    from mjbench.drivetrain import Friction
+    from mjbench.drivetrain.gear import DrivenMechanism
+
+    fb = S.make_mechanism(S.load("incerti2012"))
+    assert type(fb.linkage_view()).__name__ == "Linkage" and fb.linkage_view().linkage_view() is not None
+    res = A.analyze(S.load("mjcf-fourbar"), n=180)
+    assert res["kinematics_source"].startswith("MuJoCo model")
+    assert set(res["kinematics_unavailable"]) == {"transmission_angles", "toggles"}
+    assert "link lines" in res["kinematics_unavailable"]["transmission_angles"]
+    assert res["velocity_ratios"] and not res["transmission_angles_deg"]
+    assert "no transmission angles: an MJCF model has no link lines" in A.summary_text(res)
+    lk = A.analyze(S.load("sixbar-watt2"), n=180)
+    assert lk["kinematics_source"] == "own linkage kinematics" and lk["kinematics_unavailable"] == {}
+    scn = S.load("incerti2012")
+    wrapped = DrivenMechanism(fb, S.make_drive(scn), None, Friction(0.01))
+    q = np.linspace(0.0, 2 * np.pi, 90, endpoint=False)
+    a, b = fb.kinematics(q), wrapped.kinematics(q)
+    np.testing.assert_array_equal(a["ratios"]["D"], b["ratios"]["D"])
+    assert wrapped.render_view() == fb.render_view()

@@ -53,20 +53,33 @@ def drive(z=1.0, lam=0.0, **train):
 
 
 # ================================================================ off by default, schema
-def test_elements_are_off_by_default_and_bind_only_what_they_need():
+def test_elements_are_off_by_default_and_fill_only_their_kernel_slots():
     scn = S.load("incerti2012")
     assert scn.drive.build().train is None
     assert "pwm" not in scn.resolved()["drive"]  # manifests unchanged
-    d = drive(sensor=Sensor(lines=1000))
-    m = Machine(Rotor(1e-2), d, ConstantVoltage(1.0))
-    from controllers.base import Measurement
+    h = 1e-4
 
-    h = d.train.bind(reduced.ReducedPlant(m), d.prepare(1e-4), m.controller, 1e-4, 1, None, Measurement())
-    assert h.sample is not None and h.step is None  # an encoder alone leaves the drive step inline
-    d2 = drive(pwm=Amplifier("averaged", 20e3, 48.0))
-    h2 = d2.train.bind(reduced.ReducedPlant(Machine(Rotor(1e-2), d2, ConstantVoltage(1.0))), d2.prepare(1e-4),
-                       ConstantVoltage(1.0), 1e-4, 1, None, Measurement())
-    assert h2.sample is None and h2.step is not None
+    def forms(every=1, i_max=math.inf, **train):
+        d = drive(**train)
+        d.i_max = i_max
+        m = Machine(Rotor(1e-2), d, ConstantVoltage(1.0))
+        return d.forms(h, every, reduced.ReducedPlant(m, h))
+
+    assert drive().forms(h, 1, None) == {}
+    f = forms(sensor=Sensor(lines=1000))  # an encoder alone: only the sensor's slot
+    assert set(f) == {"sense"} and f["sense"].law.__name__ == "sensor_law" and f["sense"].compiled
+    assert forms(sensor=Sensor(speed="true", delay=True)) == {"sense_cols": True, "delay": True}  # exact + delay
+    assert set(forms(pwm=Amplifier("averaged", 20e3, 48.0))) == {"amp"}
+    sw = forms(pwm=Amplifier("switching", 20e3, 48.0))["amp"]
+    assert sw.flags == {"switching": True} and sw.laws["end"].__name__ == "pwm_end_current"
+    assert set(forms(gear=Gear(efficiency=0.9))) == {"eff"} and forms(gear=Gear(efficiency=1.0)) == {}
+    f = forms(i_max=7.0, v_max=30.0, current_loop=CurrentLoop(2.0, 100.0, period=2e-4),
+              pwm=Amplifier("averaged", 20e3, 24.0))
+    assert f["limit"] == (-7.0, 7.0)  # the controller's output is a current reference
+    P = f["cloop"].P
+    assert (P.every, P.kp, P.kiT, P.vmax) == (2, 2.0, 100.0 * 2e-4, 24.0)  # bounded by the bus
+    # the sensor's sample period is the controller's
+    assert forms(every=5, sensor=Sensor(lines=100))["sense"].P.T == pytest.approx(5e-4)
 
 
 def test_set_accepts_every_element_with_units():
@@ -173,9 +186,8 @@ def test_batch_switching_equals_single_runs():
         ms.append(mk())
         singles.append(multibody.simulate(mk(), 0.02, record_dt=1e-4))
     res = batch.simulate(ms, 0.02, record_dt=1e-4)
-    keep = [j for j, c in enumerate(singles[0].columns) if c != "closure_error_m"]  # batch: NaN without loops
-    for i, s in enumerate(singles):
-        np.testing.assert_allclose(res.trajectory(i).data[:, keep], s.data[:, keep], rtol=1e-12, atol=1e-12)
+    for i, s in enumerate(singles):  # independent runs: the same bits
+        np.testing.assert_array_equal(res.trajectory(i).data, s.data)
 
 
 # ================================================================ sensor
@@ -389,8 +401,7 @@ def test_realistic_drive_runs_on_both_backends_and_in_batch():
     res = batch.simulate(machines, 0.1, record_dt=1e-3)
     for i, n in enumerate((500, 2000)):
         single = multibody.simulate(S.make_machine(S.load("incerti2012", sets + [f"drive.encoder.lines={n}"]), "pid"), 0.1)
-        # vectorised (np.exp) vs scalar (math.exp) arithmetic: equal to the last digits (q̈ amplifies them)
-        np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)
+        np.testing.assert_array_equal(res.trajectory(i).data, single.data)  # independent runs: the same bits
 
 
 def test_study_chattering_metrics_on_known_signals():
@@ -436,9 +447,9 @@ def test_amplifier_current_limit_holds_the_current_at_i_max(model):
     assert tr["voltage_bridge_V"][-1] == pytest.approx(R * 5.0 + KM * tr.qd[-1], rel=2e-3)  # the bridge's mean
 
 
-def test_every_vectorised_element_in_a_batch_equals_its_single_runs():
-    """Array code paths (observer, M/T, current loop, averaged PWM, efficiency, Stribeck friction with
-    per-simulation model edits, delay) against the scalar ones."""
+def test_every_element_in_a_batch_equals_its_single_runs():
+    """Observer, M/T, current loop, averaged PWM, efficiency, Stribeck friction with per-simulation
+    model edits, delay: each run of a batch has its own objects, parameters and state."""
     common = ['drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48", 'drive.pwm.dead_time="1 us"',
               "drive.gear.efficiency=0.9", "drive.gear.efficiency_back=0.7", 'drive.friction.coulomb="0.03 N*m"',
               'drive.friction.breakaway="0.05 N*m"', 'drive.friction.stribeck_speed="2 rad/s"',
@@ -450,13 +461,13 @@ def test_every_vectorised_element_in_a_batch_equals_its_single_runs():
         res = batch.simulate([S.make_machine(s, "open") for s in scns], 0.05, record_dt=1e-3)
         for i, s in enumerate(scns):
             single = multibody.simulate(S.make_machine(s, "open"), 0.05)
-            np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)
+            np.testing.assert_array_equal(res.trajectory(i).data, single.data)
 
 
 @pytest.mark.parametrize("model", ["table", "closed"])
 def test_reduced_batch_runs_the_drive_train_like_single_runs(model):
     """The batched reduced backend (tabulated or closed rigid model, and the compliant gear's extra
-    coordinate) through the same hooks: each simulation equals its single reduced run."""
+    coordinate) through the same kernel: each simulation equals its single reduced run, bit for bit."""
     from mjbench.backends import reduced_batch
 
     common = ['drive.pwm.model="switching"', 'drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48",
@@ -464,7 +475,7 @@ def test_reduced_batch_runs_the_drive_train_like_single_runs(model):
     for extra in ([], ['drive.gear.backlash="0.2 deg"']):
         scns = [S.load("incerti2012", common + extra + [f"drive.encoder.lines={n}"]) for n in (500, 1000, 3000)]
         res = reduced_batch.simulate([S.make_machine(s, "pid") for s in scns], 0.05, dt=1e-4,
-                                     options={"model": model}, single_fast_path=False)
+                                     options={"model": model})
         for i, s in enumerate(scns):
             single = reduced.simulate(S.make_machine(s, "pid"), 0.05, dt=1e-4, options={"model": model})
-            np.testing.assert_allclose(res.trajectory(i).data, single.data, rtol=1e-8, atol=1e-9)
+            np.testing.assert_array_equal(res.trajectory(i).data, single.data)

@@ -53,30 +53,38 @@ def test_loop_closure_stays_below_a_micrometre(default_runs):
         assert np.max(mb.closure) < 1e-6
 
 
-@pytest.mark.parametrize("name,mode,npairs", [("incerti2012", "pid", 1), ("sixbar-watt2", None, 2),
-                                               ("toggle-press", None, 2)])
-def test_plant_closure_from_sites_equals_the_constraint_residual(name, mode, npairs):
-    """The single plant reads the loop-closure residual from the connect sites' positions
-    (Mechanism.closure_reader); the independent path is MuJoCo's own constraint residual
-    (Mechanism.closure_error on efc_pos), compared after every step of a driven run, one and two
-    loops; the quick-return, which defines its own closure_error, keeps it."""
-    from mjbench.mechanisms.base import Mechanism, connect_site_pairs
+@pytest.mark.parametrize("name,mode,npairs,law", [("incerti2012", "pid", 1, "site_pairs_closure"),
+                                                   ("sixbar-watt2", None, 2, "site_pairs_closure"),
+                                                   ("toggle-press", None, 2, "site_pairs_closure"),
+                                                   ("yigit2023", "open", 2, "two_gaps_closure")])
+def test_plant_closure_law_equals_the_constraint_residual(name, mode, npairs, law):
+    """The MuJoCo plant's closure law reads the residual from the connect sites' positions (the
+    largest |component| of the offsets, ``site_pairs_closure``; the quick-return: the larger
+    Euclidean gap, its own ``closure_form``); the independent path is MuJoCo's own constraint
+    residual ``efc_pos`` (3 rows per connect), compared after every step of a driven run stepped by
+    the plant's own step law, one and two loops."""
+    from mjbench import compiled as C
+    from mjbench.mechanisms.base import connect_site_pairs
 
     scn_ = S.load(name)
     mc = S.make_machine(scn_, mode or sorted(scn_.modes)[0])
     plant = multibody.MultibodyPlant(mc)
-    assert len(connect_site_pairs(plant.model)) == npairs and plant.closure.__name__ == "closure"  # the site reader
+    assert len(connect_site_pairs(plant.model)) == npairs == plant.model.neq
     plant.start()
-    worst, seen = 0.0, 0.0
-    for n in range(400):
-        plant.advance(5.0 if n < 200 else -5.0, n * plant.h)
-        ref = Mechanism.closure_error(mc.mechanism, plant.model, plant.data)
-        worst = max(worst, abs(plant.closure() - ref))
-        seen = max(seen, ref)
-    assert seen > 0.0 and worst <= 1e-15, (seen, worst)
-    qr = multibody.MultibodyPlant(S.make_machine(S.load("yigit2023"), "smc"))
-    qr.start()
-    assert qr.closure() == qr.machine.mechanism.closure_error(qr.model, qr.data)
+    f = plant.form()
+    try:
+        assert f.compiled and f.laws["closure"].__name__ == law
+        step, closure, P, St = f.bound(), f.laws["closure"], C.python_view(f.P), f.state()
+        worst, seen = 0.0, 0.0
+        for n in range(400):
+            step(5.0 if n < 200 else -5.0, n * plant.h, P, St)
+            e = np.asarray(plant.data.efc_pos[:3 * npairs]).reshape(npairs, 3)
+            ref = float(np.max(np.abs(e)) if law == "site_pairs_closure" else np.max(np.sqrt(np.sum(e * e, axis=1))))
+            worst = max(worst, abs(closure(P, St) - ref))
+            seen = max(seen, ref)
+        assert seen > 0.0 and worst <= 1e-15, (seen, worst)
+    finally:
+        plant.finish()
 
 
 def test_models_use_dense_jacobian(scn):

@@ -31,6 +31,8 @@ def scenario(name, linkage=False, modes=None):
     if modes is not None:
         raw["modes"], raw["simulation"]["mode"] = modes, next(iter(modes))
         drop.append("modes.")
+        if isinstance(raw.get("paper"), dict):  # the paper's figures of the replaced modes go too
+            raw["paper"]["figures"] = [f for f in raw["paper"].get("figures", []) if f.get("mode") in modes]
     raw["aliases"] = {k: v for k, v in raw.get("aliases", {}).items() if not v.startswith(tuple(drop or ["-"]))}
     return S.from_raw(raw, src)
 

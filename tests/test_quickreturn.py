@@ -283,7 +283,22 @@ def test_smc_boundary_layer_removes_chattering():
     assert s_bl["error_abs_max"] < 1e-4
 
 
-def test_smc_multibody_agrees_and_arrays():
+def _eq37_by_hand(drive, mech, lam, K, phi, w_d, t, q, w, wdot, model=True):
+    """Our reading of seed 004 Eq 37 (controllers/smc.py) written out with the CLOSED forms of the
+    mechanism (the controller evaluates its tabulated model law), boundary layer φ > 0."""
+    n = drive.z
+    e1 = w - w_d
+    s = lam * e1 + wdot
+    torque = drive.J_eq * (-lam * e1) + n * n * drive.lam * w + n * drive.T_0 * np.sign(w)
+    if model:
+        J, dJ, dEp = mech.reduced(q)
+        Q0 = -dEp + mech.external_torque(q, w, t)
+        torque += J * (-lam * e1) + 0.5 * dJ * w * w - Q0
+    u = drive.R * torque / (n * drive.k_m) + n * drive.k_m * w - K * np.clip(s / phi, -1.0, 1.0)
+    return float(np.clip(u, -48.0, 48.0))
+
+
+def test_smc_multibody_agrees_and_is_eq37():
     import controllers
     from controllers.base import Measurement
 
@@ -291,15 +306,18 @@ def test_smc_multibody_agrees_and_arrays():
     trs = [simulate(scenario.make_machine(scn, "smc"), be, 1.0, dt=1e-4, record_dt=1e-3)
            for be in ("reduced", "multibody")]
     assert mq.compare(*trs)["max_dqd"] < 1e-4
-    # (nsim,) arrays: the controller evaluates element-wise
+    # the object (its law, with the mechanism's tabulated model) against Eq 37 from the closed
+    # forms: inside the boundary layer the difference is the table's (≤ 1e-9 relative)
     mech, drive = scenario.make_mechanism(scn), scenario.make_drive(scn)
-    ctrl = controllers.from_dict({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)
-    y = Measurement(z=drive.z).set(0.0, np.array([0.1, 2.0]), np.array([4.9, 5.1]), np.array([0.0, 0.0]),
-                                   np.array([1.0, 1.0]))
-    u = ctrl(0.0, y)
-    u0 = [controllers.from_dict({"type": "smc", "omega_d": 5.0, "boundary": 20.0, "Ts": 0.0}, drive, mech)(
-        0.0, Measurement(z=drive.z).set(0.0, q, w, 0.0, 1.0)) for q, w in ((0.1, 4.9), (2.0, 5.1))]
-    assert np.allclose(u, u0)
+    for model in (True, False):
+        for q, w, wdot in ((0.1, 4.99, 0.3), (2.0, 5.01, -0.2), (4.4, 5.0, 0.05)):  # cutting stroke at 4.4
+            ctrl = controllers.from_dict({"type": "smc", "omega_d": 5.0, "boundary": 200.0, "Ts": 0.0,
+                                          "model": model}, drive, mech)
+            u = ctrl(0.0, Measurement(z=drive.z).set(0.0, q, w, wdot, 1.0))
+            ref = _eq37_by_hand(drive, mech, 50.0, 1000.0, 200.0, 5.0, 0.0, q, w, wdot, model)
+            assert abs(ref) < 48.0  # not clipped: the comparison sees every term
+            assert u == pytest.approx(ref, rel=1e-8, abs=1e-9), (model, q)
+            assert ctrl.state()["s_last"] == pytest.approx(50.0 * (w - 5.0) + wdot, rel=1e-14)
 
 
 def test_smc_holds_output_between_samples():

@@ -95,3 +95,25 @@ def test_platform_video(tmp_path):
     assert info["frames"] == len(frames) == n
     assert frames[0].shape == (90, 160, 3) and min(f.std() for f in frames) > 10.0
     assert np.abs(frames[0].astype(int) - frames[n // 2].astype(int)).max() > 100
+
+
+def test_render_view_comes_from_the_mechanism_class():
+    """The video's view is declared by the mechanism (Mechanism.render_view): a linkage is seen from
+    the side; a platform from the top, naming its output hinge and body (present in its MJCF), the
+    ratio and the recorded deflection coordinate; a drive-train wrapper shows its inner mechanism."""
+    import math
+
+    from mjbench.drivetrain import Gear
+    from mjbench.drivetrain.gear import DrivenMechanism
+
+    assert scenario.make_mechanism(scenario.load("incerti2012")).render_view().kind == "side"
+    scn = scenario.load("incerti-bezier")
+    plat = scenario.make_mechanism(scn)
+    rv = plat.render_view()
+    assert rv.kind == "top" and rv.ratio == plat.ratio and rv.deflection in plat.internal
+    m = plat.build_spec().compile()
+    assert m.joint(rv.output_joint).id >= 0 and m.body(rv.output_body).id >= 0
+    wrapped = DrivenMechanism(plat, scenario.make_drive(scn), Gear(backlash=math.radians(0.1)))
+    assert wrapped.render_view() == rv and wrapped.internal == (rv.deflection, "gear_deflection")
+    with pytest.raises(render.ParameterError, match="not a top view"):
+        render.PlatformView(scenario.make_mechanism(scenario.load("incerti2012")))

@@ -134,8 +134,6 @@ class MultibodyPlant:
                     np.ascontiguousarray(internal[:, 4], dtype=float) if internal is not None else None,
                     C.NO_PARAMS if load is None else load.P, closure.P)
         laws = {"read": mujoco_read, "closure": closure.law, "unstable": mujoco_unstable}
-        if not closure.compiled:
-            laws["closure"] = closure
         flags = {"nextra": len(self.extra_columns)}
         if mech.internal:
             if internal is None:
@@ -146,6 +144,8 @@ class MultibodyPlant:
             f = C.Form(mujoco_step, P, laws=laws, flags=flags)
         else:
             f = C.Form(mujoco_step_load, P, laws=laws, flags=flags, fn_args=(load,))
+        if not closure.compiled and f.compiled:
+            f.compiled, f.reason = False, closure.reason
         if _mj_step_address() is None:
             f.compiled, f.reason = False, "MuJoCo's mj_step not found in its shared library"
         elif not m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT:

@@ -8,28 +8,31 @@ with τ the drive torque the kernel holds over the step (:mod:`mjbench.kernel`),
 reflected inertia and c = z²λ its viscous friction — the same split as the multibody plant
 (armature and joint damping), so both backends run the *same* drive, controller and current
 update and differ by the mechanics alone.  Mechanisms with internal (elastic) coordinates x
-(the platforms) supply their accelerations through ``Mechanism.reduced_accel``.
+(the platforms, a compliant gear) supply their accelerations as a law (``Mechanism.accel_form``).
 
 Methods (``[reduced] method``):
 * ``rk4`` (default): classical RK4 with step = the co-simulation step h (0.1 ms by default).
-  Local error O(h⁵).
+  Local error O(h⁵).  One law each, compiled with the kernel's loop: :func:`rk4_rigid` (the
+  model law ``MODEL(q, q̇, t, P) → (J, ½J', E_p', Q_ext)``, ``Mechanism.model_form``) and
+  :func:`rk4_internal` (the acceleration law ``ACCEL(t, S, iy, ia, τ, J_eq, c, P)``,
+  ``Mechanism.accel_form``, over the state (q, q̇, x₁, ẋ₁, …)).
 * ``solve_ivp``: adaptive ``scipy.integrate.solve_ivp`` (DOP853, rtol/atol settable) over every
-  step with τ held — a reference to check the fixed-step run against.
+  step with τ held — a reference to check the fixed-step run against (CPython loop).
 The drive's current update and limits are the kernel's, so every method applies the same limits.
 
 Model of a rigid mechanism (``[reduced] model``):
-* ``table`` (default for RK4): J, J'/2, E_p' (and a viscous external D) from the mechanism's
-  periodic cubic-spline table (:mod:`mjbench.backends.table`; relative interpolation error
-  measured ≤ 1e-9, recorded in the trajectory's meta) — plain float arithmetic, no trigonometry,
-  ≈ 10× cheaper per step than the closed forms, and the same operations as the batched reduced
-  plant (:mod:`mjbench.backends.reduced_batch`), which therefore gives the same bits;
-* ``closed``: the mechanism's closed forms at every stage (the reference; 2.8 µs per four-bar
-  evaluation).
-Mechanisms with internal coordinates (the platforms) and ``solve_ivp`` always use the closed forms.
+* ``table`` (default for RK4): the mechanism's ``model_form`` — J, J'/2, E_p' (and a viscous
+  external D) from its periodic cubic-spline table (:mod:`mjbench.backends.table`; relative
+  interpolation error measured ≤ 1e-9, recorded in the trajectory's meta) plus the laws of its
+  other external torques (cutting force, point loads, friction), plain float arithmetic;
+* ``closed``: the mechanism's closed forms at every stage (the reference; Python, CPython loop).
+
+The plant returns (q, q̇, δ, δ̇) with δ the compliant gear's deflection (motor = crank + δ, the
+last internal coordinate ``gear_deflection``), else 0; the internal coordinates and their rates
+are recorded as ``<name>_rad`` and ``<name>_rate_rad_s``.
 """
 from __future__ import annotations
 
-import math
 from collections import namedtuple
 
 import numpy as np
@@ -38,13 +41,12 @@ from .. import compiled as C
 from .. import kernel
 from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
-from . import table as _table
 from ..trajectory import Trajectory
 from .multibody import _extra_names
 
 
 class ReducedPlant:
-    """The reduced model of one machine; see the kernel's plant protocol."""
+    """The reduced model of one machine; its compiled form is :meth:`form` (the kernel's plant slot)."""
 
     nsim = None
 
@@ -56,33 +58,17 @@ class ReducedPlant:
             raise ParameterError(f"reduced.model = {model!r}: choose 'table' or 'closed'")
         self.machine = machine
         self.h = float(dt)
-        self.method, self.rtol, self.atol = method, rtol, atol
+        self.method, self.rtol, self.atol, self.model = method, rtol, atol, model
         mech, drive = machine.mechanism, machine.drive
         self._mech = mech
-        self._Ja = float(drive.J_eq) if np.ndim(drive.J_eq) == 0 else drive.J_eq
-        self._c = float(drive.crank_damping) if np.ndim(drive.crank_damping) == 0 else drive.crank_damping
+        set_step = getattr(mech, "set_step", None)
+        if set_step is not None:  # step-dependent parts of the model (friction regularisation)
+            set_step(self.h)
+        self._Ja = float(drive.J_eq)
+        self._c = float(drive.crank_damping)
         self._nx = len(mech.internal)
         self.extra_columns = _extra_names(mech)
         self.meta = {"method": method, "model": "closed"}
-        self._accel = self._rigid_accel() if self._nx == 0 else None
-        self._table = None
-        if model == "table" and method == "rk4" and _table.supports(mech):
-            self._table = tab = _table.table_for(mech)
-            self.meta.update(tab.describe())
-            # the step as one generated function (no call per RK4 stage: 28 % cheaper), bound per instance
-            self.advance = _table_advance(self, tab, self._Ja, self._c,
-                                          mech.external_torque if (mech.has_external_torque() and not tab.viscous)
-                                          else None)
-
-    def _rigid_accel(self):
-        reduced, ext = self._mech.reduced, self._mech.external_torque
-        Ja, c = self._Ja, self._c
-
-        def accel(t, q, qd, tau):
-            J, dJ, dEp = reduced(q)
-            return (tau - c * qd + ext(q, qd, t) - dEp - 0.5 * dJ * qd * qd) / (Ja + J)
-
-        return accel
 
     # ------------------------------------------------------------------ protocol
     def start(self):
@@ -92,20 +78,47 @@ class ReducedPlant:
         self.x = tuple(float(v) for v in (mc.x0 or (0.0,) * nx))
         self.xd = tuple(float(v) for v in (mc.xd0 or (0.0,) * nx))
 
+    def _state0(self):
+        y = [self.q, self.qd]
+        for x, xd in zip(self.x, self.xd):
+            y += [x, xd]
+        return y
+
     def form(self):
-        """The plant's compiled form: RK4 on the mechanism's reduced model (its ``model_form``, the
-        spline table for a rigid crank mechanism); anything else (internal coordinates without a
-        law, ``model = "closed"``, ``solve_ivp``) is a Python adapter of :meth:`advance`."""
+        """The plant's compiled form: RK4 on the mechanism's reduced model — :func:`rk4_rigid` with
+        its ``model_form`` (rigid) or :func:`rk4_internal` with its ``accel_form`` (internal
+        coordinates).  A model without a law runs the same RK4 law with a Python adapter of the
+        closed forms (CPython loop); ``solve_ivp`` is a Python adapter."""
         mech = self._mech
         flags = {"nextra": len(self.extra_columns)}
-        if self.method == "rk4" and self._nx == 0 and self._table is not None:
-            model = mech.model_form()
-            P = RigidP(self.h, float(self._Ja), float(self._c), model.P)
-            S0 = np.array([float(self.machine.q0), float(self.machine.qd0)])
-            return C.Form(rk4_rigid, P, S0, laws={"read": reduced_read}, flags=flags, fn_args=(model,))
-        return self._python_form(flags)
+        if self.method == "solve_ivp":
+            return self._ivp_form(flags)
+        if self._nx == 0:
+            if self.model == "table":
+                model = mech.model_form()
+            else:
+                from ..mechanisms.base import _closed_model
 
-    def _python_form(self, flags):
+                model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
+            self._meta_from(model)
+            P = RigidP(self.h, self._Ja, self._c, model.P)
+            return C.Form(rk4_rigid, P, np.array(self._state0()), laws={"read": reduced_read}, flags=flags,
+                          fn_args=(model,))
+        acc = mech.accel_form()
+        self._meta_from(acc)
+        n = self._nx
+        idefl = n - 1 if mech.internal[-1] == DEFLECTION else -1
+        P = InternalP(self.h, self._Ja, self._c, n, idefl, acc.P)
+        S0 = np.zeros(internal_state_size(n))
+        S0[:2 + 2 * n] = self._state0()
+        return C.Form(rk4_internal, P, S0, laws={"read": internal_read, "write": internal_write}, flags=flags,
+                      fn_args=(acc,))
+
+    def _meta_from(self, form):
+        tab = form.flags.get("table")
+        self.meta = {"method": self.method, **(tab if tab else {"model": "closed"})}
+
+    def _ivp_form(self, flags):
         plant = self
         compliant = bool(self._nx) and self._mech.internal[-1] == DEFLECTION
 
@@ -113,8 +126,8 @@ class ReducedPlant:
             return (plant.x[-1], plant.xd[-1]) if compliant else (0.0, 0.0)
 
         def step(tau, t, P, S):
-            q, qd = plant.advance(tau, t)
-            return (q, qd, *offset())
+            plant._advance_ivp(tau, t)
+            return (plant.q, plant.qd, *offset())
 
         def read(P, S):
             return (plant.q, plant.qd, *offset())
@@ -125,65 +138,8 @@ class ReducedPlant:
                 out[b + i] = plant.x[i]
                 out[b + n + i] = plant.xd[i]
 
-        why = ("solve_ivp" if self.method == "solve_ivp" else
-               "reduced.model = 'closed' (closed forms in Python)" if self._table is None and self._nx == 0 else
-               f"{type(self._mech).__name__} has internal coordinates and no compiled reduced model")
-        return C.python_form(step, why, laws={"read": read, "write": write}, flags=flags)
-
-    def read(self):
-        return self.q, self.qd
-
-    def closure(self):
-        return 0.0
-
-    def unstable(self):
-        return False
-
-    def extra(self, out):
-        k = self._nx
-        out[:k] = self.x
-        out[k:] = self.xd
-
-    def retire(self, mask):  # pragma: no cover - single run: never called
-        pass
-
-    def advance(self, tau, t):
-        if self.method == "solve_ivp":
-            return self._advance_ivp(tau, t)
-        h = self.h
-        h2, h6 = 0.5 * h, h / 6.0
-        q, qd = self.q, self.qd
-        if self._nx == 0:
-            f = self._accel
-            try:
-                a1 = f(t, q, qd, tau)
-                v2 = qd + h2 * a1
-                a2 = f(t + h2, q + h2 * qd, v2, tau)
-                v3 = qd + h2 * a2
-                a3 = f(t + h2, q + h2 * v2, v3, tau)
-                v4 = qd + h * a3
-                a4 = f(t + h, q + h * v3, v4, tau)
-            except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged
-                self.q = self.qd = math.nan
-                return self.q, self.qd
-            self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
-            self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-            return self.q, self.qd
-        acc = self._mech.reduced_accel
-        Ja, c = self._Ja, self._c
-        x, xd = self.x, self.xd
-        a1, b1 = acc(t, q, qd, x, xd, tau, Ja, c)
-        v2, w2 = qd + h2 * a1, tuple(u + h2 * b for u, b in zip(xd, b1))
-        a2, b2 = acc(t + h2, q + h2 * qd, v2, tuple(p + h2 * u for p, u in zip(x, xd)), w2, tau, Ja, c)
-        v3, w3 = qd + h2 * a2, tuple(u + h2 * b for u, b in zip(xd, b2))
-        a3, b3 = acc(t + h2, q + h2 * v2, v3, tuple(p + h2 * u for p, u in zip(x, w2)), w3, tau, Ja, c)
-        v4, w4 = qd + h * a3, tuple(u + h * b for u, b in zip(xd, b3))
-        a4, b4 = acc(t + h, q + h * v3, v4, tuple(p + h * u for p, u in zip(x, w3)), w4, tau, Ja, c)
-        self.q = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)
-        self.qd = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        self.x = tuple(p + h6 * (u + 2.0 * s2 + 2.0 * s3 + s4) for p, u, s2, s3, s4 in zip(x, xd, w2, w3, w4))
-        self.xd = tuple(u + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4) for u, c1, c2, c3, c4 in zip(xd, b1, b2, b3, b4))
-        return self.q, self.qd
+        return C.python_form(step, "reduced.method = 'solve_ivp' (scipy, in Python)",
+                             laws={"read": read, "write": write}, flags=flags)
 
     def _advance_ivp(self, tau, t):
         nx = self._nx
@@ -208,44 +164,6 @@ class ReducedPlant:
         return self.q, self.qd
 
 
-def _table_advance(plant, tab, Ja, c, ext):
-    """One RK4 step of the tabulated rigid model on Python floats, as a function ``advance(tau, t)``
-    generated for the table's variant (with or without the viscous D, with the mechanism's
-    untabulated external torque ``ext`` or none): the four stages written out, so a step costs no
-    Python call per stage.  The batched plant performs the same operations in the same order
-    (same bits; tests/test_reduced_batch.py)."""
-    names = ["J", "H", "E"] + (["D"] if tab.viscous else [])
-    unpack = ", ".join(f"{x}{j}" for j in range(4) for x in names)
-
-    def poly(x):
-        return f"((({x}3 * f + {x}2) * f + {x}1) * f + {x}0)"
-
-    def stage(i, q, v, t):
-        if tab.viscous:
-            num = f"tau - (c + {poly('D')}) * {v} - {poly('E')} - {poly('H')} * {v} * {v}"
-        elif ext is not None:
-            num = f"tau - c * {v} + ext(qs, {v}, {t}) - {poly('E')} - {poly('H')} * {v} * {v}"
-        else:
-            num = f"tau - c * {v} - {poly('E')} - {poly('H')} * {v} * {v}"
-        return (f"        qs = {q}\n        u = qs * k\n        fl = floor(u)\n        f = u - fl\n"
-                f"        {unpack} = rows[fl % n]\n        a{i} = ({num}) / (Ja + {poly('J')})\n")
-
-    src = ("def advance(tau, t):\n    q, qd = P.q, P.qd\n    try:\n"
-           + stage(1, "q", "qd", "t") + "        v2 = qd + h2 * a1\n"
-           + stage(2, "q + h2 * qd", "v2", "t + h2") + "        v3 = qd + h2 * a2\n"
-           + stage(3, "q + h2 * v2", "v3", "t + h2") + "        v4 = qd + h * a3\n"
-           + stage(4, "q + h * v3", "v4", "t + h")
-           + "    except (ValueError, OverflowError):  # table lookup at a non-finite angle: diverged\n"
-             "        P.q = P.qd = nan\n        return nan, nan\n"
-             "    P.q = q1 = q + h6 * (qd + 2.0 * v2 + 2.0 * v3 + v4)\n"
-             "    P.qd = qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)\n    return q1, qd1\n")
-    h = plant.h
-    env = {"P": plant, "rows": tab.rows, "n": tab.n, "k": tab.k, "Ja": Ja, "c": c, "ext": ext, "floor": math.floor,
-           "nan": math.nan, "h": h, "h2": 0.5 * h, "h6": h / 6.0}
-    exec(compile(src, f"<reduced table step {tab.names}>", "exec"), env)  # noqa: S102 - our own template
-    return env["advance"]
-
-
 def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
              method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12, progress=None,
              options=None, model: str = "table", loop=None) -> Trajectory:
@@ -261,8 +179,12 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
     return Trajectory.from_record(rec, "reduced")
 
 
+# ============================================================================ laws
 #: the rigid reduced plant's parameters: step, drive inertia J_eq and viscous z²λ, the model's parameters
 RigidP = namedtuple("RigidP", "h Ja c model")
+#: the reduced plant with internal coordinates: step, J_eq, z²λ, number n of internal coordinates,
+#: index of the compliant gear's deflection among them (−1: none), the acceleration law's parameters
+InternalP = namedtuple("InternalP", "h Ja c n idefl acc")
 
 
 @C.law
@@ -298,3 +220,90 @@ def rk4_rigid(MODEL, tau, t, P, S):
 @C.law
 def reduced_read(P, S):
     return S[0], S[1], 0.0, 0.0
+
+
+@C.law
+def rigid_accel(MODEL, t, S, iy, ia, tau, Ja, c, P):
+    """The rigid Eksergian acceleration as an acceleration law (the inner mechanism of a compliant
+    gear): q̈ = [τ − c·q̇ + Q_ext − E_p' − ½J'·q̇²] / (J_eq + J) at (q, q̇) = (S[iy], S[iy+1]) into
+    S[ia]; MODEL(q, q̇, t, P) its model law.  → q̈."""
+    q = S[iy]
+    qd = S[iy + 1]
+    J, H, E, Q = MODEL(q, qd, t, P)
+    qdd = (tau - c * qd + Q - E - H * qd * qd) / (Ja + J)
+    S[ia] = qdd
+    return qdd
+
+
+def internal_state_size(n: int) -> int:
+    """Length of :func:`rk4_internal`'s state array for n internal coordinates: the state y =
+    (q, q̇, x₁, ẋ₁, …) (m = 2n + 2), one stage state (m), four stage accelerations and three stage
+    velocities (n + 1 each)."""
+    return 2 * (2 * n + 2) + 7 * (n + 1)
+
+
+@C.law
+def rk4_internal(ACCEL, tau, t, P, S):
+    """One classical RK4 step of a mechanism with n = P.n internal coordinates, τ held.
+
+    State S[0:m] = (q, q̇, x₁, ẋ₁, …, xₙ, ẋₙ) (m = 2n + 2; coordinate j at S[2j], its rate at
+    S[2j+1]); the rest of S is the step's work space (:func:`internal_state_size`).  ACCEL(t, S, iy,
+    ia, τ, J_eq, c, P.acc) reads a state at S[iy:iy+m] and writes the accelerations (q̈, ẍ₁, …, ẍₙ)
+    to S[ia:ia+n+1].  → (q, q̇, δ, δ̇) at the step's end (δ: the compliant gear's deflection,
+    coordinate P.idefl, else 0)."""
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    Ja = P.Ja
+    c = P.c
+    A = P.acc
+    n1 = P.n + 1
+    m = 2 * n1
+    ys = m
+    a1 = 2 * m
+    a2 = a1 + n1
+    a3 = a2 + n1
+    a4 = a3 + n1
+    u2 = a4 + n1
+    u3 = u2 + n1
+    u4 = u3 + n1
+    ACCEL(t, S, 0, a1, tau, Ja, c, A)
+    for j in range(n1):
+        S[u2 + j] = S[2 * j + 1] + h2 * S[a1 + j]
+        S[ys + 2 * j] = S[2 * j] + h2 * S[2 * j + 1]
+        S[ys + 2 * j + 1] = S[u2 + j]
+    ACCEL(t + h2, S, ys, a2, tau, Ja, c, A)
+    for j in range(n1):
+        S[u3 + j] = S[2 * j + 1] + h2 * S[a2 + j]
+        S[ys + 2 * j] = S[2 * j] + h2 * S[u2 + j]
+        S[ys + 2 * j + 1] = S[u3 + j]
+    ACCEL(t + h2, S, ys, a3, tau, Ja, c, A)
+    for j in range(n1):
+        S[u4 + j] = S[2 * j + 1] + h * S[a3 + j]
+        S[ys + 2 * j] = S[2 * j] + h * S[u3 + j]
+        S[ys + 2 * j + 1] = S[u4 + j]
+    ACCEL(t + h, S, ys, a4, tau, Ja, c, A)
+    for j in range(n1):
+        p = S[2 * j]
+        v = S[2 * j + 1]
+        S[2 * j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
+        S[2 * j + 1] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    return internal_read(P, S)
+
+
+@C.law
+def internal_read(P, S):
+    """(q, q̇, δ, δ̇) of :func:`rk4_internal`'s state (δ = 0 without a compliant gear)."""
+    if P.idefl < 0:
+        return S[0], S[1], 0.0, 0.0
+    k = 2 + 2 * P.idefl
+    return S[0], S[1], S[k], S[k + 1]
+
+
+@C.law
+def internal_write(out, b, P, S):
+    """The internal coordinates x_i, then their rates ẋ_i into ``out[b:]``."""
+    n = P.n
+    for i in range(n):
+        out[b + i] = S[2 + 2 * i]
+        out[b + n + i] = S[3 + 2 * i]

@@ -18,11 +18,12 @@ four-bar evaluation in Python).  They depend on the input coordinate only and ar
   falls as h⁴ (×16 per doubling): the seed-000 four-bar needs 2048 nodes (7e-11; docs/performance.md).
 * the mechanism's viscous external torque −D(q)·q̇ (``Mechanism.reduced_viscous``, e.g. the
   four-bar's hinge friction) is tabulated as a fourth quantity; any other external torque
-  (the quick-return's cutting force, discontinuous) is evaluated by the mechanism at each stage.
+  (the quick-return's cutting force, discontinuous; a linkage's point loads; friction) is the
+  mechanism's own law, added to the table's at each stage (``Mechanism.model_form``).
 
-Layout: ``coef`` is (4·m, n) — rows c₀ of the m quantities, then c₁, c₂, c₃ — so that a batch
-gathers the (4·m, N) coefficients of N simulations with one ``np.take(axis=1)`` and evaluates
-contiguous rows; ``rows`` is the same as a list of n tuples for the scalar path.
+Layout: ``coef`` is (4·m, n) — rows c₀ of the m quantities, then c₁, c₂, c₃ — evaluated for
+arrays by :meth:`ReducedTable.__call__`; the law :func:`table_model` reads the same coefficients
+transposed (``TableP.C``, one row per cell) with the same operations.
 Tables are cached by the mechanism's parameters (``describe()``): a batch of gain candidates
 shares one table, a calibration builds one per candidate linkage (≈ 2–5 ms).
 """
@@ -52,8 +53,8 @@ class ReducedTable:
     """Periodic cubic-spline table of one rigid mechanism (see the module docstring).
 
     Attributes: ``n`` nodes, ``period`` [rad], ``k`` = n/period [1/rad], ``m`` quantities
-    (J, J'/2, E_p' and, if ``viscous``, D), ``coef`` (4m, n), ``rows`` (n tuples of 4m floats),
-    ``max_rel_error`` (measured, per quantity in ``errors``)."""
+    (J, J'/2, E_p' and, if ``viscous``, D), ``coef`` (4m, n), ``max_rel_error`` (measured, per
+    quantity in ``errors``)."""
 
     def __init__(self, mech, tol: float = TOL, n0: int = N0, nmax: int = NMAX, viscous: bool | None = None):
         from scipy.interpolate import CubicSpline
@@ -97,14 +98,6 @@ class ReducedTable:
         for j in range(4):  # c_j (power j)
             coef[j * self.m:(j + 1) * self.m] = (c[3 - j] * dx ** j).T
         self.coef = np.ascontiguousarray(coef)
-        self._rows = None
-
-    @property
-    def rows(self):
-        """The coefficients as n tuples of 4m Python floats (scalar path; built on first use)."""
-        if self._rows is None:
-            self._rows = [tuple(map(float, col)) for col in self.coef.T]
-        return self._rows
 
     def describe(self) -> dict:
         return {"model": "table", "table_nodes": self.n, "table_max_rel_error": self.max_rel_error,

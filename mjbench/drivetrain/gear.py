@@ -12,11 +12,12 @@ output (default: the motor inertia against the lighter output side resonates at
 mode).  Multibody: a hinge ``drive_motor`` carrying the motor inertia (J_m + J_a)·z² and z²λ, and
 a MuJoCo fixed tendon L = θ_m − α with a **dead-band spring** (``springlength = [−β/2, β/2]``,
 ``stiffness = k``); the contact damping is the tendon's ``damping``, switched on while in contact
-(state at the start of the step; always on if β = 0).  In a batch the per-step edits reach each
-simulation's own model through the single-run ``multibody_load`` (``describe()`` makes the models
-distinct, so the batch calls it per simulation).  Reduced model: the same law in the
-right-hand side (the internal coordinate ``gear_deflection``), contact evaluated at every RK4
-stage.  The crank keeps J_b.
+(state at the start of the step; always on if β = 0).  These per-step model edits are part of
+the load law :func:`driven_load`, writing through live NumPy views of the model's
+``tendon_damping`` and ``dof_frictionloss``; in a batch every simulation has its own model
+(``describe()`` makes the models distinct).  Reduced model: the same mesh law
+(:func:`mesh_torque_law`) in the acceleration law :func:`compliant_accel` (the internal coordinate
+``gear_deflection``, last), contact evaluated at every RK4 stage.  The crank keeps J_b.
 
 **Efficiency** (rigid or compliant gear): the motor's net torque T_m (electromagnetic minus the
 held Coulomb T_0) is scaled by η (T_m·φ̇ ≥ 0: the motor drives the load) or 1/η_back (the load
@@ -37,11 +38,13 @@ mechanisms).
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
+from .. import compiled as C
 from ..errors import ParameterError
-from ..mechanisms.base import Mechanism
+from ..mechanisms.base import Mechanism, accel_call
 
 MOTOR_JOINT = "drive_motor"       #: the motor's hinge in a compliant-gear multibody model
 MESH_TENDON = "gear_mesh"         #: the fixed tendon θ_m − α carrying the mesh spring
@@ -79,21 +82,29 @@ class Gear:
                 "damping_ratio": _plain(self.damping_ratio), "efficiency": _plain(self.efficiency),
                 "efficiency_back": _plain(self.efficiency_back)}
 
-    def efficiency_function(self, batch):
-        """T_m, φ̇ ↦ the torque passed to the gear (η·T_m forward, T_m/η_back back-driven); None if lossless."""
-        if not self.lossy:
-            return None
-        ef, eb = self.efficiency, self.efficiency_back
-        if not batch:
-            ef, ieb = float(ef), 1.0 / float(eb)
+    # ------------------------------------------------------------------ efficiency (law: gear_efficiency)
+    def efficiency_params(self) -> "EfficiencyP":
+        return EfficiencyP(float(self.efficiency), 1.0 / float(self.efficiency_back))
 
-            def eff(Tm, w):
-                return Tm * ef if Tm * w >= 0.0 else Tm * ieb
-            return eff
+    def efficiency_form(self):
+        """The kernel's EFF form (:func:`gear_efficiency`), None if the gear is lossless."""
+        return C.Form(gear_efficiency, self.efficiency_params()) if self.lossy else None
 
-        def eff_a(Tm, w):
-            return np.where(Tm * w >= 0.0, Tm * ef, Tm / eb)
-        return eff_a
+    def transmitted_torque(self, Tm, w):
+        """The torque the gear passes on for motor torque T_m at motor speed φ̇ (scalars or arrays)."""
+        P = self.efficiency_params()
+        return C.vectorize(lambda t, v: gear_efficiency(t, v, P), Tm, w)
+
+
+#: the efficiency law's parameters: η (the motor drives the load) and 1/η_back (the load drives)
+EfficiencyP = namedtuple("EfficiencyP", "eta inv_eta_back")
+
+
+@C.law
+def gear_efficiency(Tm, w, P):
+    """The kernel's EFF slot: η·T_m when the motor drives the load (T_m·φ̇ ≥ 0), T_m/η_back when
+    the load drives the motor."""
+    return Tm * P.eta if Tm * w >= 0.0 else Tm * P.inv_eta_back
 
 
 class Friction:
@@ -129,12 +140,179 @@ def _law(d):
 
 
 def level(v, fc, fs, vs):
-    """Friction level F(|v|) = F_C + (F_S − F_C)·exp(−(v/v_S)²)."""
+    """Friction level F(|v|) = F_C + (F_S − F_C)·exp(−(v/v_S)²) (:func:`friction_level`)."""
+    return C.vectorize(lambda u: friction_level(u, float(fc), float(fs), float(vs)), v)
+
+
+# ============================================================================ laws
+@C.law
+def friction_level(u, fc, fs, vs):
+    """Friction level F(u) = F_C + (F_S − F_C)·exp(−(u/v_S)²) at a speed u ≥ 0 (F_C without a
+    Stribeck drop, F_S = F_C)."""
     if fs == fc:
-        return fc if isinstance(v, float) else fc + 0.0 * v
-    if isinstance(v, float):
-        return fc + (fs - fc) * math.exp(-(v / vs) ** 2)
-    return fc + (fs - fc) * np.exp(-(v / vs) ** 2)
+        return fc
+    r = u / vs
+    return fc + (fs - fc) * math.exp(-(r * r))
+
+
+# Parameters are few arrays with one row per term (each array read in a law costs a reference
+# count update in compiled code: a table of rows, not a tuple of columns).
+#: columns of a friction-terms table (one row per term on one coordinate): F_C, F_S, v_S, gain on
+#: the force g_F and on the speed g_v (the motor's friction seen through the gear: both z),
+#: regularisation speed v_ε, viscous coefficient
+TERM_COLUMNS = ("fc", "fs", "vs", "gF", "gv", "veps", "visc")
+#: the crank's friction: its own terms (table, TERM_COLUMNS), the terms of joints away from the
+#: crank (rows F_C, F_S, v_S, v_ε, viscous) with their speed ratios r_j(q) tabulated on N + 1
+#: uniform nodes over one crank turn (R: (terms, N + 1), k = N/2π); whether there is any term
+CrankFrictionP = namedtuple("CrankFrictionP", "terms oterms R k N any")
+
+
+@C.law
+def friction_terms(v, T):
+    """Σ −g_F·F(|g_v·v|)·tanh(g_v·v/v_ε) − visc·v over a coordinate's friction terms (regularised
+    dry friction, module docstring; T: one row per term, TERM_COLUMNS)."""
+    out = 0.0
+    for i in range(len(T)):
+        u = T[i, 4] * v
+        out = out - T[i, 3] * friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 5]) \
+            - T[i, 6] * v
+    return out
+
+
+@C.law
+def speed_ratio(q, R, i, k, n):
+    """Joint i's speed ratio r_i(q): linear interpolation of its table R[i] (n + 1 nodes over one
+    crank turn, periodic); NaN at a non-finite angle (a diverged run)."""
+    u = q * k
+    if not abs(u) < 1e15:
+        return math.nan
+    fl = math.floor(u)
+    f = u - fl
+    j = fl % n
+    return R[i, j] + f * (R[i, j + 1] - R[i, j])
+
+
+@C.law
+def crank_friction(q, qd, P):
+    """The friction torque on the crank [N·m]: its own terms (:func:`friction_terms`) and those of
+    the other joints, −r_j·(F(|r_j·q̇|)·tanh(r_j·q̇/v_ε) + visc·r_j·q̇) with r_j = :func:`speed_ratio`."""
+    tq = friction_terms(qd, P.terms)
+    W = P.oterms
+    if len(W) > 0:
+        R = P.R
+        for i in range(len(W)):
+            rq = speed_ratio(q, R, i, P.k, P.N)
+            u = rq * qd
+            tq = tq - rq * (friction_level(abs(u), W[i, 0], W[i, 1], W[i, 2]) * math.tanh(u / W[i, 3]) + W[i, 4] * u)
+    return tq
+
+
+@C.law
+def mesh_torque_law(d, dd, k, c, hb):
+    """Mesh torque on the crank [N·m] at deflection δ and rate δ̇: k·(δ ∓ β/2) + c·δ̇ in contact
+    (|δ| > β/2, hb = β/2), 0 inside the play; k·δ + c·δ̇ without play."""
+    if hb == 0.0:
+        return k * d + c * dd
+    if d > hb:
+        return k * (d - hb) + c * dd
+    if d < -hb:
+        return k * (d + hb) + c * dd
+    return 0.0
+
+
+#: the compliant gear's acceleration parameters: n internal coordinates (the deflection last), mesh
+#: k, c, β/2, the crank-side drive inertia J_b, the crank's friction (``crank_any``: whether there is
+#: any), the motor's friction terms (TERM_COLUMNS; ``motor_any``: whether there are any), the inner
+#: mechanism's acceleration parameters
+CompliantP = namedtuple("CompliantP", "n k c hb J_b crank crank_any motor motor_any inner")
+#: a rigid gear with friction: the crank's friction and the inner mechanism's parameters
+RigidFrictionP = namedtuple("RigidFrictionP", "crank inner")
+
+
+@C.law
+def compliant_accel(INNER, t, S, iy, ia, tau, Ja, c_add, P):
+    """Accelerations of a mechanism behind a compliant gear (module docstring): the mesh torque
+    T_g (:func:`mesh_torque_law`) plus the crank's friction drives the inner mechanism (its law
+    INNER with the crank-side inertia J_b); the motor θ_m = α + δ (last coordinate) gets
+    τ − c·θ̇_m − T_g + its friction over J_eq − J_b.  Writes (α̈, ẍ…, δ̈); → α̈."""
+    n = P.n
+    q = S[iy]
+    qd = S[iy + 1]
+    d = S[iy + 2 * n]
+    dd = S[iy + 2 * n + 1]
+    Tg = mesh_torque_law(d, dd, P.k, P.c, P.hb)
+    Tc = Tg
+    if P.crank_any:
+        Tc = Tg + crank_friction(q, qd, P.crank)
+    qdd = INNER(t, S, iy, ia, Tc, P.J_b, 0.0, P.inner)
+    wm = qd + dd
+    Tm = tau - c_add * wm - Tg
+    if P.motor_any:
+        Tm = Tm + friction_terms(wm, P.motor)
+    S[ia + n] = Tm / (Ja - P.J_b) - qdd
+    return qdd
+
+
+@C.law
+def friction_accel(INNER, t, S, iy, ia, tau, Ja, c_add, P):
+    """Accelerations of a mechanism with internal coordinates behind a rigid gear with friction:
+    the inner law under τ + the crank's friction."""
+    return INNER(t, S, iy, ia, tau + crank_friction(S[iy], S[iy + 1], P.crank), Ja, c_add, P.inner)
+
+
+@C.law
+def friction_model(MODEL, q, qd, t, P):
+    """The reduced model of a rigid mechanism behind a rigid gear with friction: the inner model
+    law with the crank's friction added to Q_ext."""
+    J, H, E, Q = MODEL(q, qd, t, P.inner)
+    return J, H, E, Q + crank_friction(q, qd, P.crank)
+
+
+#: the MuJoCo loads of a driven mechanism: qpos, qvel, qfrc_applied (live), the crank dof (its
+#: applied force zeroed under a compliant gear), flags, the motor and crank qpos, the mesh tendon,
+#: its contact damping c and β/2, tendon_damping (live, MjModel); Stribeck dofs (sdof, terms
+#: sptr[k]..sptr[k+1] of each, rows F_C, F_S, v_S, g_F, g_v), dof_frictionloss (live, MjModel); the
+#: inner loads' P
+DrivenLoadP = namedtuple("DrivenLoadP", "qpos qvel qfrc vc compliant toggle qm qc tendon c hb tdamp sdof sptr sterms "
+                                        "floss inner")
+
+
+@C.law
+def driven_load(INNER, t, P):
+    """The MuJoCo loads of a driven mechanism, before each step: the crank's applied force zeroed
+    under a compliant gear (the drive torque acts on the motor hinge), the inner mechanism's loads
+    (INNER), then the per-step model edits from the state at the step's start — the mesh's
+    contact damping on while in contact, the Stribeck friction level F(|v|) of each dof."""
+    if P.compliant:
+        P.qfrc[P.vc] = 0.0
+    INNER(t, P.inner)
+    if P.toggle:
+        d = P.qpos[P.qm] - P.qpos[P.qc]
+        P.tdamp[P.tendon] = P.c if abs(d) > P.hb else 0.0
+    sdof = P.sdof
+    if len(sdof) > 0:
+        sptr = P.sptr
+        W = P.sterms
+        qvel = P.qvel
+        floss = P.floss
+        for k in range(len(sdof)):
+            dof = sdof[k]
+            v = qvel[dof]
+            F = 0.0
+            for i in range(sptr[k], sptr[k + 1]):
+                F += W[i, 3] * friction_level(abs(W[i, 4] * v), W[i, 0], W[i, 1], W[i, 2])
+            floss[dof] = F
+
+
+@C.law
+def no_load(t, P):
+    """No MuJoCo load (a driven mechanism whose inner mechanism has none)."""
+    return None
+
+
+def _terms_params(terms) -> np.ndarray:
+    """The friction-terms table (one row per term, TERM_COLUMNS)."""
+    return np.array(terms, dtype=float).reshape(-1, len(TERM_COLUMNS))
 
 
 class DrivenMechanism(Mechanism):
@@ -152,8 +330,8 @@ class DrivenMechanism(Mechanism):
         self.compliant = gear is not None and gear.compliant
         self.drive_joint = MOTOR_JOINT if self.compliant else inner.input_joint
         self.internal = tuple(inner.internal) + ((DEFLECTION,) if self.compliant else ())
-        # the tabulated reduced model (mjbench.backends.table) tabulates J, J', E_p' (periodic in q) and
-        # calls external_torque (the friction law) at every stage; no viscous-only D (reduced_viscous: None)
+        # the tabulated reduced model (mjbench.backends.table) tabulates the inner mechanism's J, J', E_p'
+        # (periodic in q); the friction is a law added at every stage (model_form)
         self.reduced_period = getattr(inner, "reduced_period", None)
         self.z = float(drive.z)
         self.J_b = float(drive.J_b)
@@ -216,6 +394,21 @@ class DrivenMechanism(Mechanism):
     def closure_error(self, model, data):
         return self.inner.closure_error(model, data)
 
+    def closure_form(self, model, data):
+        return self.inner.closure_form(model, data)
+
+    def render_view(self):
+        return self.inner.render_view()
+
+    def linkage_view(self):
+        return self.inner.linkage_view()
+
+    def kinematics(self, q):
+        return self.inner.kinematics(q)
+
+    def input_positions(self, n: int):
+        return self.inner.input_positions(n)
+
     def describe(self) -> dict:
         d = dict(self.inner.describe())
         dt = {}
@@ -243,7 +436,8 @@ class DrivenMechanism(Mechanism):
 
     # ------------------------------------------------------------------ step-size dependent set-up
     def set_step(self, h):
-        """Prepare the reduced model's friction regularisation for co-simulation step h [s]."""
+        """Prepare the reduced model's friction regularisation for co-simulation step h [s]: the
+        parameters of the friction laws (v_ε = 2·h·n·F_S·g²/J_min, module docstring)."""
         if self._h == h:
             return
         self._h = float(h)
@@ -278,16 +472,29 @@ class DrivenMechanism(Mechanism):
             veps = 2.0 * h * fs * gF * gv / self.J_mo if fs > 0 else 1.0
             self._motor_terms.append((fc, fs, vs, gF, gv, max(veps, 1e-12), 0.0))
         self._has_crank_friction = bool(self._crank_terms or self._other_terms)
+        # the laws' parameters
+        nodes = SPEED_RATIO_NODES
+        O = self._other_terms
+        R = np.array([r for _, _, _, _, r, _, _ in O], dtype=float).reshape(-1, nodes + 1)
+        W = np.array([(t[0], t[1], t[2], t[5], t[6]) for t in O], dtype=float).reshape(-1, 5)
+        self._crank_P = CrankFrictionP(_terms_params(self._crank_terms), W, np.ascontiguousarray(R),
+                                       nodes / (2.0 * math.pi), nodes, bool(self._has_crank_friction))
+        self._motor_P = _terms_params(self._motor_terms)
+
+    def _ensure_step(self):
+        if self._h is None:
+            self.set_step(1e-4)
 
     def _speed_ratios(self, names):
-        """{joint: (q grid, dθ_j/dq on it)} over one crank turn, from the MuJoCo kinematics."""
+        """{joint: (q grid, dθ_j/dq on it)} over one crank turn (SPEED_RATIO_NODES + 1 uniform
+        nodes, both ends), from the MuJoCo kinematics."""
         if self.inner.internal:
             raise ParameterError(f"drive.friction.joints: friction on {', '.join(names)} needs a rigid mechanism in "
                                  f"the reduced model ({self.inner.type_name} has internal coordinates); use the "
                                  f"multibody backend or friction on the input joint")
         spec = self.inner.build_spec(0.0, {"timestep": self._h})
         m = spec.compile()
-        qg = np.linspace(0.0, 2.0 * math.pi, 1025)
+        qg = np.linspace(0.0, 2.0 * math.pi, SPEED_RATIO_NODES + 1)
         out = {}
         for n in names:
             try:
@@ -297,76 +504,74 @@ class DrivenMechanism(Mechanism):
             out[n] = (qg, np.array([self.inner.initial_qvel(m, float(q), 1.0)[dof] for q in qg]))
         return out
 
-    # ------------------------------------------------------------------ reduced model
+    # ------------------------------------------------------------------ reduced model (laws)
     def _terms_torque(self, terms, v):
-        """Σ −g_F·F(|g_v·v|)·tanh(g_v·v/v_ε) − visc·v over one coordinate's friction terms."""
-        out = 0.0 * v
-        scalar = isinstance(v, float)
-        for fc, fs, vs, gF, gv, veps, visc in terms:
-            u = gv * v
-            th = math.tanh(u / veps) if scalar else np.tanh(u / veps)
-            out = out - gF * level(abs(u) if scalar else np.abs(u), fc, fs, vs) * th - visc * v
-        return out
+        """Σ −g_F·F(|g_v·v|)·tanh(g_v·v/v_ε) − visc·v over one coordinate's friction terms
+        (:func:`friction_terms`)."""
+        P = _terms_params(terms)
+        return C.vectorize(lambda x: friction_terms(x, P), v)
 
     def _crank_friction(self, q, qd):
-        if self._h is None:
-            self.set_step(1e-4)
-        tq = self._terms_torque(self._crank_terms, qd)
-        scalar = isinstance(qd, float)
-        for fc, fs, vs, qg, r, veps, visc in self._other_terms:
-            rq = np.interp(q, qg, r, period=2.0 * math.pi)
-            if scalar:
-                rq = float(rq)
-                u = rq * qd
-                tq -= rq * (level(abs(u), fc, fs, vs) * math.tanh(u / veps) + visc * u)
-            else:
-                u = rq * qd
-                tq = tq - rq * (level(np.abs(u), fc, fs, vs) * np.tanh(u / veps) + visc * u)
-        return tq
+        """The crank's friction torque (:func:`crank_friction`) at (q, q̇), scalars or arrays."""
+        self._ensure_step()
+        P = C.python_view(self._crank_P)
+        return C.vectorize(lambda a, b: crank_friction(a, b, P), q, qd)
 
     def external_torque(self, q, qd, t):
         ext = self.inner.external_torque(q, qd, t)
         if not self.compliant and (self._motor_law is not None or self._joint_laws):
-            if self._h is None:
-                self.set_step(1e-4)
+            self._ensure_step()
             if self._has_crank_friction:
                 ext = ext + self._crank_friction(q, qd)
         return ext
 
+    def has_external_torque(self) -> bool:
+        return self.inner.has_external_torque() or (not self.compliant and bool(self._motor_law or self._joint_laws))
+
+    def reduced_viscous(self, q):
+        return None
+
     def mesh_torque(self, d, dd):
-        """Mesh torque on the crank [N·m] for deflection δ [rad] and rate δ̇ [rad/s] (output side)."""
+        """Mesh torque on the crank [N·m] for deflection δ [rad] and rate δ̇ [rad/s] (output side;
+        :func:`mesh_torque_law`)."""
         k, c, hb = self.k, self.c, 0.5 * self.beta
-        if hb == 0.0:
-            return k * d + c * dd
-        if isinstance(d, float):
-            if d > hb:
-                return k * (d - hb) + c * dd
-            if d < -hb:
-                return k * (d + hb) + c * dd
-            return 0.0
-        e = d - np.clip(d, -hb, hb)
-        return k * e + np.where(e != 0.0, c * dd, 0.0)
+        return C.vectorize(lambda a, b: mesh_torque_law(a, b, k, c, hb), d, dd)
+
+    def model_form(self):
+        """The crank's reduced model: the inner mechanism's model law plus the crank's friction
+        (:func:`friction_model`; the inner model alone without friction)."""
+        self._ensure_step()
+        inner = self.inner.model_form()
+        if not self._has_crank_friction:
+            return inner
+        return C.Form(friction_model, RigidFrictionP(self._crank_P, inner.P), fn_args=(inner,),
+                      flags=dict(inner.flags))
+
+    def accel_form(self):
+        """The accelerations: :func:`compliant_accel` (compliant gear) or :func:`friction_accel`
+        (rigid gear, an inner mechanism with internal coordinates) around the inner mechanism's law."""
+        self._ensure_step()
+        if not self.compliant:
+            if not self.internal:
+                return super().accel_form()
+            inner = self.inner.accel_form()
+            if not self._has_crank_friction:
+                return inner
+            return C.Form(friction_accel, RigidFrictionP(self._crank_P, inner.P), fn_args=(inner,),
+                          flags=dict(inner.flags))
+        inner = self.inner.accel_form()
+        P = CompliantP(len(self.internal), float(self.k), float(self.c), 0.5 * float(self.beta), float(self.J_b),
+                       self._crank_P, bool(self._has_crank_friction), self._motor_P, bool(len(self._motor_P)),
+                       inner.P)
+        return C.Form(compliant_accel, P, fn_args=(inner,), flags=dict(inner.flags))
 
     def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
-        inner = self.inner
-        if not self.compliant:
-            if self._h is None:
-                self.set_step(1e-4)
+        if not self.internal:
+            self._ensure_step()
             if self._has_crank_friction:
                 tau = tau + self._crank_friction(q, qd)
-            return inner.reduced_accel(t, q, qd, x, xd, tau, J_add, c_add)
-        if self._h is None:
-            self.set_step(1e-4)
-        d, dd = x[-1], xd[-1]
-        Tg = self.mesh_torque(d, dd)
-        Tc = Tg + self._crank_friction(q, qd) if self._has_crank_friction else Tg
-        qdd, xdd = inner.reduced_accel(t, q, qd, tuple(x[:-1]), tuple(xd[:-1]), Tc, self.J_b, 0.0)
-        wm = qd + dd
-        Tm = tau - c_add * wm - Tg
-        if self._motor_terms:
-            Tm = Tm + self._terms_torque(self._motor_terms, wm)
-        thdd = Tm / (J_add - self.J_b)
-        return qdd, (*xdd, thdd - qdd)
+            return self.inner.reduced_accel(t, q, qd, x, xd, tau, J_add, c_add)
+        return accel_call(self.accel_form(), t, q, qd, x, xd, tau, J_add, c_add)
 
     # ------------------------------------------------------------------ multibody model
     def build_spec(self, armature: float = 0.0, options=None):
@@ -436,13 +641,30 @@ class DrivenMechanism(Mechanism):
         return ((*x, qpos[..., ids["qm"]] - qpos[..., ids["qc"]]),
                 (*xd, qvel[..., ids["vm"]] - qvel[..., ids["vc"]]))
 
+    def internal_index(self, model):
+        """The inner mechanism's rows, then the deflection δ = θ_m − α (compliant gear)."""
+        rows = self.inner.internal_index(model) if self.inner.internal else np.zeros((0, 5))
+        if rows is None:
+            return None
+        if not self.compliant:
+            return rows
+        ids = self._ids(model)
+        return np.vstack([rows, [[ids["qm"], ids["qc"], ids["vm"], ids["vc"], 1.0]]])
+
+    def motor_index(self, model):
+        """The motor hinge ``drive_motor`` (qpos, dof) under a compliant gear."""
+        if not self.compliant:
+            return self.inner.motor_index(model)
+        ids = self._ids(model)
+        return ids["qm"], ids["vm"]
+
     def _ids(self, model):
         key = id(model)
         ids = self._mj.get(key)
-        if ids is not None:
+        if ids is not None and ids["model"] is model:
             return ids
         jc = model.joint(self.input_joint)
-        ids = {"qc": int(jc.qposadr[0]), "vc": int(jc.dofadr[0])}
+        ids = {"model": model, "qc": int(jc.qposadr[0]), "vc": int(jc.dofadr[0])}
         if self.compliant:
             jm = model.joint(MOTOR_JOINT)
             ids.update(qm=int(jm.qposadr[0]), vm=int(jm.dofadr[0]), tendon=int(model.tendon(MESH_TENDON).id))
@@ -461,26 +683,36 @@ class DrivenMechanism(Mechanism):
     def has_multibody_load(self) -> bool:
         return self.compliant or self.inner.has_multibody_load() or self.needs_model_edits
 
-    def _edit_model(self, model, qpos, qvel):
-        """Per-step model edits of one simulation: contact damping on/off, Stribeck levels."""
+    def load_form(self, model, data):
+        """The MuJoCo loads as a law (:func:`driven_load` around the inner mechanism's loads), the
+        model edits through live views of ``model.tendon_damping`` and ``model.dof_frictionloss``."""
+        if not self.has_multibody_load():
+            return None
         ids = self._ids(model)
-        if self.toggles_damping:
-            d = qpos[ids["qm"]] - qpos[ids["qc"]]
-            model.tendon_damping[ids["tendon"]] = self.c if abs(d) > 0.5 * self.beta else 0.0
+        inner = self.inner.load_form(model, data) if self.inner.has_multibody_load() else None
+        if inner is None:
+            inner = C.Form(no_load)
+        sdof, sptr, terms = [], [0], []
         for dof, laws in ids["stribeck"]:
-            v = float(qvel[dof])
-            F = 0.0
+            sdof.append(dof)
             for (fc, fs, vs), gF, gv in laws:
-                F += gF * level(abs(gv * v), fc, fs, vs)
-            model.dof_frictionloss[dof] = F
+                terms.append((fc, fs, vs, gF, gv))
+            sptr.append(len(terms))
+        P = DrivenLoadP(data.qpos, data.qvel, data.qfrc_applied, ids["vc"], bool(self.compliant),
+                        bool(self.toggles_damping), ids.get("qm", 0), ids["qc"], ids.get("tendon", 0),
+                        float(self.c), 0.5 * float(self.beta), model.tendon_damping,
+                        np.array(sdof, dtype=np.int64), np.array(sptr, dtype=np.int64),
+                        np.array(terms, dtype=float).reshape(-1, 5), model.dof_frictionloss, inner.P)
+        return C.Form(driven_load, P, fn_args=(inner,))
 
     def multibody_load(self, model, data, t: float) -> None:
-        if self.compliant:
-            data.qfrc_applied[self._ids(model)["vc"]] = 0.0  # the drive torque is on drive_motor
-        if self.inner.has_multibody_load():
-            self.inner.multibody_load(model, data, t)
-        if self.needs_model_edits:
-            self._edit_model(model, data.qpos, data.qvel)
+        f = self.load_form(model, data)
+        if f is not None:
+            f.bound()(float(t), C.python_view(f.P))
+
+
+#: nodes of the tabulated speed ratios of joints with friction (one crank turn)
+SPEED_RATIO_NODES = 1024
 
 
 def _min_inertia(mech) -> float:

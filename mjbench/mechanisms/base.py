@@ -19,8 +19,16 @@ What a subclass implements (abstract, checked when the class is instantiated):
 
 Optional, with defaults: external generalised force (:meth:`external_torque`, e.g. a process
 load), the matching multibody load (:meth:`multibody_load`), loop-closure residual
-(:meth:`closure_error`; the co-simulation reads it through :meth:`closure_reader`), traced point (:meth:`trace_point`), internal dynamics
-(:meth:`reduced_accel` for mechanisms with internal coordinates).
+(:meth:`closure_error`), traced point (:meth:`trace_point`), internal dynamics
+(:meth:`reduced_accel` for mechanisms with internal coordinates), how a video shows it
+(:meth:`render_view`), its kinematics for ``mjbench analyze`` (:meth:`linkage_view`,
+:meth:`kinematics`).
+
+Compiled forms (:mod:`mjbench.compiled`; the kernel's loop composes them, the Python methods call
+the same laws): :meth:`model_form` (the reduced model law), :meth:`accel_form` (the accelerations
+with internal coordinates), :meth:`load_form` (the MuJoCo loads), :meth:`closure_form`,
+:meth:`internal_index`, :meth:`motor_index`.  A mechanism whose external torque is viscous only
+needs none of them; without a law for a non-viscous part the run says why it is not compiled.
 
 A new mechanism = one module defining the subclass and decorating it with
 ``@mjbench.mechanisms.register``; ``[mechanism] type = "<type_name>"`` then runs on every backend
@@ -30,6 +38,7 @@ NumPy arrays.
 from __future__ import annotations
 
 import abc
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -101,6 +110,25 @@ def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 108
     opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
     spec.visual.global_.offwidth, spec.visual.global_.offheight = offscreen
     return spec
+
+
+@dataclass(frozen=True)
+class RenderView:
+    """How a video shows a mechanism (:mod:`mjbench.render`), declared by its class
+    (:meth:`Mechanism.render_view`).
+
+    ``kind``: "side" — the linkage in its plane, camera along +y, the pose of every frame from
+    ``initial_qpos`` of the recorded input, the path of ``trace_point``; or "top" — a rotary table
+    seen from above: the hinge ``output_joint`` of the body ``output_body`` turns ρ·q + x with
+    ρ = ``ratio`` and x the internal coordinate ``deflection`` (recorded as ``<deflection>_rad``),
+    drawn as two needles (rigid ρ·q, and ρ·q + gain·x); ``label`` names the machine in the overlay."""
+
+    kind: str = "side"
+    output_joint: str = ""
+    output_body: str = ""
+    ratio: float = 1.0
+    deflection: str = ""
+    label: str = ""
 
 
 class Mechanism(abc.ABC):
@@ -199,28 +227,6 @@ class Mechanism(abc.ABC):
         ne = data.ne  # (a handful of rows, read every record: Python's max is 2.5x cheaper than NumPy's)
         return max(map(abs, data.efc_pos[:ne].tolist())) if ne else 0.0
 
-    def closure_reader(self, model, data):
-        """``closure()`` → :meth:`closure_error` of ``data`` [m], for the co-simulation's record
-        instants.  When the mechanism keeps the base definition and every equality is a site
-        ``connect`` (every closed linkage mjbench builds), the residual is read from the two sites'
-        positions — the constraint's own residual, computed in the same position stage (≤ 1e-15 m
-        apart: tests/test_fourbar_multibody.py) — through a memoryview of ``site_xpos``, a fixed
-        MuJoCo array (0.23 µs per read instead of 0.67: ``efc_pos`` is re-allocated every step, so
-        each read builds a new NumPy view)."""
-        idx = self.closure_site_index(model)
-        if idx is None:
-            return lambda: self.closure_error(model, data)
-        sx = memoryview(data.site_xpos.reshape(-1))
-
-        def closure():
-            r = 0.0
-            for i, j in idx:
-                v = abs(sx[i] - sx[j])
-                if v > r:
-                    r = v
-            return r
-        return closure
-
     def closure_site_index(self, model):
         """The loop-closure residual as site coordinates: pairs (i, j) of indices into the flat
         ``site_xpos`` whose largest |difference| is :meth:`closure_error` (x, y, z of each connect
@@ -244,10 +250,41 @@ class Mechanism(abc.ABC):
         from ..backends import table
 
         if table.supports(self) and not (self.has_external_torque() and self.reduced_viscous(0.0) is None):
-            return C.Form(table.table_model, table.table_params(table.table_for(self)))
+            return table_form(self)
         why = ("its external torque is not viscous and has no law (override model_form)"
                if table.supports(self) else "its reduced model cannot be tabulated")
         return C.python_form(_closed_model(self), f"{type(self).__name__}: {why}")
+
+    def accel_form(self):
+        """The reduced model's accelerations as a law ``ACCEL(t, S, iy, ia, τ, J_eq, c, P) → q̈``
+        (a :class:`~mjbench.compiled.Form`) for the reduced plant with internal coordinates
+        (:func:`mjbench.backends.reduced.rk4_internal`): it reads the state (q, q̇, x₁, ẋ₁, …) at
+        ``S[iy:]`` and writes (q̈, ẍ₁, …) to ``S[ia:]``; τ is the input torque, J_eq and c the
+        drive's inertia and viscous coefficient on q.
+
+        Default: a rigid mechanism's model law (:meth:`model_form`) through
+        :func:`~mjbench.backends.reduced.rigid_accel`; a mechanism with internal coordinates
+        overrides it (its :meth:`reduced_accel` must call the same law, :func:`accel_call`),
+        else a Python adapter of :meth:`reduced_accel` (the run is then not compiled)."""
+        from .. import compiled as C
+        from ..backends.reduced import rigid_accel
+
+        if not self.internal:
+            m = self.model_form()
+            return C.Form(rigid_accel, m.P, fn_args=(m,), flags=dict(m.flags))
+        mech = self
+        n = len(self.internal)
+
+        def adapter(t, S, iy, ia, tau, Ja, c, P):
+            x = tuple(S[iy + 2 + 2 * i] for i in range(n))
+            xd = tuple(S[iy + 3 + 2 * i] for i in range(n))
+            qdd, xdd = mech.reduced_accel(t, S[iy], S[iy + 1], x, xd, tau, Ja, c)
+            S[ia] = float(qdd)
+            for i in range(n):
+                S[ia + 1 + i] = float(xdd[i])
+            return float(qdd)
+        return C.python_form(adapter, f"{type(self).__name__} has internal coordinates and no acceleration law "
+                                      f"(override accel_form)")
 
     def load_form(self, model, data):
         """The MuJoCo loads as a law ``LOAD(t, P)`` writing ``qfrc_applied`` (a Form), or None when
@@ -308,10 +345,72 @@ class Mechanism(abc.ABC):
         """(x, y) [m] of the point whose path a video traces (coupler point, slider ...)."""
         return None
 
+    def render_view(self) -> RenderView:
+        """How a video shows this mechanism (default: the side view of a planar linkage)."""
+        return RenderView(self.view, label=self.type_name)
+
+    # --- design analysis (mjbench analyze) ------------------------------------------------------
+    def linkage_view(self):
+        """A generic :class:`~mjbench.mechanisms.linkage.Linkage` with this mechanism's kinematics
+        (its link lines give transmission angles and toggles), or None (default: none)."""
+        return None
+
+    def input_positions(self, n: int):
+        """(q, unit): n input positions over one period of the input (default: one turn from 0)."""
+        return 2.0 * np.pi * np.arange(n) / n, "rad"
+
+    def kinematics(self, q) -> dict:
+        """What ``mjbench analyze`` shows of the kinematics over input positions q (array): keys
+        ``source``, ``ratios`` {joint: dq_j/dq}, ``ratio_units``, ``transmission`` {name: μ(q)},
+        ``toggles``, ``limit_positions`` (and ``strokes_m``, ``swings_deg``, ``stroke_arcs_deg``
+        when known), ``unavailable`` {row: why it cannot be given}.
+
+        Default: through :meth:`linkage_view` (the equivalent generic linkage's analysis); without
+        one, nothing, and ``unavailable`` says so."""
+        lk = self.linkage_view()
+        if lk is None:
+            why = (f"{type(self).__name__} has no linkage view (Mechanism.linkage_view): no joints or link lines "
+                   f"to analyse")
+            return {"source": "not available for this mechanism type", "ratios": {}, "ratio_units": {},
+                    "transmission": {}, "toggles": {}, "limit_positions": {},
+                    "unavailable": {"velocity_ratios": why, "transmission_angles": why, "toggles": why,
+                                    "limit_positions": why}}
+        out = lk.kinematic_analysis(q)
+        out["source"] = ("own linkage kinematics" if lk is self else
+                         f"the equivalent generic linkage of the {self.type_name} (mechanisms/linkage.py)")
+        out.setdefault("unavailable", {})
+        return out
+
     def describe(self) -> dict:
         """Parameters as a plain dict (manifests, model cache keys)."""
         return {"type": self.type_name,
                 **{k: v for k, v in vars(self).items() if not k.startswith("_")}}
+
+
+def table_form(mech):
+    """The periodic spline table of a rigid mechanism as a model law (:func:`table_model`), its
+    description in ``flags["table"]`` (the run's meta)."""
+    from .. import compiled as C
+    from ..backends import table
+
+    tab = table.table_for(mech)
+    return C.Form(table.table_model, table.table_params(tab), flags={"table": tab.describe()})
+
+
+def accel_call(form, t, q, qd, x, xd, tau, J_add, c_add):
+    """(q̈, (ẍ₁, …)) of an acceleration law (:meth:`Mechanism.accel_form`) at one state: what a
+    mechanism's :meth:`~Mechanism.reduced_accel` returns, computed by the law itself."""
+    n = len(x)
+    m = 2 * n + 2
+    S = [0.0] * (m + n + 1)
+    S[0], S[1] = float(q), float(qd)
+    for i in range(n):
+        S[2 + 2 * i] = float(x[i])
+        S[3 + 2 * i] = float(xd[i])
+    from .. import compiled as C
+
+    form.bound()(float(t), S, 0, m, float(tau), float(J_add), float(c_add), C.python_view(form.P))
+    return S[m], tuple(S[m + 1:])
 
 
 def _closed_model(mech):

@@ -12,6 +12,7 @@ paper's angle measured counter-clockwise and MuJoCo's default gravity is the pap
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,6 +21,8 @@ from typing import Literal
 
 from pydantic import Field, field_validator
 
+from .. import compiled as C
+from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..schema import Q, Strict
 from . import register
@@ -234,28 +237,26 @@ class FourBar(Mechanism):
                 self.a * alpha_dot * xp.cos(alpha) + pt.f * bd * xp.cos(beta + pt.theta))
 
     # ================================================================ coupler curve (seed 002 §2)
+    def kinematic_params(self, point: CouplerPoint | None = None) -> "FourBarKinP":
+        """The geometry and one coupler point (default ``coupler_point``) as the parameters of the
+        kinematic laws (:func:`coupler_speed_ratio_law`, :func:`fourbar_angles`)."""
+        pt = point or self.coupler_point
+        return FourBarKinP(float(self.a), float(self.b), float(self.c), float(self.h_x), float(self.h_y),
+                           float(self.k), float(pt.f), float(pt.theta))
+
     def coupler_speed_ratio(self, alpha, point: CouplerPoint | None = None):
         """|dP/dα| [m/rad]: coupler-point speed per unit crank speed, the square root of the
-        denominator of seed 002 Eq 17, √(r₂² + r_C²g₁² + 2·r₂·r_C·g₁·cos(q − φ₁ − β_C))."""
-        pt = point or self.coupler_point
-        xp = _xp(alpha)
-        beta, _, Q, _ = self.ratios(alpha)
-        a, f = self.a, pt.f
-        s2 = a * a + f * f * Q * Q + 2 * a * f * Q * xp.cos(alpha - beta - pt.theta)
-        return xp.sqrt(xp.maximum(s2, 0.0)) if xp is np else math.sqrt(max(s2, 0.0))
+        denominator of seed 002 Eq 17, √(r₂² + r_C²g₁² + 2·r₂·r_C·g₁·cos(q − φ₁ − β_C)) — the law
+        :func:`coupler_speed_ratio_law` (the coupler-speed reference's), elementwise."""
+        P = self.kinematic_params(point)
+        return _assembled(_each(lambda a: coupler_speed_ratio_law(a, P), alpha, 2)[0], alpha)
 
     def coupler_speed_ratio_derivative(self, alpha, point: CouplerPoint | None = None):
-        """(S, dS/dα) with S = |dP/dα| [m/rad] and its analytic derivative [m/rad²]."""
-        pt = point or self.coupler_point
-        xp = _xp(alpha)
-        beta, _, Q, _, dQ, _ = self.ratio_derivatives(alpha)
-        a, f = self.a, pt.f
-        psi = alpha - beta - pt.theta
-        c, s = xp.cos(psi), xp.sin(psi)
-        S2 = a * a + f * f * Q * Q + 2 * a * f * Q * c
-        S = xp.sqrt(xp.maximum(S2, 0.0)) if xp is np else math.sqrt(max(S2, 0.0))
-        dS2 = 2 * f * f * Q * dQ + 2 * a * f * (dQ * c - Q * s * (1.0 - Q))
-        return S, dS2 / (2 * S)
+        """(S, dS/dα) with S = |dP/dα| [m/rad] and its analytic derivative [m/rad²]
+        (:func:`coupler_speed_ratio_law`, elementwise)."""
+        P = self.kinematic_params(point)
+        S, dS = _each(lambda a: coupler_speed_ratio_law(a, P), alpha, 2)
+        return _assembled(S, alpha), dS
 
     def coupler_curve(self, n: int = 721, point: CouplerPoint | None = None):
         """(α, x_P, y_P) over one crank turn α ∈ [0, 2π] (n samples, both ends included) [rad, m]."""
@@ -267,18 +268,21 @@ class FourBar(Mechanism):
         pt = point or self.coupler_point
         return (self.a, self.b, self.c, self.h_x, self.h_y, self.k, pt.f, pt.theta)
 
+    def arc_params(self, point: CouplerPoint | None = None) -> "ArcP":
+        """The tabulated arc length s(α) of a coupler point as the parameters of
+        :func:`arc_length_law` (cached by geometry)."""
+        return _arc_table(self, self._arc_key(point), point)
+
     def path_length(self, point: CouplerPoint | None = None) -> float:
         """Length of the closed coupler curve traced in one crank turn [m]."""
-        return _arc_table(self, self._arc_key(point), point)[1]
+        return float(self.arc_params(point).L)
 
     def arc_length(self, alpha, point: CouplerPoint | None = None):
         """Path length s(α) = ∫₀^α |dP/dα'| dα' travelled by the coupler point since α = 0 [m],
-        cumulative over turns (s(α + 2π) = s(α) + path_length).  Gauss-Legendre table + cubic
-        Hermite interpolation (error < 1e-10 m)."""
-        spline, L = _arc_table(self, self._arc_key(point), point)
-        a = np.asarray(alpha, dtype=float)
-        turns = np.floor(a / (2 * np.pi))
-        out = spline(a - turns * 2 * np.pi) + turns * L
+        cumulative over turns (s(α + 2π) = s(α) + path_length): the law :func:`arc_length_law`
+        (Gauss-Legendre table + cubic Hermite interpolation, error < 1e-10 m), elementwise."""
+        P = self.arc_params(point)
+        out = _each(lambda a: (arc_length_law(a, P),), alpha, 1)[0]
         return float(out) if np.ndim(out) == 0 and isinstance(alpha, (float, int)) else out
 
     def mass_centres(self, alpha):
@@ -374,16 +378,23 @@ class FourBar(Mechanism):
         MJCF, so no joint to carry ``damping``) as generalised forces, from the velocities at the
         start of the step (hinges A, B, D are joint ``damping``, integrated by MuJoCo).
         ``qfrc_applied[crank]`` already holds the drive torque: it is added to, not replaced."""
+        f = self.load_form(model, data)
+        if f is not None:
+            hinge_c_load(float(t), C.python_view(f.P))
+
+    def load_form(self, model, data):
+        """The hinge-C friction as a law (:func:`hinge_c_load`), None without it."""
         if self.damping_C == 0.0:
-            return
-        adr = _dof_cache(model)
-        va, vb, vr = adr
-        qv, qf = data.qvel, data.qfrc_applied
-        w_crank = qv[va]
-        tau_c = -self.damping_C * (w_crank + qv[vb] - qv[vr])  # on the coupler, from the rocker
-        qf[va] += tau_c
-        qf[vb] = tau_c
-        qf[vr] = -tau_c
+            return None
+        va, vb, vr = _dof_cache(model)
+        return C.Form(hinge_c_load, HingeCP(data.qvel, data.qfrc_applied, va, vb, vr, float(self.damping_C)))
+
+    def linkage_view(self):
+        """The same linkage as a generic :class:`~mjbench.mechanisms.linkage.Linkage` (link lines:
+        transmission angles, toggles, velocity ratios for ``mjbench analyze``)."""
+        from .linkage import Linkage, LinkageParams, table_from_fourbar
+
+        return Linkage(LinkageParams.model_validate(table_from_fourbar(self)))
 
     # ================================================================ MJCF builder
     def build_spec(self, armature: float = 0.0, options=None):
@@ -490,31 +501,163 @@ class FourBar(Mechanism):
                 "damping_A": self.damping_A, "damping_C": self.damping_C}
 
 
+#: the hinge-C friction load's parameters: live qvel and qfrc_applied, the crank, coupler and rocker
+#: dofs, the damping c_C [N·m·s/rad]
+HingeCP = namedtuple("HingeCP", "qvel qfrc va vb vr dC")
+
+
+@law
+def hinge_c_load(t, P):
+    """Viscous friction of the loop-closing hinge C (coupler/rocker) as generalised forces, from the
+    velocities at the step's start: τ_C = −c_C·(ω_crank + ω_coupler,rel − ω_rocker) on the coupler
+    (added to the drive torque on the crank dof), −τ_C on the rocker."""
+    tau_c = -P.dC * (P.qvel[P.va] + P.qvel[P.vb] - P.qvel[P.vr])
+    P.qfrc[P.va] += tau_c
+    P.qfrc[P.vb] = tau_c
+    P.qfrc[P.vr] = -tau_c
+
+
 _DOF_CACHE: dict = {}
 _ARC_CACHE: dict = {}
 
 
-def _arc_table(fb, key, point, n: int = 2048):
-    """(CubicHermiteSpline of s(α) on [0, 2π], path length) for the coupler point, cached by
-    geometry: 3-point Gauss-Legendre per interval for the nodes, exact S = dS/dα as slopes."""
+def _arc_table(fb, key, point, n: int = 2048) -> "ArcP":
+    """The parameters of :func:`arc_length_law` for the coupler point, cached by geometry: n
+    intervals over one turn, s at the nodes by 3-point Gauss-Legendre per interval, the exact
+    S = ds/dα at the nodes as slopes (both from :func:`coupler_speed_ratio_law`)."""
     hit = _ARC_CACHE.get(key)
     if hit is not None:
         return hit
-    from scipy.interpolate import CubicHermiteSpline
-
-    nodes = np.linspace(0.0, 2 * np.pi, n + 1)
-    h = nodes[1] - nodes[0]
+    nodes = np.arange(n + 1) * (2 * np.pi / n)
+    h = 2 * np.pi / n
     xg, wg = np.polynomial.legendre.leggauss(3)
     mid = 0.5 * (nodes[:-1] + nodes[1:])
     pts = mid[:, None] + 0.5 * h * xg[None, :]
     S = fb.coupler_speed_ratio(pts.ravel(), point).reshape(pts.shape)
     seg = 0.5 * h * (S * wg[None, :]).sum(axis=1)
     s_nodes = np.concatenate(([0.0], np.cumsum(seg)))
-    spline = CubicHermiteSpline(nodes, s_nodes, fb.coupler_speed_ratio(nodes, point))
+    slopes = np.asarray(fb.coupler_speed_ratio(nodes, point), dtype=float)
     if len(_ARC_CACHE) > 64:
         _ARC_CACHE.clear()
-    _ARC_CACHE[key] = (spline, float(s_nodes[-1]))
+    _ARC_CACHE[key] = ArcP(int(n), float(h), float(s_nodes[-1]), np.ascontiguousarray(s_nodes),
+                           np.ascontiguousarray(slopes))
     return _ARC_CACHE[key]
+
+
+# ================================================================ kinematic laws (one formula)
+#: the four-bar's geometry for the kinematic laws, with one coupler point (f, ϑ from B)
+FourBarKinP = namedtuple("FourBarKinP", "a b c hx hy k f theta")
+
+
+@law
+def fourbar_angles(alpha, P):
+    """(β, γ) [rad] of coupler and rocker at crank angle α (Appendix A); NaN where the linkage
+    cannot be assembled (A² + B² − C² < 0)."""
+    a = P.a
+    b = P.b
+    c = P.c
+    hx = P.hx
+    hy = P.hy
+    sa = math.sin(alpha)
+    ca = math.cos(alpha)
+    A = 2 * c * (hy - a * sa)
+    B = 2 * c * (hx - a * ca)
+    Cc = a * a - b * b + c * c + hx * hx + hy * hy - 2 * a * (hx * ca + hy * sa)
+    D2 = A * A + B * B - Cc * Cc
+    if not D2 >= 0.0:
+        return math.nan, math.nan
+    D = math.sqrt(D2)
+    k = P.k
+    AB = A * A + B * B
+    sg = -(A * Cc + k * B * D) / AB
+    cg = -(B * Cc - k * A * D) / AB
+    gamma = math.atan2(sg, cg)
+    sb = (hy + c * sg - a * sa) / b
+    cb = (hx + c * cg - a * ca) / b
+    return math.atan2(sb, cb), gamma
+
+
+@law
+def fourbar_ratio_derivatives(alpha, P):
+    """(β, γ, Q, R, dQ/dα, dR/dα): velocity ratios Q = β̇/α̇, R = γ̇/α̇ (Appendix B) and their
+    analytic derivatives."""
+    beta, gamma = fourbar_angles(alpha, P)
+    a = P.a
+    s_gb = math.sin(gamma - beta)
+    c_gb = math.cos(gamma - beta)
+    s_ab = math.sin(alpha - beta)
+    c_ab = math.cos(alpha - beta)
+    s_ag = math.sin(alpha - gamma)
+    c_ag = math.cos(alpha - gamma)
+    R = a * s_ab / (P.c * s_gb)
+    Q = a * s_ag / (P.b * s_gb)
+    d_gb = R - Q  # d(γ−β)/dα
+    dR = a / P.c * (c_ab * (1 - Q) * s_gb - s_ab * c_gb * d_gb) / (s_gb * s_gb)
+    dQ = a / P.b * (c_ag * (1 - R) * s_gb - s_ag * c_gb * d_gb) / (s_gb * s_gb)
+    return beta, gamma, Q, R, dQ, dR
+
+
+@law
+def coupler_speed_ratio_law(alpha, P):
+    """(S, dS/dα): S = |dP/dα| [m/rad] of the coupler point (P.f, P.theta), the square root of
+    the denominator of seed 002 Eq 17, S² = a² + f²Q² + 2afQ·cos(α − β − ϑ), and its analytic
+    derivative [m/rad²]."""
+    beta, gamma, Q, R, dQ, dR = fourbar_ratio_derivatives(alpha, P)
+    a = P.a
+    f = P.f
+    psi = alpha - beta - P.theta
+    c = math.cos(psi)
+    s = math.sin(psi)
+    S2 = a * a + f * f * Q * Q + 2 * a * f * Q * c
+    S = math.sqrt(0.0 if S2 < 0.0 else S2)
+    dS2 = 2 * f * f * Q * dQ + 2 * a * f * (dQ * c - Q * s * (1.0 - Q))
+    return S, dS2 / (2 * S)
+
+
+#: the coupler point's arc length over one turn for :func:`arc_length_law`: n intervals of
+#: h = 2π/n, path length L [m], s(α_i) [m] and S(α_i) = ds/dα [m/rad] at the n + 1 nodes
+ArcP = namedtuple("ArcP", "n h L s dsdq")
+
+
+@law
+def arc_length_law(alpha, P):
+    """s(α) [m] travelled since α = 0, cumulative over turns: cubic Hermite interpolation of the
+    tabulated s(α_i) with slopes S(α_i) on one turn; NaN for a non-finite angle."""
+    if not abs(alpha) < 1e15:
+        return math.nan
+    tw = 2.0 * math.pi
+    turns = math.floor(alpha / tw)
+    x = (alpha - turns * tw) / P.h
+    i = int(x)
+    if i > P.n - 1:
+        i = P.n - 1
+    if i < 0:
+        i = 0
+    u = x - i
+    h = P.h
+    u2 = u * u
+    u3 = u2 * u
+    y = ((2.0 * u3 - 3.0 * u2 + 1.0) * P.s[i] + (u3 - 2.0 * u2 + u) * h * P.dsdq[i]
+         + (3.0 * u2 - 2.0 * u3) * P.s[i + 1] + (u3 - u2) * h * P.dsdq[i + 1])
+    return y + turns * P.L
+
+
+def _each(fn, x, nout):
+    """A law ``fn(float) → tuple of nout floats`` applied to every element of x: a tuple of nout
+    arrays of x's shape (floats for a scalar x; post-processing, never on the hot path)."""
+    xa = np.asarray(x, dtype=float)
+    if xa.ndim == 0:
+        return tuple(fn(float(xa)))
+    rows = np.array([fn(v) for v in xa.ravel().tolist()], dtype=float).reshape(-1, nout)
+    return tuple(rows[:, k].reshape(xa.shape) for k in range(nout))
+
+
+def _assembled(S, alpha):
+    """S, or GeometryError where a finite angle gave NaN (the linkage cannot be assembled there)."""
+    bad = np.isnan(S) & np.isfinite(np.asarray(alpha, dtype=float))
+    if np.any(bad):
+        raise GeometryError("four-bar cannot be assembled at some of the requested crank angles")
+    return S
 
 
 def _dof_cache(model):

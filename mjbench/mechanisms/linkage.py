@@ -37,21 +37,23 @@ the description), so gravity (g_x, g_y) becomes (g_x, 0, g_y).
 """
 from __future__ import annotations
 
-import bisect
 import hashlib
 import math
-from collections import deque
+from collections import deque, namedtuple
 from typing import Literal
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
+from .. import compiled as C
+from ..backends.table import table_model
+from ..compiled import law
 from ..errors import GeometryError
 from ..schema import OptQ, Q, Strict
 from . import register
 from .base import Mechanism, closure_solref, new_spec
-from .linkage_kin import KJoint, PeriodicTable, PlanarSystem, SolveError, TWO_PI
+from .linkage_kin import KJoint, PeriodicTable, PlanarSystem, SolveError, TWO_PI, ptable_channel
 
 AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo: description angles are counter-clockwise in (x, z)
 GROUND = "ground"
@@ -103,13 +105,13 @@ class JointSpec(Strict):
     def _axis(self):
         if self.type == "prismatic":
             if self.axis is None:
-                raise PydanticCustomError("mjbench_value", "joint {n!r}: a prismatic joint needs axis = [ux, uy] "
-                                          "(slide direction in the first link's frame)", {"n": self.name})
+                raise PydanticCustomError("mjbench_value", "joint {n}: a prismatic joint needs axis = [ux, uy] "
+                                          "(slide direction in the first link's frame)", {"n": repr(self.name)})
             if not math.hypot(*self.axis) > 0:
-                raise PydanticCustomError("mjbench_value", "joint {n!r}: axis = {a} has zero length",
-                                          {"n": self.name, "a": list(self.axis)})
+                raise PydanticCustomError("mjbench_value", "joint {n}: axis = {a} has zero length",
+                                          {"n": repr(self.name), "a": list(self.axis)})
         elif self.axis is not None:
-            raise PydanticCustomError("mjbench_value", "joint {n!r}: axis is for prismatic joints only", {"n": self.name})
+            raise PydanticCustomError("mjbench_value", "joint {n}: axis is for prismatic joints only", {"n": repr(self.name)})
         return self
 
 
@@ -841,7 +843,9 @@ class Linkage(Mechanism):
         t = c.table
         self._tab3, self._tab1, self._tab = t.scalar3, t.scalar, t
         self._has_ext = bool(c.damped or any(s.damping > 0 for _, _, s in c.springs) or c.loads)
-        self._loads = [(5 + 2 * k, 6 + 2 * k, _force_law(ld)) for k, (_, _, ld) in enumerate(c.loads)]
+        self._loads = [(5 + 2 * k, 6 + 2 * k, _force_law(ld, k)) for k, (_, _, ld) in enumerate(c.loads)]
+        self.loads_P = _loads_params([ld for _, _, ld in c.loads])
+        self.ext_P = LinkageExtP(t.P, self.loads_P)
         self._mb = None
 
     @classmethod
@@ -883,19 +887,22 @@ class Linkage(Mechanism):
 
     def external_torque(self, q, qd, t):
         """Viscous friction of joints and dampers, −D(q)·q̇, plus the point loads F(s)·ds/dq
-        [N·m] (a gated load acts where ds/dq has the sign of its stroke, see LoadSpec)."""
+        [N·m] (a gated load acts where ds/dq has the sign of its stroke, see LoadSpec;
+        :func:`linkage_torque`)."""
         if not self._has_ext:
             return 0.0 * q
-        scalar = isinstance(q, float)
-        Q = -self.damping_factor(q) * qd
-        for ks, kd, law in self._loads:
-            if scalar:
-                s, ds = self._tab1(q, ks), self._tab1(q, kd)
-            else:
-                v = self._tab(q, [ks, kd])
-                s, ds = v[..., 0], v[..., 1]
-            Q = Q + law(s, ds) * ds
-        return Q
+        P = self.ext_P
+        return C.vectorize(lambda a, b: linkage_torque(a, b, P), q, qd)
+
+    def model_form(self):
+        """The reduced model as a law: the spline table of J, ½J', E_p' (and D when the external
+        torque is viscous only); with point loads, plus :func:`linkage_torque` (:func:`linkage_model`)."""
+        from .base import table_form
+
+        tf = table_form(self)
+        if not self._loads:
+            return tf
+        return C.Form(linkage_model, LinkageModelP(tf.P, self.ext_P), flags=dict(tf.flags))
 
     def load_forces(self, q, qd):
         """[(s, ṡ, F)] of every load at (q, q̇): the point's coordinate along the load direction
@@ -930,6 +937,14 @@ class Linkage(Mechanism):
 
     def describe(self) -> dict:
         return self.params.to_dict()
+
+    def linkage_view(self):
+        """Itself: its own kinematics (link lines, joints) for ``mjbench analyze``."""
+        return self
+
+    def input_positions(self, n: int):
+        """n input angles over one turn from the stated pose's input angle."""
+        return self.c.q0 + 2.0 * np.pi * np.arange(n) / n, "rad"
 
     # ------------------------------------------------------------------ kinematic analysis
     def kinematic_analysis(self, q):
@@ -1313,94 +1328,60 @@ class Linkage(Mechanism):
                     ox, oy = ox - (cc_ * c0 - ss_ * c1), oy - (ss_ * c0 + cc_ * c1)
                 cc_, ss_ = math.cos(th), math.sin(th)
                 s0 = (ox + cc_ * pt[0] - ss_ * pt[1]) * d[0] + (oy + ss_ * pt[0] + cc_ * pt[1]) * d[1]
-                affine.append((self._loads[k][1], float(s0), tuple(terms), self._loads[k][2]))
+                affine.append((self._loads[k][1], float(s0), tuple(terms), k))
                 continue
-            loads.append((self._loads[k][1], cc, float(pt[0]), float(pt[1]), float(d[0]), float(d[1]),
-                          self._loads[k][2]))
+            loads.append((self._loads[k][1], cc, float(pt[0]), float(pt[1]), float(d[0]), float(d[1]), k))
         jin = model.joint(self.input_joint)
         setup = (damp, loads, affine, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep))
         self._mb = (model, setup)
         return setup
 
+    def load_form(self, model, data):
+        """Point loads and the viscous friction of loop-closing hinges as a law (:func:`linkage_load`)."""
+        if not self.has_multibody_load():
+            return None
+        damp, loads, affine, dofs, ina, qina, h2 = self._mb_setup(model)
+        # damped closures: entries (f slot, dof, ±1) of each, in order (plus, then minus)
+        dptr, dslot, ddof, dsign = [0], [], [], []
+        for cd, plus, minus in damp:
+            for i, d in plus:
+                dslot.append(i), ddof.append(d), dsign.append(1.0)
+            for i, d in minus:
+                dslot.append(i), ddof.append(d), dsign.append(-1.0)
+            dptr.append(len(dslot))
+        # loads on slides only: s = s0 + Σ kk·(slide value at mid-step)
+        aptr, at = [0], []
+        for kd, s0, terms, law in affine:
+            at += [(i, qa, da, kk) for i, qa, da, kk in terms]
+            aptr.append(len(at))
+        # loads through the tree's chain of hinges and slides
+        cptr, ce = [0], []
+        for kd, ch, *_ in loads:
+            ce += [el for el in ch]
+            cptr.append(len(ce))
+        i64 = (lambda v: np.array(v, dtype=np.int64))
+        f64 = (lambda v: np.array(v, dtype=float))
+        cols = list(zip(*ce)) if ce else [()] * 11
+        P = LinkageLoadP(
+            data.qpos, data.qvel, data.qfrc_applied, ina, qina, h2, self.c.table.P, self.loads_P,
+            f64([cd for cd, _, _ in damp]), i64(dptr), i64(dslot), i64(ddof), f64(dsign),
+            i64([law for _, _, _, law in affine]), i64([kd for kd, _, _, _ in affine]),
+            f64([s0 for _, s0, _, _ in affine]), i64(aptr), i64([x[0] for x in at]), i64([x[1] for x in at]),
+            i64([x[2] for x in at]), f64([x[3] for x in at]),
+            i64([ld[-1] for ld in loads]), i64([ld[0] for ld in loads]), i64(cptr),
+            f64([ld[2] for ld in loads]), f64([ld[3] for ld in loads]), f64([ld[4] for ld in loads]),
+            f64([ld[5] for ld in loads]),
+            i64(cols[0]), i64(cols[1]), i64(cols[2]), f64(cols[3]), f64(cols[4]), f64(cols[5]), f64(cols[6]),
+            f64(cols[7]), f64(cols[8]), f64(cols[9]), f64(cols[10]),
+            np.zeros(max(len(ce), 1)), np.zeros(max(len(ce), 1)), np.zeros(max(len(dofs), 1)), i64(dofs))
+        return C.Form(linkage_load, P)
+
     def multibody_load(self, model, data, t: float) -> None:
         """Point loads and the viscous friction of loop-closing hinges as generalised forces of the
-        MuJoCo tree.  Loads: the point's position from the tree's own kinematics at the step's
-        predicted mid-point qpos + ½·h·qvel, F(s) applied through the point Jacobian.  A load gated
-        by its stroke (``active``) takes the stroke from the input angle, sign ds/dq(q_mid) of the
-        description's kinematics (the process timing, as seed 004's crank-angle window; the
-        point's own velocity in the slightly compliant MuJoCo loop dithers about zero at the
-        reversal).  Closure damping from the relative angular rate at the start of the step.
-        ``qfrc_applied[input]`` (the drive torque) is added to, every other touched dof is set.
-        Works on a batch's (nv, nsim) state columns too (elementwise NumPy)."""
-        damp, loads, affine, dofs, ina, qina, h2 = self._mb_setup(model)
-        qpos, qvel, qfrc = data.qpos, data.qvel, data.qfrc_applied
-        arr = qpos.ndim == 2
-        if not damp and not loads and len(affine) == 1 and len(affine[0][2]) == 1:
-            # the common case, one load on a ram on its guide: no list, no loop
-            kd, s0, ((_, qa, da, kk),), law = affine[0]
-            q_mid = qpos[qina] + h2 * qvel[ina]
-            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
-            F = law(s0 + kk * (qpos[qa] + h2 * qvel[da]), sp)
-            if da == ina:
-                qfrc[da] += F * kk
-            else:
-                qfrc[da] = F * kk
-            return
-        cos, sin = (np.cos, np.sin) if arr else (math.cos, math.sin)
-        f = [0.0] * len(dofs)
-        for cdamp, plus, minus in damp:
-            w = 0.0
-            for i, d in plus:
-                w = w + qvel[d]
-            for i, d in minus:
-                w = w - qvel[d]
-            tau = -cdamp * w
-            for i, _ in plus:
-                f[i] = f[i] + tau
-            for i, _ in minus:
-                f[i] = f[i] - tau
-        if loads or affine:
-            q_mid = qpos[qina] + h2 * qvel[ina]
-        for kd, s0, terms, law in affine:
-            sv = s0
-            for i, qa, da, kk in terms:
-                sv = sv + kk * (qpos[qa] + h2 * qvel[da])
-            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
-            F = law(sv, sp)
-            for i, qa, da, kk in terms:
-                f[i] = f[i] + F * kk
-        for kd, ch, pt0, pt1, dx, dy, law in loads:
-            cols = []
-            th, cP, sP, ox, oy = 0.0, 1.0, 0.0, 0.0, 0.0
-            for i, qa, da, hinge, p0, p1, c0, c1, u0, u1, phi in ch:
-                val = qpos[qa] + h2 * qvel[da]
-                px = ox + cP * p0 - sP * p1
-                py = oy + sP * p0 + cP * p1
-                if hinge:
-                    cols.append((i, da, True, px, py))
-                    th = th + val
-                else:
-                    ux, uy = cP * u0 - sP * u1, sP * u0 + cP * u1
-                    px, py = px + val * ux, py + val * uy
-                    cols.append((i, da, False, ux, uy))
-                    th = th + phi
-                cP, sP = cos(th), sin(th)
-                ox = px - (cP * c0 - sP * c1)
-                oy = py - (sP * c0 + cP * c1)
-            x = ox + cP * pt0 - sP * pt1
-            y = oy + sP * pt0 + cP * pt1
-            sp = self._tab(q_mid, [kd])[..., 0] if arr else self._tab1(q_mid, kd)
-            F = law(x * dx + y * dy, sp)
-            for i, da, hinge, a, b in cols:
-                if hinge:
-                    f[i] = f[i] + F * ((b - y) * dx + (x - a) * dy)
-                else:
-                    f[i] = f[i] + F * (a * dx + b * dy)
-        for i, d in enumerate(dofs):
-            if d == ina:
-                qfrc[d] += f[i]
-            else:
-                qfrc[d] = f[i]
+        MuJoCo tree (:func:`linkage_load`, evaluated once)."""
+        f = self.load_form(model, data)
+        if f is not None:
+            linkage_load(float(t), C.python_view(f.P))
 
 
 def _vec(pts, a, b):
@@ -1452,44 +1433,181 @@ def _hull(pts):
     return [np.array(x) for x in lower[:-1] + upper[:-1]]
 
 
-def _force_law(ld: LoadSpec):
-    """F(s, ds/dq) [N] of a load: constant or table in s, gated by the sign of ds/dq (stroke)."""
-    gate = ld.active
-    if ld.force is not None:
-        F0 = float(ld.force)
+def _loads_params(specs) -> "LoadsP":
+    """The parameters of :func:`load_force` for the load descriptions ``specs`` (in order)."""
+    rows, xs, Fs = [], [], []
+    for k, ld in enumerate(specs):
+        gate = {"always": 0.0, "stroke_along": 1.0, "stroke_against": -1.0}[ld.active]
+        if ld.force is not None:
+            rows.append((0.0, float(ld.force), gate, float(len(xs)), 0.0, 5.0 + 2 * k, 6.0 + 2 * k))
+        else:
+            rows.append((1.0, 0.0, gate, float(len(xs)), float(len(ld.s)), 5.0 + 2 * k, 6.0 + 2 * k))
+            xs += [float(v) for v in ld.s]
+            Fs += [float(v) for v in ld.F]
+    return LoadsP(np.array(rows, dtype=float).reshape(-1, 7), np.array([xs, Fs], dtype=float).reshape(2, -1))
 
-        def mag(s):
-            return F0 + 0.0 * s
-    else:
-        xs, Fs = np.array(ld.s, float), np.array(ld.F, float)
-        xl, Fl = list(map(float, xs)), list(map(float, Fs))
 
-        def mag(s):
-            if isinstance(s, float):
-                if s <= xl[0]:
-                    return Fl[0]
-                if s >= xl[-1]:
-                    return Fl[-1]
-                i = bisect.bisect_right(xl, s) - 1
-                t = (s - xl[i]) / (xl[i + 1] - xl[i])
-                return Fl[i] + t * (Fl[i + 1] - Fl[i])
-            return np.interp(s, xs, Fs)
-
-    if gate == "always":
-        return lambda s, sd: mag(s)
-    sign = 1.0 if gate == "stroke_along" else -1.0
-
-    def gated(s, sd):
-        on = sign * sd > 0
-        if isinstance(on, (bool, np.bool_)):
-            return mag(s) if on else 0.0 * s
-        return np.where(on, mag(s), 0.0)
-
-    return gated
+def _force_law(ld: LoadSpec, k: int = 0):
+    """F(s, ds/dq) [N] of one load (:func:`load_force`; scalars or arrays)."""
+    P = _loads_params([ld])
+    return lambda s, sd: C.vectorize(lambda a, b: load_force(0, a, b, P), s, sd)
 
 
 Linkage.Params = LinkageParams
 register(Linkage)
+
+
+# ============================================================================ laws
+#: the point loads: ``spec`` one row per load — kind (0 constant F0, 1 table), F0, gate (0 always,
+#: +1 on the stroke along its direction, −1 against), the table's start t0 and length tn in ``xf``,
+#: the periodic-table channels of s and ds/dq —, ``xf`` (2, ·) the tables' s (row 0) and F (row 1)
+#: (few arrays: each array a compiled law reads costs a reference-count update)
+LoadsP = namedtuple("LoadsP", "spec xf")
+#: the external torque: the linkage's periodic table, the loads
+LinkageExtP = namedtuple("LinkageExtP", "tab loads")
+#: the reduced model: the spline table (mjbench.backends.table), the external torque's parameters
+LinkageModelP = namedtuple("LinkageModelP", "table ext")
+#: the MuJoCo loads: live qpos, qvel, qfrc_applied, the input's dof and qpos, h/2, the periodic
+#: table, the loads; damped closures (coefficient, entries dptr[k]..dptr[k+1]: f slot, dof, sign);
+#: loads on slides only (load, s channel… terms aptr[k]..: f slot, qpos, dof, gain); loads through a
+#: chain (load, ds/dq channel, elements cptr[k]..cptr[k+1], point in its link, direction; elements:
+#: f slot, qpos, dof, hinge, p, c, u, φ); work arrays (per element a, b; f per dof) and the dofs
+LinkageLoadP = namedtuple("LinkageLoadP", "qpos qvel qfrc ina qina h2 tab loads dc dptr dslot ddof dsign "
+                                          "aload akd as0 aptr ai aqa ada akk cload ckd cptr cpt0 cpt1 cdx cdy "
+                                          "ei eqa eda ehinge ep0 ep1 ec0 ec1 eu0 eu1 ephi wa wb f dofs")
+
+
+@law
+def load_force(k, s, sd, L):
+    """Force [N] of load k at its coordinate s with ds/dq = sd: 0 off its stroke (gate·sd ≤ 0 for a
+    gated load), else F0 (constant) or the table F(s), piecewise linear, constant beyond the ends."""
+    sp = L.spec
+    g = sp[k, 2]
+    if g != 0.0 and not (g * sd > 0.0):
+        return 0.0
+    if sp[k, 0] == 0.0:
+        return sp[k, 1]
+    a = int(sp[k, 3])
+    n = int(sp[k, 4])
+    X = L.xf
+    if s <= X[0, a]:
+        return X[1, a]
+    if s >= X[0, a + n - 1]:
+        return X[1, a + n - 1]
+    lo = 0
+    hi = n - 1  # s(lo) <= s < s(hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if X[0, a + mid] <= s:
+            lo = mid
+        else:
+            hi = mid
+    x0 = X[0, a + lo]
+    tt = (s - x0) / (X[0, a + lo + 1] - x0)
+    return X[1, a + lo] + tt * (X[1, a + lo + 1] - X[1, a + lo])
+
+
+@law
+def linkage_torque(q, qd, P):
+    """The external torque on the input [N·m]: −D(q)·q̇ (viscous joints and dampers, table channel
+    4) plus Σ F_k(s_k)·ds_k/dq of the point loads (:func:`load_force`)."""
+    T = P.tab
+    Q = -ptable_channel(q, 4, T) * qd
+    L = P.loads
+    sp = L.spec
+    for k in range(len(sp)):
+        s = ptable_channel(q, int(sp[k, 5]), T)
+        ds = ptable_channel(q, int(sp[k, 6]), T)
+        Q = Q + load_force(k, s, ds, L) * ds
+    return Q
+
+
+@law
+def linkage_model(q, qd, t, P):
+    """The reduced model law: the spline table's (J, ½J', E_p') and :func:`linkage_torque` as Q_ext."""
+    J, H, E, Q = table_model(q, qd, t, P.table)
+    return J, H, E, Q + linkage_torque(q, qd, P.ext)
+
+
+@law
+def linkage_load(t, P):
+    """The point loads and the damping of loop-closing hinges as generalised forces of the MuJoCo
+    tree, before each step (:meth:`Linkage.load_form`): closure damping from the relative rate at
+    the step's start; a load's point from the tree's own kinematics at the predicted mid-point
+    qpos + ½·h·qvel, F(s) through the point Jacobian, its stroke gate from ds/dq at the input's
+    mid-step angle (the description's kinematics).  The input dof's force (the drive torque) is
+    added to, every other touched dof is set."""
+    f = P.f
+    for i in range(len(f)):
+        f[i] = 0.0
+    qpos = P.qpos
+    qvel = P.qvel
+    h2 = P.h2
+    for k in range(len(P.dc)):
+        w = 0.0
+        for e in range(P.dptr[k], P.dptr[k + 1]):
+            if P.dsign[e] > 0.0:
+                w = w + qvel[P.ddof[e]]
+            else:
+                w = w - qvel[P.ddof[e]]
+        tau = -P.dc[k] * w
+        for e in range(P.dptr[k], P.dptr[k + 1]):
+            if P.dsign[e] > 0.0:
+                f[P.dslot[e]] = f[P.dslot[e]] + tau
+            else:
+                f[P.dslot[e]] = f[P.dslot[e]] - tau
+    q_mid = qpos[P.qina] + h2 * qvel[P.ina]
+    for k in range(len(P.aload)):
+        sv = P.as0[k]
+        for e in range(P.aptr[k], P.aptr[k + 1]):
+            sv = sv + P.akk[e] * (qpos[P.aqa[e]] + h2 * qvel[P.ada[e]])
+        sp = ptable_channel(q_mid, P.akd[k], P.tab)
+        F = load_force(P.aload[k], sv, sp, P.loads)
+        for e in range(P.aptr[k], P.aptr[k + 1]):
+            f[P.ai[e]] = f[P.ai[e]] + F * P.akk[e]
+    for k in range(len(P.cload)):
+        th = 0.0
+        cP = 1.0
+        sP = 0.0
+        ox = 0.0
+        oy = 0.0
+        for e in range(P.cptr[k], P.cptr[k + 1]):
+            val = qpos[P.eqa[e]] + h2 * qvel[P.eda[e]]
+            px = ox + cP * P.ep0[e] - sP * P.ep1[e]
+            py = oy + sP * P.ep0[e] + cP * P.ep1[e]
+            if P.ehinge[e] != 0.0:
+                P.wa[e] = px
+                P.wb[e] = py
+                th = th + val
+            else:
+                ux = cP * P.eu0[e] - sP * P.eu1[e]
+                uy = sP * P.eu0[e] + cP * P.eu1[e]
+                px = px + val * ux
+                py = py + val * uy
+                P.wa[e] = ux
+                P.wb[e] = uy
+                th = th + P.ephi[e]
+            cP = math.cos(th)
+            sP = math.sin(th)
+            ox = px - (cP * P.ec0[e] - sP * P.ec1[e])
+            oy = py - (sP * P.ec0[e] + cP * P.ec1[e])
+        x = ox + cP * P.cpt0[k] - sP * P.cpt1[k]
+        y = oy + sP * P.cpt0[k] + cP * P.cpt1[k]
+        dx = P.cdx[k]
+        dy = P.cdy[k]
+        sp = ptable_channel(q_mid, P.ckd[k], P.tab)
+        F = load_force(P.cload[k], x * dx + y * dy, sp, P.loads)
+        for e in range(P.cptr[k], P.cptr[k + 1]):
+            if P.ehinge[e] != 0.0:
+                f[P.ei[e]] = f[P.ei[e]] + F * ((P.wb[e] - y) * dx + (x - P.wa[e]) * dy)
+            else:
+                f[P.ei[e]] = f[P.ei[e]] + F * (P.wa[e] * dx + P.wb[e] * dy)
+    for i in range(len(P.dofs)):
+        d = P.dofs[i]
+        if d == P.ina:
+            P.qfrc[d] += f[i]
+        else:
+            P.qfrc[d] = f[i]
 
 
 # ============================================================================ equivalents of the hand-coded mechanisms
@@ -1559,15 +1677,7 @@ def table_from_quickreturn(qr) -> dict:
 
 
 def equivalent(mech):
-    """A :class:`Linkage` equivalent to a hand-coded mechanism (kinematic analysis of the built-in
-    four-bar and quick-return: velocity ratios, transmission angles, toggles), or None."""
-    if isinstance(mech, Linkage):
-        return mech
-    from .fourbar import FourBar
-    from .quickreturn import QuickReturn
-
-    if isinstance(mech, FourBar):
-        return Linkage(LinkageParams.model_validate(table_from_fourbar(mech)))
-    if isinstance(mech, QuickReturn):
-        return Linkage(LinkageParams.model_validate(table_from_quickreturn(mech)))
-    return None
+    """A :class:`Linkage` equivalent to a mechanism (kinematic analysis of the built-in four-bar
+    and quick-return: velocity ratios, transmission angles, toggles), or None: the mechanism's own
+    :meth:`~mjbench.mechanisms.base.Mechanism.linkage_view`."""
+    return mech.linkage_view()

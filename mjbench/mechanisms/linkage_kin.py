@@ -25,9 +25,12 @@ assembly branch of a starting configuration over one input turn.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..compiled import law
 
 TWO_PI = 2.0 * math.pi
 
@@ -405,8 +408,10 @@ class PeriodicTable:
         # coefficients in the normalised coordinate t ∈ [0, 1): c3 t³ + c2 t² + c1 t + c0
         c = cs.c  # (4, N, k): (x−x_i)^3, ^2, ^1, ^0
         self.coef = np.stack([c[0] * h ** 3, c[1] * h ** 2, c[2] * h, c[3]], axis=0)  # (4, N, k)
-        self._rows = [tuple(float(v) for v in self.coef[:, i, :].T.ravel()) for i in range(N)]
         self._inv_h = 1.0 / h
+        # the scalar law's parameters: row i = (c3, c2, c1, c0) of channel 0, then channel 1, …
+        rows = np.ascontiguousarray(self.coef.transpose(1, 2, 0).reshape(N, 4 * k))
+        self.P = PTableP(rows, self.q0, self._inv_h, N)
 
     def locate(self, q):
         u = (np.asarray(q, dtype=float) - self.q0) * self._inv_h
@@ -422,19 +427,30 @@ class PeriodicTable:
         return ((c[0] * t + c[1]) * t + c[2]) * t + c[3]
 
     def scalar3(self, q):
-        """Channels 0, 1, 2 at a Python float q (hot path: ~1.5 µs)."""
-        u = (q - self.q0) * self._inv_h
-        i = math.floor(u)
-        t = u - i
-        r = self._rows[i % self.N]
-        return ((r[0] * t + r[1]) * t + r[2]) * t + r[3], ((r[4] * t + r[5]) * t + r[6]) * t + r[7], \
-            ((r[8] * t + r[9]) * t + r[10]) * t + r[11]
+        """Channels 0, 1, 2 at a Python float q (:func:`ptable_channel`)."""
+        P = self.P
+        return ptable_channel(q, 0, P), ptable_channel(q, 1, P), ptable_channel(q, 2, P)
 
     def scalar(self, q, ch):
-        """One channel at a Python float q."""
-        u = (q - self.q0) * self._inv_h
-        i = math.floor(u)
-        t = u - i
-        r = self._rows[i % self.N]
-        b = 4 * ch
-        return ((r[b] * t + r[b + 1]) * t + r[b + 2]) * t + r[b + 3]
+        """One channel at a Python float q (:func:`ptable_channel`)."""
+        return ptable_channel(q, ch, self.P)
+
+
+#: a periodic table's parameters for :func:`ptable_channel`: rows (N, 4k) — cell i's Horner
+#: coefficients (t³, t², t, 1) of channel 0, then channel 1, … —, q0, N/2π, N
+PTableP = namedtuple("PTableP", "rows q0 inv_h N")
+
+
+@law
+def ptable_channel(q, ch, T):
+    """Channel ``ch`` of a :class:`PeriodicTable` at input angle q: cell ⌊(q − q0)·N/2π⌋ mod N,
+    one Horner evaluation in its local coordinate t ∈ [0, 1); NaN at a non-finite angle."""
+    u = (q - T.q0) * T.inv_h
+    if not abs(u) < 1e15:
+        return math.nan
+    i = math.floor(u)
+    t = u - i
+    j = i % T.N
+    b = 4 * ch
+    R = T.rows
+    return ((R[j, b] * t + R[j, b + 1]) * t + R[j, b + 2]) * t + R[j, b + 3]

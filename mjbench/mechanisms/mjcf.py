@@ -28,12 +28,15 @@ along +y), the traced point is the site ``trace`` names.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
+from collections import namedtuple
 from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
+from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..schema import Bool, OptQ, Strict
 from . import register
@@ -80,6 +83,11 @@ class _Table:
         self.lo, self.hi = float(lo), float(hi)
         x = np.linspace(lo, hi, len(values))
         self.sp = CubicSpline(x, np.asarray(values), axis=0)
+        c = self.sp.c  # (4, n − 1, k): powers 3, 2, 1, 0 of (q − x_i)
+        n = len(x)
+        rows = np.ascontiguousarray(c.transpose(1, 2, 0).reshape(n - 1, -1))
+        self.P = RangeTableP(np.ascontiguousarray(x, dtype=float), rows, self.lo, self.hi,
+                             (n - 1) / (self.hi - self.lo), n, False)
 
     def _check(self, q):
         qa = np.asarray(q, float)
@@ -93,11 +101,14 @@ class _Table:
         return v if channels is None else v[..., channels]
 
     def scalar3(self, q):
-        v = self(q, [0, 1, 2])
-        return float(v[0]), float(v[1]), float(v[2])
+        """Channels 0, 1, 2 at a float q (:func:`range_channel`; GeometryError outside the range)."""
+        self._check(q)
+        P = self.P
+        return range_channel(q, 0, P), range_channel(q, 1, P), range_channel(q, 2, P)
 
     def scalar(self, q, ch):
-        return float(self(q, [ch]))
+        self._check(q)
+        return range_channel(q, ch, self.P)
 
 
 class _Model:
@@ -137,6 +148,17 @@ class _Model:
         m = self.model
         self.jin = m.joint(p.input_joint)
         self.qa, self.va = int(self.jin.qposadr[0]), int(self.jin.dofadr[0])
+        if self.hinge and m.jnt_limited[self.jin.id]:
+            # MuJoCo would stop the multibody run at the limit while the reduced model turns freely
+            lo, hi = (float(v) for v in m.jnt_range[self.jin.id])
+            raise ParameterError(f"mechanism.input_joint = {p.input_joint!r}: the hinge has a range [{lo:.6g}, {hi:.6g}] "
+                                 f"rad in {p.file} (a joint limit): mjbench drives the input through full turns and "
+                                 f"the reduced model has no limit; remove range/limited from the input joint")
+        if p.trace is not None:
+            sites = [m.site(i).name for i in range(m.nsite)] + [m.body(i).name for i in range(1, m.nbody)]
+            if p.trace not in sites:
+                raise ParameterError(f"mechanism.trace = {p.trace!r}: no site or body of that name in {p.file} "
+                                     f"(sites and bodies: {', '.join(n for n in sites if n) or 'none named'})")
         if m.neq == 0:
             raise GeometryError(f"mechanism.file = {p.file!r}: the model has no equality constraint, so the input "
                                 f"joint {p.input_joint!r} is not in a closed loop (an open chain has as many "
@@ -429,6 +451,45 @@ class _Model:
 _CACHE: dict = {}
 
 
+#: a spline table over a finite range (slide input): breakpoints xs (n), rows (n − 1, 4k) — cell
+#: i's coefficients of (q − xs[i])³, ², ¹, ⁰ of channel 0, then 1, … —, the range, (n − 1)/(hi − lo),
+#: n, whether channel 4 (viscous D) is non-zero
+RangeTableP = namedtuple("RangeTableP", "xs rows lo hi inv_dx n damped")
+
+
+@law
+def range_channel(q, ch, T):
+    """Channel ``ch`` of a :class:`_Table` at q (NaN outside its range: a slide beyond the file's
+    range, or a diverged run)."""
+    if not (q >= T.lo - 1e-12 and q <= T.hi + 1e-12):
+        return math.nan
+    i = int(math.floor((q - T.lo) * T.inv_dx))
+    if i < 0:
+        i = 0
+    if i > T.n - 2:
+        i = T.n - 2
+    xs = T.xs
+    if q < xs[i] and i > 0:
+        i -= 1
+    elif i < T.n - 2 and q >= xs[i + 1]:
+        i += 1
+    t = q - xs[i]
+    b = 4 * ch
+    R = T.rows
+    return ((R[i, b] * t + R[i, b + 1]) * t + R[i, b + 2]) * t + R[i, b + 3]
+
+
+@law
+def range_table_model(q, qd, t, P):
+    """The reduced model of a slide input from its table: (J, ½J', E_p', −D·q̇)."""
+    J = range_channel(q, 0, P)
+    H = 0.5 * range_channel(q, 1, P)
+    E = range_channel(q, 2, P)
+    if P.damped:
+        return J, H, E, -range_channel(q, 4, P) * qd
+    return J, H, E, 0.0
+
+
 @register
 class MjcfMechanism(Mechanism):
     """A MuJoCo model file with one driven joint; reduced model derived from MuJoCo (see module doc)."""
@@ -480,6 +541,18 @@ class MjcfMechanism(Mechanism):
         if isinstance(q, float):
             return self._tab1(q, 3)
         return self._tab(q, [3])[..., 0]
+
+    def model_form(self):
+        """The reduced model as a law: a hinge input the periodic spline table (the default); a
+        slide input this model's own spline over the slide range (:func:`range_table_model`;
+        outside the range a NaN, i.e. a diverged run)."""
+        if self._m.hinge:
+            return super().model_form()
+        from .. import compiled as C
+
+        P = self._tab.P._replace(damped=bool(self._damped))
+        info = {"model": "table", "table_nodes": int(P.n), "table_range": [P.lo, P.hi]}
+        return C.Form(range_table_model, P, flags={"table": info})
 
     def reduced_viscous(self, q):
         """D(q): the file's viscous joint and tendon damping reduced to the input."""
@@ -548,3 +621,25 @@ class MjcfMechanism(Mechanism):
 
     def describe(self) -> dict:
         return {**self.params.to_dict(), "path": self._m.path, "reduced_source": self.reduced_source}
+
+    def input_positions(self, n: int):
+        """A hinge: n angles over one turn from the stated pose; a slide: n positions over its range."""
+        tab = self._tab
+        if not self._m.hinge:
+            return np.linspace(tab.lo, tab.hi, n), "m"
+        return float(tab.q0) + 2.0 * np.pi * np.arange(n) / n, "rad"
+
+    def kinematics(self, q) -> dict:
+        """Velocity ratios of the file's joints (constraint Jacobian null space) and their limit
+        positions; a MuJoCo model has no link lines, so no transmission angles or toggles."""
+        from .linkage import _roots
+
+        ratios = {k: v for k, v in self.joint_rates(q).items() if k != self.input_joint}
+        lim = {k: [float(x) for x in _roots(q, v)] for k, v in ratios.items()} if self._m.hinge else {}
+        why = "an MJCF model has no link lines (bodies and equality constraints only)"
+        unavailable = {"transmission_angles": why, "toggles": why}
+        if not self._m.hinge:
+            unavailable["limit_positions"] = "a slide input is not periodic: its range ends are the file's limits"
+        return {"source": "MuJoCo model (constraint Jacobian null space); no link lines: no transmission angles",
+                "ratios": ratios, "ratio_units": {}, "transmission": {}, "toggles": {}, "limit_positions": lim,
+                "unavailable": unavailable}

@@ -33,12 +33,15 @@ MuJoCo inside every step):
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
+from .. import compiled as C
+from ..compiled import law
 from ..errors import ParameterError
 from ..schema import Q, Strict
 from . import register
@@ -177,12 +180,32 @@ class Platform(Mechanism):
     def potential_energy(self, q):
         return 0.0 * q
 
-    def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
+    def accel_params(self) -> "PlatformP":
+        """The parameters of :func:`platform_xdd`."""
         o = self.oscillator()
-        psi, psid = x[0], xd[0]
-        tr = o.k * psi + o.c * psid  # transmission torque on the platform side
-        qdd = (tau - c_add * qd + o.ratio * tr) / (J_add + self.J_input)
-        return qdd, (-tr / o.J - o.ratio * qdd,)
+        return PlatformP(float(self.J_input), float(o.k), float(o.c), float(o.J), float(o.ratio))
+
+    def accel_form(self):
+        """The motor and deflection accelerations as a law (:func:`platform_accel`)."""
+        return C.Form(platform_accel, self.accel_params())
+
+    def reduced_accel(self, t, q, qd, x, xd, tau, J_add, c_add):
+        qdd, psidd = platform_xdd(float(qd), float(x[0]), float(xd[0]), float(tau), float(J_add), float(c_add),
+                                  self.accel_params())
+        return qdd, (psidd,)
+
+    def internal_index(self, model):
+        """ψ = ϑ − ρ·φ: one row (qpos platform, qpos motor, dof platform, dof motor, ρ)."""
+        jp, jm = model.joint("platform"), model.joint(self.input_joint)
+        return np.array([[int(jp.qposadr[0]), int(jm.qposadr[0]), int(jp.dofadr[0]), int(jm.dofadr[0]),
+                          float(self.ratio)]])
+
+    def render_view(self):
+        """Top view: the platform hinge turns ρ·φ + ψ, the deflection column needle (render.py)."""
+        from .base import RenderView
+
+        return RenderView("top", output_joint="platform", output_body="platform", ratio=float(self.ratio),
+                          deflection="deflection", label=f"{self.variant} platform")
 
     def energy(self, qd, psi, psid, J_add=0.0):
         """Total mechanical energy [J]: motor side + platform + spring (passive checks)."""
@@ -367,6 +390,30 @@ class ElasticPlatform(Platform):
 
 
 register(Platform)
+
+
+# ============================================================================ laws
+#: the platform's acceleration parameters: motor-side inertia J_in, transmission stiffness k and
+#: damping c (platform side), platform inertia J, ratio ρ
+PlatformP = namedtuple("PlatformP", "J_in k c J ratio")
+
+
+@law
+def platform_xdd(qd, psi, psid, tau, Ja, c_add, P):
+    """(φ̈, ψ̈) of the platform (module docstring): transmission torque T = k·ψ + c·ψ̇ (platform
+    side), (J_a + J_in)·φ̈ = τ − c_a·φ̇ + ρ·T, ψ̈ = −T/J − ρ·φ̈."""
+    tr = P.k * psi + P.c * psid
+    qdd = (tau - c_add * qd + P.ratio * tr) / (Ja + P.J_in)
+    return qdd, -tr / P.J - P.ratio * qdd
+
+
+@law
+def platform_accel(t, S, iy, ia, tau, Ja, c_add, P):
+    """:func:`platform_xdd` as an acceleration law (state (φ, φ̇, ψ, ψ̇) at S[iy:], (φ̈, ψ̈) to S[ia:])."""
+    qdd, psidd = platform_xdd(S[iy + 1], S[iy + 2], S[iy + 3], tau, Ja, c_add, P)
+    S[ia] = qdd
+    S[ia + 1] = psidd
+    return qdd
 
 
 def export_default_mjcf(folder="assets/mjcf"):

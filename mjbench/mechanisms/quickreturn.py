@@ -34,6 +34,7 @@ hinge angle is the paper's counter-clockwise angle and MuJoCo's default gravity 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,6 +43,9 @@ from typing import Literal
 
 from pydantic import Field
 
+from .. import compiled as C
+from ..backends.table import table_model
+from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..schema import OptQ, Q, Strict
 from . import register
@@ -296,41 +300,40 @@ class QuickReturn(Mechanism):
                          + self.m5 * (self.a + self.b))
 
     # ================================================================ cutting force
+    def cut_params(self) -> "CutP":
+        """The parameters of the cutting-force laws (:func:`cutting_force_law`)."""
+        prof = 0 if (self.cut_profile == "none" or self.cut_force == 0.0) else \
+            {"stroke": 1, "window": 2, "sine": 3}[self.cut_profile]
+        return CutP(float(self.r2), float(self.r3), float(self.r4), float(self.a), float(self.b), float(self.k),
+                    float(self.cut_force), prof, float(self._work_q0), float(self._work_arc), 2 * math.pi,
+                    float(self._work_sign), float(self._x_start), float(self._x_end), float(self.cut_start),
+                    float(self.cut_end))
+
     def cutting_force(self, q):
         """Force on the output slider along x [N] at crank angle q (any sign of rotation):
         −(working direction)·F·profile on the working (slow) stroke, 0 on the return stroke.
         For q̇ > 0 it opposes the slider's motion, and its generalised force is
-        Q = F_x·dx_C/dq ≤ 0 (Eq 26 with Eq 31's Q_o)."""
-        F0 = self.cut_force
-        prof = self.cut_profile
-        if prof == "none" or F0 == 0.0:
-            return 0.0 * q
-        xp = _xp(q)
-        u = (q - self._work_q0) % (2 * math.pi) if xp is math else np.mod(q - self._work_q0, 2 * np.pi)
-        on = u < self._work_arc
-        if prof == "stroke":
-            frac = None
-            w = 1.0
-        else:
-            frac = (self._x_start - self.kin(q)["xC"]) / (self._x_start - self._x_end)
-            if prof == "window":
-                w = (frac >= self.cut_start) & (frac <= self.cut_end)
-            else:  # sine: F0·sin(π·fraction), smooth start and end
-                w = (math.sin(math.pi * min(max(frac, 0.0), 1.0)) if xp is math
-                     else np.sin(np.pi * np.clip(frac, 0.0, 1.0)))
-        if xp is math:
-            return -self._work_sign * F0 * float(w) if on else 0.0
-        return np.where(on, -self._work_sign * F0 * np.asarray(w, dtype=float), 0.0)
+        Q = F_x·dx_C/dq ≤ 0 (Eq 26 with Eq 31's Q_o).  The law :func:`cutting_force_law`."""
+        P = self.cut_params()
+        return C.vectorize(lambda x: cutting_force_law(x, P), q)
 
     def has_external_torque(self) -> bool:
         return not (self.cut_profile == "none" or self.cut_force == 0.0)
 
     def external_torque(self, q, qd, t):
-        """Cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m] (Eq 26/31)."""
-        if self.cut_profile == "none" or self.cut_force == 0.0:
-            return 0.0 * q
-        F = self.cutting_force(q)
-        return F * self.kin(q)["xd"]
+        """Cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m] (Eq 26/31; :func:`cutting_torque`)."""
+        P = self.cut_params()
+        return C.vectorize(lambda x: cutting_torque(x, P), q)
+
+    def model_form(self):
+        """The reduced model as a law: the spline table of J, ½J', E_p' plus the cutting torque
+        (:func:`quickreturn_model`)."""
+        from .base import table_form
+
+        tf = table_form(self)
+        if not self.has_external_torque():
+            return tf
+        return C.Form(quickreturn_model, QRModelP(tf.P, self.cut_params()), flags=dict(tf.flags))
 
     # ================================================================ MJCF builder
     def build_spec(self, armature: float = 0.0, options=None):
@@ -437,35 +440,47 @@ class QuickReturn(Mechanism):
         qvel[model.joint("slider").dofadr[0]] = k["xd"] * qd0
         return qvel
 
+    def load_form(self, model, data):
+        """Cutting force on the slider dof as a law (:func:`cutting_load`): F_x(q) of
+        :func:`cutting_force_law` (the law of ``external_torque``).  The backend holds it over one
+        integrator step, so it is evaluated at the step's predicted mid-point q + ½·h·q̇ (second
+        order for a smooth profile).  None without a cutting force."""
+        if not self.has_multibody_load():
+            return None
+        j = model.joint(INPUT_JOINT)
+        P = CutLoadP(data.qpos, data.qvel, data.qfrc_applied, int(j.qposadr[0]), int(j.dofadr[0]),
+                     int(model.joint("slider").dofadr[0]), 0.5 * float(model.opt.timestep), self.cut_params())
+        return C.Form(cutting_load, P)
+
+    def has_multibody_load(self) -> bool:
+        return self.has_external_torque()
+
     def multibody_load(self, model, data, t: float) -> None:
-        """Cutting force on the slider dof: F_x(q) of ``cutting_force`` (the law of
-        ``external_torque``).  The backend holds it over one integrator step, so it is evaluated
-        at the step's predicted mid-point q + ½·h·q̇ (second order for a smooth profile)."""
-        adr = self._adr.get(id(model)) if hasattr(self, "_adr") else None
-        if adr is None:
-            if not hasattr(self, "_adr"):
-                self._adr = {}
-            j = model.joint(INPUT_JOINT)
-            adr = (int(j.qposadr[0]), int(j.dofadr[0]), int(model.joint("slider").dofadr[0]),
-                   0.5 * float(model.opt.timestep))
-            self._adr[id(model)] = adr
-        q = float(data.qpos[adr[0]]) + adr[3] * float(data.qvel[adr[1]])
-        data.qfrc_applied[adr[2]] = self.cutting_force(q)
+        """Cutting force on the slider dof (:meth:`load_form`'s law, evaluated once)."""
+        f = self.load_form(model, data)
+        if f is not None:
+            cutting_load(float(t), C.python_view(f.P))
+
+    def _site_ids(self, model):
+        return np.array([int(model.site(n).id) for n in ("crank_pin", "block_pin", "rod_end", "slider_pin")],
+                        dtype=np.int64)
 
     def closure_error(self, model, data) -> float:
         """Largest loop-closure gap [m]: |crank pin − block| and |rod end − slider pin| from
-        ``data.site_xpos`` (valid after mj_forward / mj_kinematics)."""
-        ids = self._sites.get(id(model)) if hasattr(self, "_sites") else None
-        if ids is None:
-            if not hasattr(self, "_sites"):
-                self._sites = {}
-            ids = tuple(int(model.site(n).id) for n in ("crank_pin", "block_pin", "rod_end", "slider_pin"))
-            self._sites[id(model)] = ids
-        x = data.site_xpos
-        a, b, c, d = ids
-        e1 = math.sqrt((x[a, 0] - x[b, 0]) ** 2 + (x[a, 1] - x[b, 1]) ** 2 + (x[a, 2] - x[b, 2]) ** 2)
-        e2 = math.sqrt((x[c, 0] - x[d, 0]) ** 2 + (x[c, 1] - x[d, 1]) ** 2 + (x[c, 2] - x[d, 2]) ** 2)
-        return e1 if e1 > e2 else e2
+        ``data.site_xpos`` (valid after mj_forward / mj_kinematics; :func:`two_gaps`)."""
+        a, b, c, d = (int(i) for i in self._site_ids(model))
+        return two_gaps(data.site_xpos.reshape(-1), a, b, c, d)
+
+    def closure_form(self, model, data):
+        """:meth:`closure_error` as a law (:func:`two_gaps_closure`) on the live ``site_xpos``."""
+        return C.Form(two_gaps_closure, GapsP(data.site_xpos.reshape(-1), self._site_ids(model)))
+
+    def linkage_view(self):
+        """The same mechanism as a generic :class:`~mjbench.mechanisms.linkage.Linkage` (link lines:
+        transmission angles, toggles, velocity ratios for ``mjbench analyze``)."""
+        from .linkage import Linkage, LinkageParams, table_from_quickreturn
+
+        return Linkage(LinkageParams.model_validate(table_from_quickreturn(self)))
 
     def export_mjcf(self, path, armature: float = 0.0, options=None):
         """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""
@@ -485,6 +500,124 @@ class QuickReturn(Mechanism):
 
 _KEYS = ("r2", "r3", "r4", "a", "b", "m2", "m3", "m4", "m5", "I_G2", "I_G3", "I_G4", "c2", "c3", "c4",
          "m_block", "I_block", "k", "g", "cut_force", "cut_profile", "cut_start", "cut_end")
+
+
+# ============================================================================ laws
+#: the cutting force's parameters: the geometry (r2, r3, r4, a, b, assembly mode k), the force F0,
+#: the profile (0 none, 1 stroke, 2 window, 3 sine), the working stroke (start angle q0, arc, the
+#: period 2π, the slider's direction sign, its start and end x), the window's fractions
+CutP = namedtuple("CutP", "r2 r3 r4 a b k F0 profile q0 arc period sign x_start x_end c_start c_end")
+#: the reduced model: the spline table's parameters and the cutting force's
+QRModelP = namedtuple("QRModelP", "table cut")
+#: the MuJoCo cutting load: live qpos, qvel, qfrc_applied, crank qpos/dof, slider dof, h/2, CutP
+CutLoadP = namedtuple("CutLoadP", "qpos qvel qfrc qa va vs h2 cut")
+#: the loop-closure gaps: live flat site_xpos, site ids (crank pin, block pin, rod end, slider pin)
+GapsP = namedtuple("GapsP", "sx ids")
+
+
+@law
+def slider_x(q, P):
+    """(x_C, dx_C/dq) of the output slider at crank angle q (module docstring; NaN at a
+    non-finite angle)."""
+    if not abs(q) < 1e15:
+        return math.nan, math.nan
+    r2 = P.r2
+    r3 = P.r3
+    r4 = P.r4
+    a = P.a
+    sq = math.sin(q)
+    cq = math.cos(q)
+    Ax = r2 * cq
+    Ay = a + r2 * sq
+    S2 = Ax * Ax + Ay * Ay
+    s21 = math.sqrt(S2)
+    s3 = Ay / s21
+    c3 = Ax / s21
+    sn4 = (a + P.b - r3 * s3) / r4
+    cs4 = P.k * math.sqrt(1.0 - sn4 * sn4)
+    g1 = (r2 * r2 + a * r2 * sq) / S2
+    g2 = -r3 * c3 * g1 / (r4 * cs4)
+    xC = r3 * c3 + r4 * cs4
+    xd = -r3 * s3 * g1 - r4 * sn4 * g2
+    return xC, xd
+
+
+@law
+def cutting_force_law(q, P):
+    """Force on the slider along x [N] at crank angle q: −(working direction)·F0·w on the working
+    stroke ((q − q0) mod 2π < arc), 0 on the return stroke; w = 1 (stroke), 1 inside the window
+    of stroke fractions (window), sin(π·fraction) (sine)."""
+    if P.profile == 0:
+        return 0.0
+    xC = 0.0
+    if P.profile != 1:
+        xC, xd = slider_x(q, P)
+    return cutting_force_at(q, xC, P)
+
+
+@law
+def cutting_force_at(q, xC, P):
+    """:func:`cutting_force_law` with the slider position x_C given (window and sine profiles)."""
+    if P.profile == 0:
+        return 0.0
+    u = (q - P.q0) % P.period
+    if not u < P.arc:
+        return 0.0
+    w = 1.0
+    if P.profile != 1:
+        frac = (P.x_start - xC) / (P.x_start - P.x_end)
+        if P.profile == 2:
+            w = 1.0 if (frac >= P.c_start and frac <= P.c_end) else 0.0
+        else:
+            w = math.sin(math.pi * min(max(frac, 0.0), 1.0))
+    return -P.sign * P.F0 * w
+
+
+@law
+def cutting_torque(q, P):
+    """The cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m]."""
+    if P.profile == 0:
+        return 0.0
+    xC, xd = slider_x(q, P)
+    return cutting_force_at(q, xC, P) * xd
+
+
+@law
+def quickreturn_model(q, qd, t, P):
+    """The reduced model law: the spline table's (J, ½J', E_p') and the cutting torque as Q_ext."""
+    J, H, E, Q = table_model(q, qd, t, P.table)
+    return J, H, E, Q + cutting_torque(q, P.cut)
+
+
+@law
+def cutting_load(t, P):
+    """The cutting force on the slider dof at the step's predicted mid-point q + ½·h·q̇."""
+    q = P.qpos[P.qa] + P.h2 * P.qvel[P.va]
+    P.qfrc[P.vs] = cutting_force_law(q, P.cut)
+
+
+@law
+def site_gap(sx, a, b):
+    """Distance between sites a and b [m] (``sx`` the flat site_xpos)."""
+    dx = sx[3 * a] - sx[3 * b]
+    dy = sx[3 * a + 1] - sx[3 * b + 1]
+    dz = sx[3 * a + 2] - sx[3 * b + 2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+@law
+def two_gaps(sx, a, b, c, d):
+    """The larger of the gaps |a − b| and |c − d| [m]."""
+    e1 = site_gap(sx, a, b)
+    e2 = site_gap(sx, c, d)
+    return e1 if e1 > e2 else e2
+
+
+@law
+def two_gaps_closure(P, S):
+    """The quick-return's loop-closure residual [m] (the MuJoCo plant's P; ``P.closure``: GapsP)."""
+    G = P.closure
+    return two_gaps(G.sx, G.ids[0], G.ids[1], G.ids[2], G.ids[3])
 
 
 class QuickReturnParams(Strict):

@@ -11,11 +11,14 @@ lost motion of a gear backlash (docs/drivetrain.md).
 """
 from __future__ import annotations
 
+from collections import namedtuple
 from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
+from .. import compiled as C
+from ..compiled import law
 from ..schema import Q, Strict
 from . import register
 from .base import INPUT_JOINT, Mechanism, new_spec
@@ -51,8 +54,17 @@ class Rotor(Mechanism):
     def potential_energy(self, q):
         return 0.0 * q
 
+    def law_params(self) -> "RotorP":
+        return RotorP(self.J, self.load_torque, self.damping)
+
     def external_torque(self, q, qd, t):
-        return self.load_torque - self.damping * qd
+        """T_L − c·q̇ [N·m] (:func:`rotor_torque`)."""
+        P = self.law_params()
+        return C.vectorize(lambda v: rotor_torque(v, P), qd) + 0.0 * q
+
+    def model_form(self):
+        """The reduced model as a law (:func:`rotor_model`): constant J, no potential, T_L − c·q̇."""
+        return C.Form(rotor_model, self.law_params())
 
     def build_spec(self, armature: float = 0.0, options=None):
         import mujoco
@@ -85,10 +97,18 @@ class Rotor(Mechanism):
         qvel[model.joint(INPUT_JOINT).dofadr[0]] = qd0
         return qvel
 
+    def load_form(self, model, data):
+        """The constant load torque as a law (:func:`rotor_load`; the viscous load is joint damping)."""
+        if not self.has_multibody_load():
+            return None
+        return C.Form(rotor_load, RotorLoadP(data.qfrc_applied, int(model.joint(INPUT_JOINT).dofadr[0]),
+                                             self.load_torque))
+
     def multibody_load(self, model, data, t: float) -> None:
         """The constant load torque (the viscous load is joint damping)."""
-        if self.load_torque != 0.0:
-            data.qfrc_applied[model.joint(INPUT_JOINT).dofadr[0]] += self.load_torque
+        f = self.load_form(model, data)
+        if f is not None:
+            rotor_load(float(t), C.python_view(f.P))
 
     def has_multibody_load(self) -> bool:
         return self.load_torque != 0.0
@@ -99,3 +119,28 @@ class Rotor(Mechanism):
 
     def trace_point(self, q):
         return self.radius * np.cos(q), self.radius * np.sin(q)
+
+
+# ============================================================================ laws
+#: the flywheel's parameters: inertia J, load torque T_L, viscous load c
+RotorP = namedtuple("RotorP", "J TL c")
+#: its MuJoCo load: live qfrc_applied, the shaft's dof, T_L
+RotorLoadP = namedtuple("RotorLoadP", "qfrc va TL")
+
+
+@law
+def rotor_torque(qd, P):
+    """The load on the shaft, T_L − c·q̇ [N·m]."""
+    return P.TL - P.c * qd
+
+
+@law
+def rotor_model(q, qd, t, P):
+    """The reduced model: (J, 0, 0, T_L − c·q̇)."""
+    return P.J, 0.0, 0.0, rotor_torque(qd, P)
+
+
+@law
+def rotor_load(t, P):
+    """The constant load torque T_L added to the drive torque on the shaft."""
+    P.qfrc[P.va] += P.TL
