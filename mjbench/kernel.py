@@ -712,13 +712,17 @@ def run(plant, machine, t_end: float, record_dt: float = 1e-3, progress=None, ba
 
 
 def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
-             loop: str | None = None, threads: int | None = None) -> Record:
+             loop: str | None = None, threads: int | None = None, consume=None) -> Record:
     """Co-simulate N machines, each on its own plant → an (N, nrec, ncol) :class:`Record`.
 
     Runs are independent (a batch equals N single runs, bit for bit); a diverged run is flagged
     with its time and message, its rows stop there.  All runs must have the same step.  Compiled
     runs of a batch run on ``threads`` threads (default: the CPUs; the compiled loop releases the
-    GIL).  Progress: co-steps of a single run, finished runs of a batch."""
+    GIL).  Progress: co-steps of a single run, finished runs of a batch.
+
+    ``consume(i, record)``: called with each run's own one-run :class:`Record` as soon as it ends;
+    its records are then not kept (a sweep that needs only metrics holds one record per thread):
+    the returned Record has ``data = None`` and ``results`` = the values ``consume`` returned."""
     plants, machines = list(plants), list(machines)
     h = float(plants[0].h)
     check_times(t_end, h, record_dt)
@@ -742,43 +746,56 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
         raise ParameterError("the runs of one batch must record the same columns (same drive-train elements and "
                              "mechanism family)")
     ncol = len(cols)
-    check_record(nsteps, decim, ncol, N, h, record_dt)
-    data = np.full((N, nrec * ncol), np.nan)
     mode, why = "python", ""
     for p in progs:  # one mode for the whole job (the same numbers either way)
         mode, why = choose_loop(p, N * nsteps, loop)
         if mode == "python":
             break
-    fns = {}
-    steppers = []
-    for i, (pl, mc, pr) in enumerate(zip(plants, machines, progs)):
-        fn = fns.get(pr.key)
-        if fn is None:
-            fn = fns[pr.key] = python_loop(pr) if mode == "python" else _compiled(pr)
-        steppers.append(Stepper(pl, mc, h, nsteps, decim, mode, pr, data[i], fn))
     nthreads = min(N, threads or os.cpu_count() or 1) if mode == "compiled" else 1
-    if nthreads > 1:
-        _run_threaded(steppers, nthreads, progress)
-    else:
-        for st in steppers:
-            _run_one(st, progress if N == 1 else None, mode == "compiled")
-            if progress is not None and N > 1:
-                progress.update(1)
-    nrows = np.array([st.nrows for st in steppers], dtype=int)
-    diverged = np.array([st.diverged for st in steppers], dtype=bool)
-    t_div = np.array([st.div[1] if st.diverged else np.nan for st in steppers])
-    messages = [st.message(backend) if st.diverged else "" for st in steppers]
-    div_state = None
-    for st in steppers:
-        if st.diverged:
-            d = st.div
-            div_state = {"q": float(d[2]), "qd": float(d[3]), "I": float(d[4]), "V": float(d[5])}
-    meta = {"dt": h, "record_dt": decim * h, "control_period": steppers[0].every * h, **plants[0].meta,
-            "loop": mode, "loop_reason": why, "nsim": N, "div_state": div_state}
+    check_record(nsteps, decim, ncol, nthreads if consume is not None else N, h, record_dt)
+    data = None if consume is not None else np.full((N, nrec * ncol), np.nan)
+    fns = {}
+    for pr in progs:
+        if pr.key not in fns:
+            fns[pr.key] = python_loop(pr) if mode == "python" else _compiled(pr)
+    meta = {"dt": h, "record_dt": decim * h, "control_period": control_every(machines[0].controller, h) * h,
+            **plants[0].meta, "loop": mode, "loop_reason": why}
     train = getattr(machines[0].drive, "train", None)
     if train is not None:
         meta["drivetrain"] = train.describe()
-    return Record(data.reshape(N, nrec, ncol), cols, nrows, diverged, t_div, messages, meta)
+    nrows = np.zeros(N, dtype=int)
+    diverged = np.zeros(N, dtype=bool)
+    t_div = np.full(N, np.nan)
+    messages = [""] * N
+    results = [None] * N
+    div_state = [None]
+
+    def task(i, prog, stop=None):
+        pr = progs[i]
+        st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, None if data is None else data[i],
+                     fns[pr.key])
+        _run_one(st, prog, mode == "compiled", stop)
+        nrows[i], diverged[i] = st.nrows, st.diverged
+        if st.diverged:
+            d = st.div
+            t_div[i], messages[i] = d[1], st.message(backend)
+            div_state[0] = {"q": float(d[2]), "qd": float(d[3]), "I": float(d[4]), "V": float(d[5])}
+        if consume is not None:
+            one = Record(st.out.reshape(nrec, ncol), cols, nrows[i:i + 1], diverged[i:i + 1], t_div[i:i + 1],
+                         messages[i:i + 1], meta)
+            results[i] = consume(i, one)
+
+    if nthreads > 1:
+        _run_threaded(task, N, nthreads, progress)
+    else:
+        for i in range(N):
+            task(i, progress if N == 1 else None)
+            if progress is not None and N > 1:
+                progress.update(1)
+    meta = {**meta, "nsim": N, "div_state": div_state[0]}
+    rec = Record(None if data is None else data.reshape(N, nrec, ncol), cols, nrows, diverged, t_div, messages, meta)
+    rec.results = results if consume is not None else None
+    return rec
 
 
 def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
@@ -797,15 +814,15 @@ def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
             chunk = int(max(1000, min(5_000_000, chunk * CHUNK_S / dt)))
 
 
-def _run_threaded(steppers, nthreads: int, progress) -> None:
-    """Compiled runs on a thread pool (the loop releases the GIL); Ctrl-C/SIGTERM reach the main
-    thread, which stops the workers at their next chunk and re-raises."""
+def _run_threaded(task, N: int, nthreads: int, progress) -> None:
+    """``task(i, None, stop)`` for every run on a thread pool (the compiled loop releases the GIL);
+    Ctrl-C/SIGTERM reach the main thread, which stops the workers at their next chunk and re-raises."""
     import threading
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
     stop = threading.Event()
     with ThreadPoolExecutor(max_workers=nthreads, thread_name_prefix="mjbench-run") as ex:
-        pending = {ex.submit(_run_one, st, None, True, stop) for st in steppers}
+        pending = {ex.submit(task, i, None, stop) for i in range(N)}
         try:
             while pending:
                 done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)

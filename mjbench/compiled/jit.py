@@ -150,15 +150,9 @@ def _bind_text(name, form, lines, mods, inmemory):
         inmemory[f"_{name}_law"] = fn
         lines.append(f"{name} = numba.njit(_{name}_law)")
         return
-    if not form.fn_args:
-        lines.append(f"from {fn.__module__} import {fn.__qualname__} as _{name}_law")
+    if not form.fn_args:  # the registered law itself: compiled once per process, whatever the composition
+        lines.append(f"from {fn.__module__} import {fn.__qualname__} as {name}")
         mods.add(fn.__module__)
-        params = list(inspect.signature(fn).parameters)
-        if any(str(p).startswith("*") for p in inspect.signature(fn).parameters.values()):
-            lines.append(f"{name} = numba.njit(_{name}_law)")
-            return
-        lines += ["", "", "@numba.njit", f"def {name}({', '.join(params)}):",
-                  f"    return _{name}_law({', '.join(params)})", ""]
         return
     argn = [f"_{name}_a{i}" for i in range(len(form.fn_args))]
     for a, child in zip(argn, form.fn_args):
@@ -194,12 +188,13 @@ def _specialise(name, fn, argn, mods):
 
     Rename().visit(fdef)
     mods.add(fn.__module__)
-    return imports + ["", "", "@numba.njit", ast.unparse(fdef), ""]
+    return imports + ["", "", "@register_jitable", ast.unparse(fdef), ""]
 
 
 def _build(program, loop_source: str):
     flags = program.flags
-    header = ["import numba", "from mjbench.kernel import MAX_SPEED, MAX_CURRENT",
+    header = ["import numba", "from numba.extending import register_jitable",
+              "from mjbench.kernel import MAX_SPEED, MAX_CURRENT",
               "from mjbench.compiled import clip, isfinite", ""]
     header += [f"{f} = {flags[f]!r}" for f in sorted(flags)]
     inmemory = {}
