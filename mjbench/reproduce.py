@@ -84,11 +84,14 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
     t0 = time.perf_counter()
     out = Path(out_dir) / case.name
     out.mkdir(parents=True, exist_ok=True)
-    scn = S.load(case.scenario, case.overrides)
-    ctx = CaseRun(case, scn, out)
     from . import papers
 
     paper = papers.module(case.paper) if case.paper else None
+    if case.kind == "design":  # a requirements file: the paper module runs the design, which writes the machine
+        scn, extra = paper.design(case, out)
+    else:
+        scn, extra = S.load(case.scenario, case.overrides), {}
+    ctx = CaseRun(case, scn, out, extra=extra)
     res = {"case": case.name, "scenario": case.scenario, "paper": case.paper,
            "citation": scn.scenario.paper or (getattr(paper, "CITATION", "") if paper is not None else ""),
            "paper_title": (getattr(paper, "SCENARIO_TITLES", {}).get(case.scenario) or getattr(paper, "TITLE", ""))
@@ -104,6 +107,8 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
             _optimize_law_kind(ctx, res)
         elif case.kind == "study" and paper is not None and hasattr(paper, "study"):
             paper.study(ctx)
+        elif case.kind == "design":
+            pass  # designed and verified above (mjbench/papers/design_examples.py)
         else:
             raise ScenarioError(f"reproduce case {case.name!r}: kind {case.kind!r} is not 'run', 'optimize-law' "
                                 f"or 'study' (with a study(ctx) in its paper module)")
@@ -121,7 +126,7 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
         res["counts"] = V.counts(res["rows"])
     res["sim_figures_s"] = time.perf_counter() - t0
     try:  # a video that cannot be made (no OpenGL, encoder) is recorded; the report goes on
-        if video and case.video and case.kind == "run":
+        if video and case.video and case.kind in ("run", "design"):
             res["video"] = _video(ctx, quick, progress, width, height)
         elif video and case.video and case.kind == "optimize-law":
             res["video"] = _platform_video(ctx, quick, progress, width, height)
@@ -289,6 +294,9 @@ GLOSSARY = [
     ("ideal servo / DC motor + servo", "the motor follows the law exactly (the papers' assumption) / a DC "
                                        "motor under a cascade position servo tracks the law (our machine)."),
     ("Ts", "control sampling period of the sliding-mode controller (Yiğit & Şen give none)."),
+    ("requirement / prediction (design cases)", "`mjbench design` cases have no paper: the 'paper' column holds "
+                                                "the requirement (a bound or a target) or the sizing model's "
+                                                "prediction, checked against the multibody run (docs/design.md)."),
     ("verdict", f"computed from the numbers: a point value agrees when |ours − paper| ≤ {100 * V.TOLERANCE:g} % "
                 "of the paper's value (else 'differs', signed); a band [lo, hi] is 'inside', 'below by X' or "
                 "'above by X'; an upper bound is 'met' or 'exceeded by X'. 'fitted': a figure our parameters "

@@ -7,14 +7,15 @@ import os
 import re
 import sys
 
-from . import add_fast_multibody, apply_fast_multibody
+from . import add_fast_multibody, apply_fast_multibody, integer, quantity
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir
 
 
-def register(sub):
+def register(sub, paper_study=False):
     p = sub.add_parser(
-        "calibrate", help="fit the missing (illegible) Incerti 2012 values to the paper's χ figures",
+        "calibrate", help="fit the missing (illegible) Incerti 2012 values to the paper's χ figures"
+                          + ("" if paper_study else "; paper study, also `mjbench paper incerti2012 calibrate`"),
         description="Explicit calibration step (docs/calibration.md): fits the listed MISSING Table I values "
                     "(a, b, c, h_x, f1..f3, m1..m3, R — never a legible one) so that the reduced model gives "
                     "the paper's χ = 54.3 % (open loop 25 V, last cycle), χ = 2.6 % (PID K_p·t, window "
@@ -22,19 +23,25 @@ def register(sub):
                     "bounds. Sobol screening, multi-start least squares + Gauss-Newton refinement, polish at the "
                     "scenario's dt. "
                     "Writes calibrate.json and calibrated.toml (a separate scenario) into --out.")
-    p.add_argument("scenario", help="built-in Incerti 2012 scenario name or TOML path (e.g. incerti2012)")
+    if paper_study:  # `mjbench paper incerti2012 calibrate [SCENARIO]` (commands/paper.py)
+        p.add_argument("scenario", nargs="?", default="incerti2012",
+                       help="built-in Incerti 2012 scenario name or TOML path (default incerti2012)")
+    else:
+        p.add_argument("scenario", help="built-in Incerti 2012 scenario name or TOML path (e.g. incerti2012)")
     p.add_argument("--params", default=None,
                    help="comma-separated missing parameters to fit (default: all missing "
                         "a,b,c,h_x,f1,f2,f3,m1,m2,m3,R)")
-    p.add_argument("--starts", type=int, default=6, help="least-squares starts (best distinct screened points)")
-    p.add_argument("--screen", type=int, default=256, help="Sobol screening points (global stage)")
-    p.add_argument("--max-nfev", type=int, default=50, help="least-squares function evaluations per start (finite-difference Jacobian evaluations not "
+    p.add_argument("--starts", type=integer(ge=1, le=1000), default=6,
+                   help="least-squares starts (best distinct screened points)")
+    p.add_argument("--screen", type=integer(ge=1, le=100_000), default=256, help="Sobol screening points (global stage)")
+    p.add_argument("--max-nfev", type=integer(ge=1, le=100_000), default=50, help="least-squares function evaluations per start (finite-difference Jacobian evaluations not "
                         "counted), followed by up to 8 minimum-norm Gauss-Newton corrections")
-    p.add_argument("--dt", type=float, default=1e-3, help="control period during the search [s] (default 1 ms)")
-    p.add_argument("--polish-nfev", type=int, default=4,
+    p.add_argument("--dt", type=quantity("time", gt=0.0, le=0.01), default=1e-3,
+                   help="control period during the search [s] (default 1 ms)")
+    p.add_argument("--polish-nfev", type=integer(ge=0, le=100_000), default=4,
                    help="least-squares function evaluations at the scenario's dt from the chosen solution (0: no polish)")
-    p.add_argument("--jobs", type=int, default=1, help="parallel starts (processes)")
-    p.add_argument("--seed", type=int, default=0, help="Sobol seed")
+    p.add_argument("--jobs", type=integer(ge=1, le=256), default=1, help="parallel starts (processes)")
+    p.add_argument("--seed", type=integer(ge=0, le=2 ** 32 - 1), default=0, help="Sobol seed")
     p.add_argument("--select", choices=["closest", "best"], default="closest",
                    help="which converged solution becomes the result: closest to the uncalibrated values "
                         "(default) or lowest cost")
@@ -46,7 +53,7 @@ def register(sub):
     p.add_argument("--out", help="write calibrate.json and calibrated.toml here")
     add_force_option(p)
     add_fast_multibody(p)
-    p.set_defaults(func=cmd_calibrate)
+    p.set_defaults(func=cmd_calibrate, paper_study=paper_study)
 
 
 def cmd_calibrate(args):
@@ -61,6 +68,9 @@ def cmd_calibrate(args):
         _calibrate(args, scn, names, out)
     if args.out:
         print(f"results written to {args.out} (calibrate.json, calibrated.toml)")
+    if not getattr(args, "paper_study", False):
+        from .paper import note
+        note("calibrate", "paper incerti2012 calibrate")
     return 0
 
 

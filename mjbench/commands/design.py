@@ -1,89 +1,68 @@
-"""``mjbench design quickreturn [--starts N] [--seed S] [--bounds LO HI] [--c4 max-abs|signed]
-[--eps E] [--local-only] [--out DIR]``: optimum design of the Yiğit & Şen 2023 quick-return
-mechanism (Eqs 1-2; mjbench/papers/yigit2023_design.py), compared with their Table I.  The
-paper's constraint c4 is read two ways (--c4, docs/quickreturn.md)."""
+"""``mjbench design REQUIREMENTS [--out DIR]``: design a machine from its requirements — linkage
+synthesis, motor / gearbox / flywheel sizing from a catalogue, speed-loop tuning and verification
+on the multibody backend (mjbench/design/, docs/design.md).  Exit 0: the design meets its
+requirements (DIR/machine.toml, design.json, design.md, design.html); 1: it cannot (the closest
+candidate and what fails); 2: bad input (every problem of the requirements file in one message).
+
+REQUIREMENTS is a TOML file or a built-in example (press, rocker, function, motion, seed000).
+
+``mjbench design quickreturn [...]`` is the old spelling of the Yiğit & Şen paper study
+``mjbench paper yigit2023 design [...]`` (mjbench/commands/paper.py); it still works."""
 from __future__ import annotations
 
-import os
+import argparse
+import sys
 
-from ..errors import ParameterError
-from ..outputs import add_force_option, maybe_staged_dir, write_json
-from . import add_fast_multibody, apply_fast_multibody
+from ..outputs import add_force_option
+from . import paper
 
-MECHANISMS = ("quickreturn",)
+#: the old paper-study spelling `mjbench design quickreturn`
+PAPER_TARGETS = ("quickreturn",)
 
 
 def register(sub):
-    p = sub.add_parser("design", help="optimum design of a mechanism (Yiğit & Şen 2023 quick-return, Eqs 1-2)",
-                       description=__doc__)
-    p.add_argument("mechanism", choices=MECHANISMS)
-    p.add_argument("--starts", type=int, default=8, help="number of SLSQP starts (Table I + random; default 8)")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the start points")
-    p.add_argument("--bounds", type=float, nargs=2, metavar=("LO", "HI"), default=(10.0, 500.0),
-                   help="bounds of every design variable [mm] (not given in the paper; default 10 500)")
-    p.add_argument("--c4", choices=("max-abs", "signed"), default="max-abs",
-                   help="reading of constraint c4 (stroke + r4·sin θ4): 'max-abs' = the largest |rod angle| over "
-                        "the swing (default), 'signed' = the signed rod angle at the lever extremes")
-    p.add_argument("--eps", type=float, default=1e-3,
-                   help="margin of the strict inequalities [mm; TR] (default 1e-3: costs ≈ 0.3 mm of the sum)")
-    p.add_argument("--local-only", action="store_true",
-                   help="SLSQP from the starts only, no differential evolution (may miss the optimum: the "
-                        "feasible set is not connected)")
-    p.add_argument("--backend", default="reduced", choices=["reduced", "multibody", "none"],
-                   help="closed-loop check of the designs (Yiğit & Şen SMC): reduced (default; the best designs are then "
-                        "re-run on the multibody backend and both figures reported), multibody, or none")
-    p.add_argument("--verify", type=int, default=1,
-                   help="optimum designs re-run on the multibody backend besides Table I (default 1)")
-    p.add_argument("--t-end", type=float, help="simulated time of the closed-loop check [s] (default: the scenario's)")
-    p.add_argument("--out", help="folder for design.json")
+    p = sub.add_parser("design", help="design a machine from its requirements: linkage synthesis, motor/gearbox/"
+                                      "flywheel sizing, tuning, multibody verification",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("requirements", metavar="REQUIREMENTS",
+                   help="requirements TOML file or built-in example (press, rocker, function, motion, seed000); "
+                        "'quickreturn': the Yiğit & Şen paper study (old spelling of `mjbench paper yigit2023 design`)")
+    p.add_argument("--out", help="output folder: machine.toml, design.json, design.md, design.html, design.png")
     add_force_option(p)
-    add_fast_multibody(p)
+    p.add_argument("--no-tune", action="store_true", help="keep the design rule's gains (no mjbench tune stage)")
+    p.add_argument("--no-verify", action="store_true",
+                   help="no multibody verification (no checks: the design is then not verified, and says so)")
+    p.add_argument("--quiet", action="store_true", help="print only the summary")
+    paper.add_yigit_options(p, hidden=True)  # the old spelling's options (`design quickreturn --starts 2 ...`)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ..papers import yigit2023_design as design
+    from . import refuse_unused
 
-    if args.starts < 1:
-        raise ParameterError(f"--starts = {args.starts}: need at least 1")
-    lo, hi = args.bounds
-    if not (0 < lo < hi):
-        raise ParameterError(f"--bounds = {lo} {hi}: need 0 < LO < HI [mm]")
-    if not (0 <= args.eps < 1):
-        raise ParameterError(f"--eps = {args.eps}: need 0 <= EPS < 1 [mm; TR]")
-    with maybe_staged_dir(args.out, force=args.force) as out:
-        res = design.optimise(starts=args.starts, seed=args.seed, bounds=((lo, hi),) * 5, c4=args.c4, eps=args.eps,
-                              global_search=not args.local_only)
-        _print(res)
-        if args.backend != "none":
-            res["dynamics"] = design.dynamic_check(res, backend=args.backend, verify=args.verify, t_end=args.t_end,
-                                                   overrides=apply_fast_multibody(args, []))
-            print(design.dynamic_table(res["dynamics"]))
-        if out is not None:
-            write_json(os.path.join(out, "design.json"), res)
+    if args.requirements in PAPER_TARGETS:
+        for opt in ("no_tune", "no_verify", "quiet"):
+            if getattr(args, opt):
+                refuse_unused("--" + opt.replace("_", "-"), "it belongs to the general design command, not to the "
+                                                            "Yiğit & Şen paper study")
+        rc = paper.run_yigit_design(args)
+        paper.note("design quickreturn", "paper yigit2023 design")
+        return rc
+    used = paper.yigit_options_given(args)
+    if used:
+        refuse_unused(used[0], "it is an option of the Yiğit & Şen paper study (`mjbench paper yigit2023 design`)")
+    from ..design.pipeline import design
+
+    log = (lambda *a: None) if args.quiet else print
+    res = design(args.requirements, out=args.out, force=args.force, log=log, verify=not args.no_verify,
+                 tune=False if args.no_tune else None)
+    if args.quiet:
+        from ..design.report import summary_text
+
+        print(summary_text(res).splitlines()[0])
     if args.out:
-        print(f"wrote {os.path.join(args.out, 'design.json')}")
-    return 0 if "best" in res else 1
-
-
-def _print(res):
-    tab = res["table_I"]
-    print(f"{'':10s} {'r2':>8s} {'r3':>8s} {'r4':>8s} {'a':>8s} {'b':>8s} {'sum':>8s} {'TR':>6s} "
-          f"{'stroke':>8s} {'mu_min':>7s}")
-
-    def row(name, x, f):
-        print(f"{name:10s} " + " ".join(f"{v:8.2f}" for v in x) + f" {f['sum_mm']:8.2f} {f['TR']:6.3f} "
-              f"{f['stroke_mm']:8.2f} {f['mu_min_deg']:7.2f}")
-
-    row("Table I", tab["x"], tab)
-    if "from_table_I" in res:
-        row("local*", res["from_table_I"]["x"], res["from_table_I"])
-    if "best" in res:
-        row("optimum", res["best"]["x"], res["best"])
-    else:
-        print("no feasible design found; try more --starts or wider --bounds")
-    nfeas = sum(r["feasible"] for r in res["runs"])
-    print(f"c4 read as {res['c4']}, margin eps = {res['eps']:g}; optimum found by: "
-          f"{res['best']['start'] if 'best' in res else '—'}")
-    print(f"* local: SLSQP started from Table I.  {nfeas}/{len(res['runs'])} runs ended feasible; "
-          f"Table I violates: {tab['violated'] or 'nothing'}")
+        print(f"wrote {args.out}: {', '.join(res.get('files', []))}", file=sys.stdout)
+    if args.no_verify and res["status"] == "ok":
+        print("mjbench: note: --no-verify: the design was not simulated; its predictions are unchecked",
+              file=sys.stderr)
+    return 0 if res["status"] == "ok" else 1

@@ -27,6 +27,7 @@ MODULES = {
     "hulako2025": "mjbench.papers.hulako2025",
     "yigit2023": "mjbench.papers.yigit2023",
     "examples": "mjbench.papers.examples",
+    "design": "mjbench.papers.design_examples",
 }
 
 
@@ -34,7 +35,8 @@ MODULES = {
 class Case:
     """One ``mjbench reproduce`` case: a scenario run end to end (``kind = "run"``: the listed
     modes on the backends; ``"optimize-law"``: the motion-law study; ``"study"``: the paper
-    module's ``study(ctx)``)."""
+    module's ``study(ctx)``; ``"design"``: ``scenario`` names a requirements file, the paper
+    module's ``design(case, out)`` designs and verifies the machine)."""
 
     name: str
     scenario: str

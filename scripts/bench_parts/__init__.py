@@ -35,6 +35,8 @@ def case_machines(case):
     paper study: the scenario's default mode)."""
     from mjbench import scenario as S
 
+    if case.kind == "design":  # a requirements file, not a scenario: nothing to measure before the design runs
+        return []
     scn = S.load(case.scenario, list(case.overrides))
     modes = list(case.modes) or [scn.mode(None)]
     return [(f"{case.name}/{m}", scn, m) for m in modes]

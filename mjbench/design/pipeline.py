@@ -1,0 +1,682 @@
+"""``mjbench design``: requirements → linkage → drive → gains → verified machine.
+
+Stages (each timed; docs/design.md):
+
+1. **requirements** (:mod:`requirements`): validated, one message, exit 2;
+2. **synthesis** (:mod:`synthesis`): the linkage from the task, its constraints, then the
+   ``[mechanism] type = "linkage"`` table (:mod:`build`) solved by mjbench's own position solver
+   (:func:`mjbench.mechanisms.linkage.compiled`) and compared with the synthesis at its
+   precision positions (:func:`solver_check`);
+3. **sizing** (:mod:`sizing`): inverse dynamics at the duty, energy swing, flywheel, every
+   catalogue motor × gearbox through the periodic steady state of the speed loop, ratings,
+   thermal model, gear-ratio study; the cheapest feasible candidate;
+4. **control** (:mod:`control`): the design rule's gains, then ``mjbench.tune`` within the box of
+   gains the sizing model accepts; the tuned gains re-checked by the sizing model;
+5. **verification**: the machine simulated on the multibody backend from the predicted steady
+   state; every predicted figure compared (``checks``); the requirements against the achieved
+   values (kinematics by ``mjbench.analyze``, the rest from the simulation);
+6. **outputs** (:mod:`report`): ``machine.toml``, ``design.json``, ``design.md``, ``design.html``,
+   ``design.png``.
+
+A design that meets its requirements returns status ``"ok"`` (exit 0); otherwise ``"infeasible"``
+(exit 1) with the closest candidate and every failing constraint or check.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import os
+import time
+
+import numpy as np
+
+from . import build as B
+from . import control as CT
+from . import periodic as P
+from . import sizing as SZ
+from . import synthesis as S
+from . import thermal as TH
+from .requirements import Requirements, compile_function
+from .synthesis import constraint
+
+TWO_PI = 2.0 * math.pi
+#: longest verification run [cycles]
+MAX_CYCLES = 60
+
+
+class Clock:
+    def __init__(self):
+        self.t = {}
+
+    def __call__(self, name):
+        clock = self
+
+        class _C:
+            def __enter__(self):
+                self.c, self.w = time.process_time(), time.perf_counter()
+
+            def __exit__(self, *exc):
+                clock.t[name] = {"cpu_s": time.process_time() - self.c, "wall_s": time.perf_counter() - self.w}
+                return False
+
+        return _C()
+
+
+# ============================================================================ synthesis
+def synthesize(req: Requirements):
+    """(Synthesis or None for a given mechanism, [mechanism] table, geometry or None)."""
+    m = req.mechanism
+    t = m.type
+    if t == "given":
+        from .. import scenario as SC
+
+        scn = SC.load(req.path(m.scenario) if os.path.exists(req.path(m.scenario)) else m.scenario)
+        return None, copy.deepcopy(scn.raw["mechanism"]), None
+    common = dict(min_transmission=m.min_transmission, max_link_ratio=m.max_link_ratio, envelope=m.envelope)
+    if t == "slider-crank":
+        syn = S.slider_crank(m.stroke, m.time_ratio, offset=m.offset, working_direction=m.working_direction,
+                             rod_ratio=m.rod_ratio, **common)
+    elif t == "crank-rocker":
+        syn = S.crank_rocker(m.swing, m.time_ratio, rocker_length=m.rocker_length, ground_length=m.ground_length,
+                             slow_swing=m.slow_swing, rocker_mid_angle=m.rocker_mid_angle, **common)
+    elif t == "function-generator":
+        spec = S.FunctionSpec(compile_function(m.function), m.x_range[0], m.x_range[1], m.input_range,
+                              m.output_range, m.function)
+        syn = S.function_generator(spec, ground_length=m.ground_length, phi0=m.input_start, psi0=m.output_start,
+                                   method=m.method, n_points=m.points, full_rotation=m.full_rotation,
+                                   max_structural_error=m.max_structural_error, **common)
+    elif t == "motion-generator":
+        syn = S.motion_generator(m.poses, ground_pivots=m.ground_pivots, moving_pivots=m.moving_pivots,
+                                 search_box=m.search_box, n_candidates=m.candidates, **common)
+    else:  # pragma: no cover - the schema allows nothing else
+        raise ValueError(t)
+    geom = syn.geometry
+    loads = [B.load_table(ld, geom) for ld in req.loads]
+    if isinstance(geom, S.SliderCrank):
+        table = B.slidercrank_table(geom, m.mass, name=req.name, gravity=m.gravity, loads=loads)
+    else:
+        table = B.fourbar_table(geom, m.mass, name=req.name, gravity=m.gravity, loads=loads,
+                                tool_at="coupler.P" if t == "motion-generator" else "rocker.C")
+    return syn, table, geom
+
+
+def solver_check(syn, table) -> dict:
+    """The synthesised positions re-solved by mjbench's own position solver (Newton on the
+    loop-closure equations, mjbench.mechanisms.linkage): residuals at the synthesis's precision
+    positions and, over 72 crank angles, the largest distance between the closed-form and the
+    solver's joint positions (the branch)."""
+    from ..mechanisms import linkage as LK
+
+    params = LK.LinkageParams.model_validate(table)
+    c = LK.compiled(params)
+    g = syn.geometry
+    links = list(params.links)
+    out = {}
+
+    def solve(q):
+        z, v, _ = c.exact(np.asarray(q, float))
+        return z, v, c.world_points(z)
+
+    def angle_of(pts, a, b):
+        pa, pb = pts[a], pts[b]
+        return np.arctan2(pb[1] - pa[1], pb[0] - pa[0])
+
+    qg = np.linspace(0.0, TWO_PI, 72, endpoint=False)
+    _, _, pts = solve(qg)
+    cf = g.solve(qg)
+    if isinstance(g, S.SliderCrank):
+        keys = (("crank.B", "B"), ("ram.C", "C"))
+    else:
+        keys = (("crank.B", "B"), ("rocker.C", "C")) + ((("coupler.P", "P"),) if g.P is not None else ())
+    out["branch_max_position_diff_m"] = float(max(np.max(np.hypot(pts[k][0] - cf[kk][:, 0], pts[k][1] - cf[kk][:, 1]))
+                                                  for k, kk in keys))
+    a = syn.achieved
+    if syn.kind == "slider-crank":
+        q = np.array([a["q_extended_rad"], a["q_folded_rad"]])
+        z, v, p = solve(q)
+        u = (p["ram.C"][0] - g.O[0]) * g.w[0] + (p["ram.C"][1] - g.O[1]) * g.w[1]
+        kg = [j.name for j in params.joints].index("guide")
+        rate = c.joint_rates(z, v)[:, kg]
+        out.update(u_solver_m=u.tolist(), u_synthesis_m=[a["u_extended_m"], a["u_folded_m"]],
+                   position_residual_m=float(np.max(np.abs(u - [a["u_extended_m"], a["u_folded_m"]]))),
+                   stroke_solver_m=float(u[0] - u[1]), stroke_residual_m=float(abs(u[0] - u[1] - a["stroke_m"])),
+                   dead_centre_rate_m_per_rad=float(np.max(np.abs(rate))))
+        out["residual"] = max(out["position_residual_m"], out["dead_centre_rate_m_per_rad"])
+    elif syn.kind == "crank-rocker":
+        q = np.array([a["q_extended_rad"], a["q_folded_rad"]])
+        z, v, p = solve(q)
+        psi = angle_of(p, "rocker.D", "rocker.C")
+        kd = [j.name for j in params.joints].index("D")
+        rate = c.joint_rates(z, v)[:, kd]
+        out.update(psi_solver_rad=psi.tolist(), psi_synthesis_rad=[a["psi_extended_rad"], a["psi_folded_rad"]],
+                   angle_residual_rad=float(np.max(np.abs(S.wrap(psi - [a["psi_extended_rad"], a["psi_folded_rad"]])))),
+                   swing_solver_deg=float(np.degrees(abs(S.wrap(psi[1] - psi[0])))),
+                   dead_centre_rate=float(np.max(np.abs(rate))))
+        out["residual"] = max(out["angle_residual_rad"], out["dead_centre_rate"])
+    elif syn.kind == "function-generator":
+        ph = np.asarray(syn.info["phi_points"])
+        ps = np.asarray(syn.info["psi_points"])
+        z, v, p = solve(ph + g.crank_offset)
+        psi = angle_of(p, "rocker.D", "rocker.C") - g.rocker_offset
+        out.update(psi_solver_rad=psi.tolist(), psi_target_rad=ps.tolist(),
+                   angle_residual_rad=float(np.max(np.abs(S.wrap(psi - ps)))))
+        spec = syn.info["spec"]
+        x = np.linspace(spec.x0, spec.x1, 201)
+        _, _, pp = solve(spec.phi(x, math.radians(a["phi0_deg"])) + g.crank_offset)
+        err = S.wrap(angle_of(pp, "rocker.D", "rocker.C") - g.rocker_offset - spec.psi(x, math.radians(a["psi0_deg"])))
+        out["structural_error_max_deg_solver"] = float(np.degrees(np.max(np.abs(err))))
+        out["residual"] = out["angle_residual_rad"]
+        if syn.info.get("method") == "least-squares":
+            out["residual"] = 0.0  # no precision points: the structural error is the figure
+    elif syn.kind == "motion-generator":
+        phi = np.asarray(syn.info["input_angles"])
+        z, v, p = solve(phi)
+        poses = np.asarray(syn.targets["poses"])
+        P_ = np.stack([p["coupler.P"][0], p["coupler.P"][1]], axis=-1)
+        mA, mB = np.asarray(a["moving_pivot_A"]), np.asarray(a["moving_pivot_B"])
+        th = angle_of(p, "coupler.B", "coupler.C") - math.atan2(*(mB - mA)[::-1])
+        out.update(position_residual_m=float(np.max(np.hypot(*(P_ - poses[:, :2]).T))),
+                   angle_residual_rad=float(np.max(np.abs(S.wrap(th - poses[:, 2])))))
+        out["residual"] = max(out["position_residual_m"], out["angle_residual_rad"])
+    out["table_info"] = dict(c.table_info)
+    out["links"] = links
+    return out
+
+
+# ============================================================================ scenario
+def machine_scenario(req, table, cand, gains: P.Gains, init: dict, speed: float, t_end: float, title="") -> dict:
+    """The machine's scenario tables (machine.toml)."""
+    dm = cand.drive
+    m = cand.motor
+    i_max = min(x for x in (req.drive.current_limit, m.T_peak / m.k_m) if x is not None)
+    T = TWO_PI / speed
+    drive = dm.as_drive_table(v_max=float(req.drive.supply_voltage), i_max=float(i_max))
+    return {
+        "scenario": {"name": req.name, "title": title or req.design.title or f"designed machine {req.name}",
+                     "description": (req.design.description + " " if req.design.description else "")
+                     + "Written by `mjbench design`: synthesised linkage, catalogue motor and gearbox, flywheel, "
+                       "tuned speed PID; starts from rest, its last cycle is the verified steady state."},
+        "mechanism": table,
+        "drive": drive,
+        "initial": {"q0": 0.0, "qd0": 0.0, "I0": 0.0},
+        "simulation": {"t_end": float(t_end), "dt": float(req.verify.dt), "record_dt": _record_dt(req.verify.dt, T),
+                       "mode": "pi", "backend": "both"},
+        "modes": {"pi": {"type": "pid", "kp": float(gains.kp), "ki": float(gains.ki), "kd": float(gains.kd),
+                         "omega0": float(dm.z * speed), "v_limit": float(req.drive.supply_voltage)},
+                  "open": {"type": "open", "voltage": float(min(req.drive.supply_voltage,
+                                                                cand.summary.get("voltage_mean_V", 0.0) or 1.0))}},
+        "metrics": {"chi_window": [float(t_end - T), float(t_end)], "steady_start": float(max(0.0, t_end - T))},
+    }
+
+
+def start_up_time(dm, M_mean, T_load_mean, speed, i_lim, V) -> float:
+    """Time to reach the speed from rest [s], accelerating with the current limited to i_lim and the
+    voltage to V (the torque falls with the back-EMF; the mean load opposes): ∫ M dω / T_net."""
+    w = np.linspace(0.0, speed, 200)
+    I = np.minimum(i_lim, (V - dm.k_m * dm.z * w) / dm.R)
+    T_net = dm.z * dm.eta * (dm.k_m * I - dm.T0) - dm.c_v * w - max(T_load_mean, 0.0)
+    if np.any(T_net <= 0):
+        return math.inf
+    return float(np.trapezoid(M_mean / T_net, w))
+
+
+def _record_dt(dt, T):
+    k = max(1, int(round(T / 2000.0 / dt)))
+    return float(k * dt)
+
+
+# ============================================================================ verification
+def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
+    """Figures of the last complete crank cycle of a trajectory (the predicted ones' counterparts)."""
+    from .. import metrics as M
+
+    t, q, om = tr.t, tr.q, tr.omega
+    cyc = M.cycles(t, q)
+    if not len(cyc):
+        raise P.NoSteadyState("the verification run holds no complete crank cycle")
+    a, b = cyc[-1]
+    sel = (t >= a - 1e-12) & (t <= b + 1e-12)
+    I, V, wm, qd = tr.current[sel], tr.voltage[sel], om[sel], tr.qd[sel]
+    tt = t[sel]
+
+    def rms(x):
+        return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
+
+    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    out = {"cycle_s": [float(a), float(b)], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
+           "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
+           "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "voltage_peak_V": float(np.max(np.abs(V))), "chi": float(M.chi(t, om, a, b)),
+           "speed_dev_max_rel": float(np.max(np.abs(qd - speed)) / speed),
+           "mean_speed_rad_s": float(M.time_mean(tt, qd)), "motor_speed_max_rad_s": float(np.max(np.abs(wm))),
+           "closure_max_m": float(np.max(np.abs(tr.closure[sel]))) if tr.has("closure_error_m") else 0.0}
+    th = TH.steady(rms(I) ** 2, motor, T_amb)
+    out["T_winding_C"] = th["T_winding_C"]
+    return out
+
+
+def periodicity(tr) -> float:
+    """Relative difference of the RMS current and of the mean speed between the last two complete
+    cycles (0: periodic steady state reached)."""
+    from .. import metrics as M
+
+    cyc = M.cycles(tr.t, tr.q)
+    if len(cyc) < 2:
+        return math.inf
+    v = []
+    for a, b in cyc[-2:]:
+        sel = (tr.t >= a) & (tr.t <= b)
+        v.append((math.sqrt(float(np.mean(tr.current[sel] ** 2))), float(np.mean(tr.qd[sel]))))
+    return max(abs(v[1][0] - v[0][0]) / max(abs(v[1][0]), 1e-12), abs(v[1][1] - v[0][1]) / abs(v[1][1]))
+
+
+def start_up(tr, speed) -> dict:
+    """Start from rest: time to 98 % of the speed, largest current and its time."""
+    k = np.flatnonzero(tr.qd >= 0.98 * speed)
+    i = int(np.argmax(np.abs(tr.current)))
+    return {"time_to_98pct_s": float(tr.t[k[0]]) if len(k) else math.inf,
+            "peak_current_A": float(abs(tr.current[i])), "t_peak_current_s": float(tr.t[i])}
+
+
+def checks_of(pred: dict, ach: dict, chi_stmt: dict, pred_th: dict, T_amb: float, tol: float) -> list:
+    """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
+    out = []
+
+    def add(name, p, a, t, note=""):
+        rd = (a - p) / abs(p) if p else (math.inf if a else 0.0)
+        out.append({"name": name, "predicted": p, "achieved": a, "rel_diff": rd, "tolerance": t,
+                    "ok": bool(abs(rd) <= t), "note": note})
+
+    for key, name in (("current_rms_A", "motor current RMS [A]"), ("current_peak_A", "motor current peak [A]"),
+                      ("motor_torque_rms_Nm", "motor torque k_m·I RMS [N·m]"),
+                      ("motor_torque_peak_Nm", "motor torque k_m·I peak [N·m]"),
+                      ("gear_torque_rms_Nm", "gearbox output torque RMS [N·m]"),
+                      ("gear_torque_peak_Nm", "gearbox output torque peak [N·m]"),
+                      ("voltage_peak_V", "armature voltage peak [V]")):
+        add(name, pred[key], ach[key], tol, "harmonic balance of the reduced model vs the multibody run")
+    add("speed fluctuation χ (harmonic balance)", pred["chi"], ach["chi"], tol,
+        "periodic steady state of the speed loop")
+    add("largest speed deviation |q̇ − Ω|/Ω", pred["speed_dev_max_rel"], ach["speed_dev_max_rel"], tol)
+    add("speed fluctuation χ (energy method, flywheel sizing)", chi_stmt["chi_energy"], ach["chi"],
+        chi_stmt["tolerance"], f"stated error bound: loop {chi_stmt['error_loop']:.3g} + inertia variation "
+        f"{chi_stmt['error_J']:.3g} + second order {chi_stmt['error_second_order']:.3g}")
+    add("winding temperature rise [K] (two-node model)", pred_th["T_winding_C"] - T_amb, ach["T_winding_C"] - T_amb,
+        2.0 * tol, "∝ RMS current²: twice the current tolerance")
+    return out
+
+
+# ============================================================================ the command
+def design(requirements, out=None, force=False, log=print, verify=True, tune=None) -> dict:
+    """Run the whole design (module doc).  ``requirements``: a path, a built-in name or a
+    :class:`Requirements`; ``out``: folder for the outputs (written whole or not at all).
+    Returns the result dict (also design.json); ``result["status"]`` is "ok" or "infeasible"."""
+    from .requirements import load as load_req
+
+    clock = Clock()
+    t0c, t0w = time.process_time(), time.perf_counter()
+    with clock("requirements"):
+        req = requirements if isinstance(requirements, Requirements) else load_req(str(requirements))
+        from . import catalogue as CAT
+
+        cat = CAT.select(CAT.load(req.drive.catalogue, base=os.path.dirname(req.source)
+                                  if req.source and not req.source.startswith("builtin:") else ""),
+                         req.drive.motors, req.drive.gearboxes)
+    if out is not None:  # an unusable --out is an error before any work
+        from ..outputs import check_out_dir
+        check_out_dir(out, force=force)
+    res = {"name": req.name, "title": req.design.title, "requirements_source": req.source,
+           "requirements": req.raw, "catalogue": {"source": cat.source, "title": cat.title,
+                                                  "illustrative": cat.illustrative}}
+    speed = req.duty.omega
+    res["duty"] = {"speed_rad_s": speed, "speed_rpm": speed * 30 / math.pi, "cycle_s": TWO_PI / speed,
+                   "chi_max": req.duty.chi_max, "ambient_C": req.duty.ambient_temperature}
+    failures = []
+    # ---------------------------------------------------------------- synthesis
+    with clock("synthesis"):
+        syn, table, geom = synthesize(req)
+        if syn is not None:
+            res["synthesis"] = {"kind": syn.kind, "targets": syn.targets, "achieved": syn.achieved,
+                                "constraints": syn.constraints,
+                                "info": {k: v for k, v in syn.info.items() if k != "spec"}}
+            failures += [dict(c, stage="synthesis") for c in syn.failures()]
+        else:
+            res["synthesis"] = {"kind": "given", "scenario": req.mechanism.scenario}
+    if syn is not None:
+        with clock("solver_check"):
+            try:
+                res["synthesis"]["solver_check"] = solver_check(syn, table)
+            except Exception as e:  # noqa: BLE001 - a linkage the solver cannot follow is a failure, reported
+                res["synthesis"]["solver_check"] = {"error": str(e)}
+                failures.append(dict(constraint("mjbench's position solver follows the linkage over a turn", False,
+                                                compare="true", note=str(e)), stage="synthesis"))
+    res["mechanism"] = table
+    res["_geometry"] = geom
+    if failures:
+        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+    # ---------------------------------------------------------------- sizing
+    from .. import mechanisms as MR
+
+    with clock("sizing"):
+        mech = MR.from_dict(table)
+        if mech.internal or getattr(getattr(mech, "_tab", None), "lo", None) is not None:
+            from ..errors import ParameterError
+
+            raise ParameterError(f"mechanism {table.get('type')!r}: the design sizes rigid machines whose input turns "
+                                 f"fully (internal elastic coordinates or a slide input are not supported)")
+        load = SZ.LoadModel(mech, speed)
+        sz = SZ.size(load, req, cat, speed, log=log)
+        best = sz.chosen or sz.closest
+        if best.gains is not None and not best.screened_out:
+            SZ.finalize(best, load, req, speed)
+    res["sizing"] = _sizing_json(sz, load)
+    if sz.chosen is None:
+        failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
+        res["closest"] = best.describe()
+        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+    cand = sz.chosen
+    if not cand.ok:  # the full-resolution steady state disagrees with the screening one
+        failures += [dict(c, stage="sizing", candidate=cand.label) for c in cand.checks if not c["ok"]]
+        res["closest"] = cand.describe()
+        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+    log(f"chosen: {cand.label}; RMS motor torque {cand.summary['motor_torque_rms_Nm']:.4g} N·m, "
+        f"χ {cand.summary['chi']:.4g}")
+    # ---------------------------------------------------------------- control
+    T = TWO_PI / speed
+    M_mean = load.J_mean + cand.drive.J_eq
+
+    i_lim = min(x for x in (req.drive.current_limit, cand.motor.T_peak / cand.motor.k_m) if x is not None)
+    t_acc = start_up_time(cand.drive, M_mean, sz.torque["T_mean_Nm"], speed, i_lim, req.drive.supply_voltage)
+    if not math.isfinite(t_acc):
+        failures.append(dict(constraint("the drive starts the machine from rest (torque at the current limit > "
+                                        "mean load up to the speed)", False, compare="true"), stage="sizing"))
+        res["closest"] = cand.describe()
+        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+
+    def run_length(gains):
+        """Whole cycles covering the start from rest (at the current limit) and the loop's settling,
+        plus the cycles asked."""
+        ts = CT.settling_time(cand.drive, M_mean, gains)
+        n = req.verify.cycles + math.ceil((t_acc + (ts if math.isfinite(ts) else 0.0)) / T)
+        return on_record_grid(min(n, MAX_CYCLES) * T), ts
+
+    def on_record_grid(t):
+        """t rounded up to the recording grid (the last sample falls on t_end: the χ window's end)."""
+        rdt = _record_dt(req.verify.dt, T)
+        return math.ceil(t / rdt - 1e-9) * rdt
+    g0 = cand.gains
+    ctl = {"design_rule": {"gains": g0.as_dict(), "crossover_rad_s": req.control.bandwidth_ratio * speed,
+                           "zero_ratio": CT.ZERO_RATIO}}
+    do_tune = req.control.tune if tune is None else tune
+    final = cand
+    with clock("tuning"):
+        box, scan = _gain_box(cand, load, req, speed)
+        SZ.finalize(cand, load, req, speed)  # with the design rule's small K_d (the tuning's start)
+        g0 = cand.gains
+        ctl["box"] = {k: list(v) for k, v in box.items()}
+        ctl["box_scan"] = scan
+        if do_tune:
+            from .. import scenario as SC
+
+            t_end, _ = run_length(g0)
+            init0 = P.initial_state(cand.ss)
+            scn0 = SC.from_raw(machine_scenario(req, table, cand, g0, init0, speed, t_end), f"design:{req.name}")
+            i_lim = scn0.drive.i_max
+            try:
+                tr = CT.tune_gains(scn0, req, g0, box, t_end, {"voltage": float(req.drive.supply_voltage),
+                                                               "current": float(i_lim)}, log=None)
+                gt = P.Gains(tr.best["kp"], tr.best["ki"], tr.best["kd"])
+                ctl["tune"] = {"best": tr.best, "baseline": tr.baseline, "objective": tr.objective,
+                               "search": _clean_metrics(tr.search), "validation": _clean_metrics(tr.validation),
+                               "evaluations": tr.history.get("evaluations"), "at_bound": tr.history.get("at_bound"),
+                               "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
+                tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, cand.J_f, gt, location=cand.location,
+                                      cost=cand.cost)
+                SZ.finalize(tuned, load, req, speed)
+                if tuned.ok:
+                    final = tuned
+                    ctl["source"] = "tuned (mjbench.tune), accepted by the sizing model"
+                else:
+                    ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
+                                     + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
+            except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
+                ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+        else:
+            ctl["source"] = "design rule ([control] tune = false)"
+    gains = final.gains
+    ctl["final"] = gains.as_dict()
+    ctl["crossover_rad_s"] = CT.crossover(final.drive, M_mean, gains)
+    poles = CT.closed_loop_poles(final.drive, M_mean, gains)
+    ctl["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
+    ctl["slowest_decay_1_s"] = float(-max(p.real for p in poles))
+    chi_stmt = SZ.chi_energy_statement(final, load, sz.torque["dE_J"], speed, sz.T_L)
+    init = P.initial_state(final.ss)
+    t_end, t_settle = run_length(gains)
+    ctl["settling_time_s"] = t_settle
+    ctl["start_up_time_s"] = t_acc
+    res["control"] = ctl
+    res["prediction"] = {**final.summary, "thermal": final.thermal, "chi_energy": chi_stmt,
+                         "initial_state": init, "harmonic_balance": {"samples": final.ss["n"],
+                                                                     "iterations": final.ss["iterations"],
+                                                                     "residual": final.ss["residual"],
+                                                                     "phase_lag_rad": final.ss["c0"]}}
+    res["chosen"] = final.describe()
+    from .. import scenario as SC
+
+    scn_doc = machine_scenario(req, table, final, gains, init, speed, t_end)
+    scn = SC.from_raw(scn_doc, f"design:{req.name}")
+    res["machine"] = scn_doc
+    # ---------------------------------------------------------------- verification
+    ach, trs = None, {}
+    if verify:
+        with clock("verification"):
+            from ..backends import simulate
+            from ..runner import backend_options
+
+            for attempt in range(4):
+                tr = simulate(SC.make_machine(scn), "multibody", t_end, record_dt=scn.simulation.record_dt,
+                              options=backend_options(scn, "multibody"))
+                ach = measure(tr, final.drive, speed, final.motor, req.duty.ambient_temperature)
+                drift = periodicity(tr)
+                if drift <= 0.05 * req.verify.tolerance or t_end >= MAX_CYCLES * T - 1e-9:
+                    break
+                t_end = on_record_grid(min(MAX_CYCLES, 2 * round(t_end / T)) * T)  # not settled yet: a longer run
+                scn_doc = machine_scenario(req, table, final, gains, init, speed, t_end)
+                scn = SC.from_raw(scn_doc, f"design:{req.name}")
+                res["machine"] = scn_doc
+            trs["multibody"] = tr
+            ach["start_up"] = start_up(tr, speed)
+        res["verification"] = {"backend": "multibody", "t_end_s": t_end, "achieved": ach,
+                               "last_two_cycles_rel_diff": drift, "loop": tr.meta.get("loop", "")}
+        res["checks"] = checks_of(final.summary, ach, chi_stmt, final.thermal, req.duty.ambient_temperature,
+                                  req.verify.tolerance)
+        failures += [dict(constraint(f"check: {c['name']}", c["achieved"], compare="true", ok=False,
+                                     note=f"predicted {c['predicted']:.6g}, rel. diff {c['rel_diff']:+.3g} > "
+                                          f"{c['tolerance']:.3g}"), stage="verification")
+                     for c in res["checks"] if not c["ok"]]
+    with clock("analysis"):
+        res["requirements_table"] = requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
+    failures += [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
+    res["_trajectories"] = trs
+    res["_sizing"] = sz
+    res["_final"] = final
+    return _finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log)
+
+
+def _gain_box(cand, load, req, speed):
+    """Gains the sizing model accepts around the design rule: crossovers ×/÷ 4 (9 points), each
+    checked by its periodic steady state; the box spans the accepted ones (at least ×/÷ 1.25), with
+    K_i not below the design rule's (a settling-time constraint: the integral — the slowest mode —
+    no slower than the design rule's)."""
+    M_mean = load.J_mean + cand.drive.J_eq
+    w0 = req.control.bandwidth_ratio * speed
+    scan, ok = [], []
+    for f in np.geomspace(0.25, 4.0, 9):
+        g = CT.design_gains(cand.drive, M_mean, w0 * f)
+        c = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, cand.J_f, g, location=cand.location)
+        SZ.evaluate(c, load, req, speed)
+        scan.append({"crossover_rad_s": w0 * f, "gains": g.as_dict(), "ok": c.ok,
+                     "chi": c.summary.get("chi"), "current_rms_A": c.summary.get("current_rms_A"),
+                     "fails": [x["name"] for x in c.checks if not x["ok"]]})
+        if c.ok:
+            ok.append(g)
+    g0 = cand.gains
+    kp = [g.kp for g in ok] or [g0.kp]
+    ki = [g.ki for g in ok] or [g0.ki]
+    lo_p, hi_p = min(min(kp), g0.kp / 1.25), max(max(kp), g0.kp * 1.25)
+    # the integral at least as fast as the design rule's (its settling time bounds the tuned loop's)
+    lo_i, hi_i = g0.ki, max(max(ki), g0.ki * 1.25)
+    kd0 = 0.01 * g0.kp / w0
+    cand.gains = P.Gains(g0.kp, g0.ki, kd0)  # tune searches K_d in log scale: a small positive start
+    return {"kp": (lo_p, hi_p), "ki": (lo_i, hi_i), "kd": (kd0 / 10.0, kd0 * 10.0)}, scan
+
+
+def _clean_metrics(d):
+    out = {}
+    for k, v in (d or {}).items():
+        if isinstance(v, dict):
+            out[k] = {kk: vv for kk, vv in v.items() if isinstance(vv, (int, float, str, bool)) or vv is None}
+    return out
+
+
+def _sizing_json(sz: SZ.Sizing, load) -> dict:
+    sw = sz.sweep
+    k = np.unique(np.linspace(0, len(sw["z"]) - 1, 60).astype(int))
+    return {"speed_rad_s": sz.speed, "torque_at_constant_speed": sz.torque, "flywheel": sz.flywheel,
+            "load_model": {"J_mean": load.J_mean, "J_ptp": load.J_ptp, "affine_error": load.affine_error,
+                           "nodes": load.n},
+            "ratio_sweep": {"motor": (sz.chosen or sz.closest).motor.name, "z_best": sw["z_best"],
+                            "rms_best_Nm": sw["rms_best_Nm"], "z_closed_form": sw["z_closed_form"],
+                            "best_at_envelope_limit": sw["at_limit"],
+                            "z": sw["z"][k].tolist(), "rms_Nm": sw["rms_Nm"][k].tolist(),
+                            "peak_Nm": sw["peak_Nm"][k].tolist(), "allowed": sw["allowed"][k].tolist()},
+            "candidates": [{"label": c.label, "ok": c.ok, "cost": c.cost, "violation": c.violation,
+                            "screened_out": c.screened_out,
+                            "current_rms_A": c.summary.get("current_rms_A"), "chi": c.summary.get("chi"),
+                            "fails": [x["name"] for x in c.checks if not x["ok"]]} for c in sz.candidates],
+            "n_candidates": len(sz.candidates), "n_analysed": sum(not c.screened_out for c in sz.candidates),
+            "n_feasible": sum(c.ok for c in sz.candidates),
+            "chosen": sz.chosen.label if sz.chosen else None, "timing": sz.timing}
+
+
+# ============================================================================ requirements vs achieved
+def _row(name, required, achieved, compare, unit="", source="", ok=None):
+    if ok is None:
+        if compare == "max":
+            ok = achieved <= required * (1 + 1e-9)
+        elif compare == "min":
+            ok = achieved >= required * (1 - 1e-9)
+        elif compare == "eq":
+            ok = abs(achieved - required) <= 1e-6 * max(1.0, abs(required))
+        else:
+            ok = bool(achieved)
+    if compare == "max" and required:
+        margin = (required - achieved) / abs(required)
+    elif compare == "min" and required:
+        margin = (achieved - required) / abs(required)
+    elif compare == "eq" and required:
+        margin = -abs(achieved - required) / abs(required)
+    else:
+        margin = None
+    return {"name": name, "required": required, "achieved": achieved, "compare": compare, "unit": unit,
+            "margin": margin, "ok": bool(ok), "source": source}
+
+
+def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
+    """Every requirement with the achieved value (kinematics: mjbench.analyze on the machine,
+    i.e. mjbench's own position solver; drive: the multibody run) and its margin."""
+    from .. import analyze as A
+
+    rows = []
+    m = req.mechanism
+    an = A.analyze(scn, speeds=[req.duty.omega], n=720)
+    src_k = "mjbench analyze (own position solver)"
+    if m.type == "slider-crank":
+        st = an["strokes_m"].get("guide")
+        rows.append(_row("stroke", m.stroke * 1e3, st * 1e3, "eq", "mm", src_k,
+                         ok=abs(st - m.stroke) <= 1e-6 * m.stroke))
+        arcs = an["stroke_arcs_deg"].get("guide")
+        if arcs:
+            Q = max(arcs.values()) / min(arcs.values())
+            rows.append(_row("time ratio (slow / return stroke)", m.time_ratio, Q, "eq", "1", src_k,
+                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
+    if m.type in ("crank-rocker",):
+        sw = an["swings_deg"].get("D")
+        rows.append(_row("rocker swing", math.degrees(m.swing), sw, "eq", "°", src_k,
+                         ok=sw is not None and abs(sw - math.degrees(m.swing)) <= 1e-3))
+        arcs = an["stroke_arcs_deg"].get("D")
+        if arcs:
+            Q = max(arcs.values()) / min(arcs.values())
+            rows.append(_row("time ratio (slow / fast swing)", m.time_ratio, Q, "eq", "1", src_k,
+                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
+    if m.type == "function-generator":
+        sc = syn_json.get("solver_check", {})
+        if m.max_structural_error is not None:
+            rows.append(_row("structural error (max |ψ − ψ_desired|)", math.degrees(m.max_structural_error),
+                             sc.get("structural_error_max_deg_solver"), "max", "°", "mjbench position solver, 201 points"))
+        else:
+            rows.append(_row("structural error (max |ψ − ψ_desired|)", None, sc.get("structural_error_max_deg_solver"),
+                             "info", "°", "mjbench position solver, 201 points", ok=True))
+        if m.method == "chebyshev":
+            rows.append(_row("precision points met (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
+                             "mjbench position solver"))
+    if m.type == "motion-generator":
+        sc = syn_json.get("solver_check", {})
+        rows.append(_row("poses met, position (solver)", 1e-9, sc.get("position_residual_m"), "max", "m",
+                         "mjbench position solver"))
+        rows.append(_row("poses met, angle (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
+                         "mjbench position solver"))
+    if m.type != "given":
+        trans = an["transmission_angles_deg"]
+        if trans:
+            mu = min(v["min"] for v in trans.values())
+            if m.min_transmission is not None:
+                rows.append(_row("minimum transmission angle", math.degrees(m.min_transmission), mu, "min", "°", src_k))
+            else:
+                rows.append(_row("minimum transmission angle", None, mu, "info", "°", src_k, ok=True))
+        if syn is not None:
+            for c in syn.constraints:
+                if c["name"].startswith(("link-length", "envelope", "input crank")):
+                    rows.append(_row(c["name"], c["limit"], c["value"], {"max": "max", "min": "min"}.get(c["compare"], "true"),
+                                     c["unit"], "synthesis (closed form)", ok=c["ok"]))
+    if ach is not None:
+        src = "multibody run, last cycle"
+        W = req.duty.omega
+        rows.append(_row("mean input speed", W, ach["mean_speed_rad_s"], "eq", "rad/s", src,
+                         ok=abs(ach["mean_speed_rad_s"] - W) <= req.verify.tolerance * W))
+        if req.duty.chi_max is not None:
+            rows.append(_row("speed fluctuation χ", req.duty.chi_max, ach["chi"], "max", "1", src))
+        mo, g = cand.motor, cand.gearbox
+        T_amb = req.duty.ambient_temperature
+        rows += [
+            _row("RMS motor torque ≤ continuous rating", TH.derated_continuous_torque(mo, T_amb),
+                 ach["motor_torque_rms_Nm"], "max", "N·m", src),
+            _row("peak motor torque ≤ T_peak", mo.T_peak, ach["motor_torque_peak_Nm"], "max", "N·m", src),
+            _row("winding temperature ≤ T_max", mo.T_max, ach["T_winding_C"], "max", "°C",
+                 "two-node model on the simulated current"),
+            _row("armature voltage ≤ supply", req.drive.supply_voltage, ach["voltage_peak_V"], "max", "V", src),
+            _row("motor speed ≤ maximum", mo.speed_max, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
+        if req.drive.current_limit is not None:
+            rows.append(_row("current ≤ amplifier limit", req.drive.current_limit, ach["current_peak_A"], "max", "A", src))
+        if g is not None:
+            rows += [_row("gearbox output torque RMS ≤ T_cont_out", g.T_cont_out, ach["gear_torque_rms_Nm"], "max", "N·m", src),
+                     _row("gearbox output torque peak ≤ T_peak_out", g.T_peak_out, ach["gear_torque_peak_Nm"], "max",
+                          "N·m", src),
+                     _row("gearbox input speed ≤ maximum", g.speed_max_in, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
+        if cand.J_f > 0 and req.drive.flywheel_max is not None:
+            rows.append(_row("flywheel ≤ flywheel_max", req.drive.flywheel_max, cand.J_f, "max", "kg·m²", "sizing"))
+    return rows
+
+
+def _finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log):
+    from . import report as RP
+
+    res["status"] = "ok" if not failures else "infeasible"
+    res["failures"] = failures
+    t = dict(clock.t)
+    syn_size = sum(t.get(k, {}).get("cpu_s", 0.0) for k in ("synthesis", "solver_check", "sizing"))
+    res["timing"] = {**t, "synthesis_and_sizing_cpu_s": syn_size, "total_cpu_s": time.process_time() - t0c,
+                     "total_wall_s": time.perf_counter() - t0w}
+    if out is not None:
+        res["files"] = RP.write(res, out, scn_doc, force=force)
+    log(RP.summary_text(res))
+    return res

@@ -1,0 +1,97 @@
+"""Machines designed from their requirements (``mjbench design``, docs/design.md): report cases.
+
+One case per shipped requirements file (mjbench/scenarios/requirements/): the design runs in full
+(synthesis, sizing, tuning, multibody verification) into ``<case>/design/``; the report rows are
+the requirements against the achieved values (a bound: meets / exceeds; a target: agrees within
+its tolerance) and every prediction of the sizing model against the multibody run (agrees within
+the check's tolerance).  There is no paper: the "paper" column holds the requirement or the
+prediction, each row's reason says which.
+"""
+from __future__ import annotations
+
+import math
+
+from mjbench.papers import Case
+
+KEY = "design"
+CITATION = "requirements-driven designs (mjbench design)"
+TITLE = "Design a machine from its requirements: synthesis, sizing, tuning, multibody verification"
+SCENARIOS = ()
+CASES = [
+    Case(name="design-press", scenario="press", kind="design", modes=["pi"], video=True, video_t_end=3.0,
+         title="Slider-crank press from stroke 100 mm, time ratio 1.2, 60 SPM, 6 kN forming load"),
+    Case(name="design-rocker", scenario="rocker", kind="design", modes=["pi"], video=True, video_t_end=2.0,
+         title="Crank-rocker from a 60° swing and time ratio 1.25, 90 cycles/min"),
+    Case(name="design-function", scenario="function", kind="design", modes=["pi"], video=False,
+         title="Function generator y = log10(x), 1 ≤ x ≤ 2 (Freudenstein, Chebyshev points)"),
+    Case(name="design-motion", scenario="motion", kind="design", modes=["pi"], video=True, video_t_end=3.0,
+         title="Motion generator through three gripper poses, 40 cycles/min"),
+    Case(name="design-seed000", scenario="seed000", kind="design", modes=["pi"], video=False,
+         title="The seed-000 four-bar re-sized for 30 rad/s with χ ≤ 3 %"),
+]
+
+
+def design(case, out):
+    """Run the design of ``case.scenario`` (a built-in requirements name) into ``out/design``:
+    (the machine's validated scenario, extra context for rows/figures).  The verification run is
+    the case's multibody trajectory."""
+    from mjbench import scenario as S
+    from mjbench.design import pipeline as P
+
+    res = P.design(case.scenario, out=out / "design", force=True, log=lambda *a: None)
+    if res.get("machine") is not None:
+        scn = S.from_raw(res["machine"], f"design:{case.scenario}")
+    else:  # infeasible: no machine; the report shows what fails
+        from mjbench.errors import ScenarioError
+
+        raise ScenarioError(f"design {case.scenario!r} is infeasible: "
+                           + "; ".join(f["name"] for f in res.get("failures", [])))
+    return scn, {"design": res}
+
+
+def _num(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def rows(ctx) -> list:
+    res = ctx.extra["design"]
+    out = []
+    for r in res.get("requirements_table", []):
+        if not _num(r.get("achieved")):
+            continue
+        req = r.get("required")
+        row = {"name": f"requirement: {r['name']}", "unit": r["unit"], "ours": {"achieved": r["achieved"]},
+               "reason": f"requirement vs achieved ({r['source']})"}
+        if r["compare"] in ("max", "min") and _num(req):
+            row.update(paper=req, compare=r["compare"])
+        elif r["compare"] == "eq" and _num(req):
+            row.update(paper=req, compare="value", tolerance=1e-3)
+        else:
+            row["paper"] = None
+        out.append(row)
+    for c in res.get("checks", []):
+        out.append({"name": f"prediction: {c['name']}", "unit": "", "paper": c["predicted"], "compare": "value",
+                    "tolerance": c["tolerance"], "ours": {"multibody": c["achieved"]},
+                    "reason": "the sizing model's prediction (the 'paper' column) vs the multibody run"
+                              + (f"; {c['note']}" if c.get("note") else "")})
+    t = res.get("timing", {})
+    out.append({"name": "synthesis + sizing CPU time", "unit": "s", "paper": 5.0, "compare": "max",
+                "ours": {"cpu": t.get("synthesis_and_sizing_cpu_s")}, "reason": "issue 24: ≤ 5 s CPU"})
+    out.append({"name": "whole design command (wall)", "unit": "s", "paper": 60.0, "compare": "max",
+                "ours": {"wall": t.get("total_wall_s")}, "reason": "issue 24: ≤ 60 s on this machine"})
+    ch = res.get("chosen") or {}
+    ctx.tables.append({"title": "Chosen drive", "head": ["motor", "gearbox", "ratio", "flywheel [kg·m²]",
+                                                         "kp", "ki", "kd", "gains"],
+                       "rows": [[ch.get("motor"), ch.get("gearbox") or "direct", ch.get("ratio"),
+                                 f"{ch.get('flywheel_kgm2', 0):.4g} ({ch.get('flywheel_location')})",
+                                 *(f"{ch['gains'][k]:.4g}" for k in ("kp", "ki", "kd")),
+                                 res.get("control", {}).get("source", "")]] if ch.get("gains") else [],
+                       "note": "Catalogue: " + ("the shipped example (illustrative values)"
+                                                if res["catalogue"].get("illustrative") else res["catalogue"]["source"])
+                               + ". Full design: design/design.md, design/design.json, design/machine.toml."})
+    return out
+
+
+def figures(ctx) -> list:
+    res = ctx.extra["design"]
+    return [ctx.out / "design" / "design.png"] if "design.png" in (res.get("files") or []) else []
