@@ -665,6 +665,15 @@ def input_inertia(machine, n: int = 16) -> tuple[float, float]:
     return Jeq + min(J), Jeq + max(J)
 
 
+def _machine_key(mc):
+    """What :func:`check_machine` depends on: the mechanism's parameters and the drive's inertia."""
+    try:
+        mech = (type(mc.mechanism).__name__, repr(sorted(mc.mechanism.describe().items())))
+    except Exception:  # noqa: BLE001 - a mechanism that cannot describe itself: check each
+        mech = id(mc.mechanism)
+    return mech, float(mc.drive.J_eq)
+
+
 def check_machine(machine) -> None:
     """Refuse, before simulating, a machine with nothing to accelerate: J_eq + J(q) ≤ 0 (all
     masses and inertias zero) — its acceleration would be a division by zero."""
@@ -733,8 +742,8 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     progs = []
     checked = set()
     for pl, mc in zip(plants, machines):
-        key = id(mc.mechanism), id(mc.drive)
-        if key not in checked:
+        key = _machine_key(mc)
+        if key not in checked:  # (a sweep's rows share their mechanism and drive inertias: check once)
             check_machine(mc)
             checked.add(key)
         if abs(float(pl.h) - h) > 1e-15 * h:

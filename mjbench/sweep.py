@@ -75,9 +75,10 @@ class SweepSpec:
         return d
 
 
-#: largest chunk per backend: mujoco.batch gains little beyond 256 simulations (256 vs 32 rows per
-#: chunk: 1.16× faster at N = 256); the reduced batch's fixed per-step cost keeps falling up to ~1024
-CHUNK_MAX = {"multibody": 256, "reduced": 1024}
+#: largest chunk per backend: the runs of a chunk are independent (mjbench.kernel.run_many, one run
+#: per thread), so a chunk is a unit of memory (its machines, plants and scenarios live together), of
+#: progress and of resumption (the table is rewritten after each), not of speed
+CHUNK_MAX = {"multibody": 64, "reduced": 256}
 
 
 def auto_chunk(nrows: int, backend: str, workers: int = 1) -> int:
@@ -313,6 +314,64 @@ def row_scenario(scn, row: dict, keys):
     return S.with_values(scn, {_resolve(scn, k): row[k] for k in keys})
 
 
+#: scenario tables whose values take part in cross-field checks: a row that sweeps them is
+#: validated whole (the other rows substitute values validated once each, :class:`RowScenarios`)
+WHOLE_VALIDATION = ("simulation.", "aliases", "paper", "metrics.", "law.", "optimize.", "check.",
+                    "drive.pwm", "drive.encoder", "drive.sensor", "drive.gear", "drive.friction", "drive.current_loop")
+
+
+class RowScenarios:
+    """The scenarios of a sweep's rows, each validated once per distinct value instead of once per row.
+
+    Every value of every swept key is validated by the schema on its own (the scenario with that
+    key set: units, ranges, types — an invalid value makes its rows error rows, as a full
+    validation would); a row's scenario is then the sweep's scenario with the validated values
+    substituted along their paths.  That is the scenario the schema gives for the whole row unless
+    keys interact in a cross-field check, so rows of keys in :data:`WHOLE_VALIDATION` are validated
+    whole, and the first row of every sweep is compared with its whole validation (any difference:
+    every row validated whole).  ``raw`` stays the sweep's (rows keep their values in ``overrides``)."""
+
+    def __init__(self, scn, keys):
+        self.scn, self.keys = scn, list(keys)
+        self.paths = {k: _resolve(scn, k) for k in self.keys}
+        self.fast = None if not any(p.startswith(WHOLE_VALIDATION) for p in self.paths.values()) else False
+        self._values = {}
+
+    def __call__(self, row: dict):
+        if self.fast is False:
+            return row_scenario(self.scn, row, self.keys)
+        vals = {self.paths[k]: self._validated(self.paths[k], row[k]) for k in self.keys}
+        s = self.scn
+        for path, v in vals.items():
+            s = _substituted(s, path.split("."), v)
+        s = s.model_copy(update={"overrides": list(self.scn.overrides) + [f"{p}={row[k]!r}"
+                                                                             for k, p in self.paths.items()]})
+        if self.fast is None:  # the first row: the substitution must equal the whole validation
+            whole = row_scenario(self.scn, row, self.keys)
+            self.fast = s.model_dump() == whole.model_dump()
+            return whole
+        return s
+
+    def _validated(self, path, value):
+        k = (path, repr(value))
+        if k not in self._values:
+            self._values[k] = S.get(S.with_values(self.scn, {path: value}), path)  # ScenarioError: an error row
+        return self._values[k]
+
+
+def _substituted(obj, parts, value):
+    """``obj`` (a pydantic model or dict) with the value at the dotted path ``parts`` replaced
+    (shallow copies along the path; the rest shared)."""
+    head = parts[0]
+    if len(parts) == 1:
+        new = value
+    else:
+        new = _substituted(obj[head] if isinstance(obj, dict) else getattr(obj, head), parts[1:], value)
+    if isinstance(obj, dict):
+        return {**obj, head: new}
+    return obj.model_copy(update={head: new})
+
+
 # ======================================================================== simulation of a chunk
 def settings(spec: SweepSpec, scn) -> dict:
     from .backends import SEARCH_BACKENDS
@@ -353,9 +412,10 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
     outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT
     out = {r["row"]: dict(r) for r in rows}
     machines, ok_rows, models, sts, sigs, cache = [], [], [], [], [], {}
+    scenarios = RowScenarios(scn, keys)
     for r in rows:
         try:
-            s = row_scenario(scn, r, keys)
+            s = scenarios(r)
             st_r = _run_settings(s, st.get("t_end_fixed"), backend)
             mc = S.make_machine(s, st["mode"])
             if backend == "multibody":
@@ -384,9 +444,9 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
                 o = {**batch.DEFAULT_OPTIONS, **st0["options"]}
                 res = batch.simulate([machines[i] for i in idx], st0["t_end"], record_dt=st0["record_dt"],
                                      options=o, nthread=nthread, models=[models[i] for i in idx])
-            else:
+            else:  # metrics computed as each run ends: one record per thread in memory, not the batch's
                 res = simulate_many([machines[i] for i in idx], backend, st0["t_end"], record_dt=st0["record_dt"],
-                                    options=st0["options"])
+                                    options=st0["options"], consume=lambda j, tr: _outcome(tr, sts[idx[j]]))
         except MjbenchError as e:
             for i in idx:
                 out[ok_rows[i]["row"]].update(status="error", message=str(e))
@@ -396,11 +456,18 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
             if res.diverged[j]:
                 rr.update(status="diverged", message=res.messages[j])
                 continue
-            try:
-                rr.update(status="ok", **row_metrics(res.trajectory(j), sts[i]))
-            except MjbenchError as e:
-                rr.update(status="error", message=str(e))
+            rr.update(**(res.results[j] if res.results is not None else _outcome(res.trajectory(j), sts[i])))
     return [out[r["row"]] for r in rows]
+
+
+def _outcome(traj, st) -> dict:
+    """The result cells of one run that ended: its metrics, or the error computing them."""
+    if traj.meta.get("diverged"):
+        return {}
+    try:
+        return {"status": "ok", **row_metrics(traj, st)}
+    except MjbenchError as e:
+        return {"status": "error", "message": str(e)}
 
 
 def verify_best(spec: SweepSpec, scn, results: list[dict], keys: list, st: dict, metric: str | None,
@@ -699,13 +766,15 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
                 pass
         fig, ax = plt.subplots(figsize=(6.4, 5))
         im = ax.imshow(Z, origin="lower", aspect="auto", cmap="viridis")
-        ax.set_xticks(range(len(xs)), [f"{v:g}" if isinstance(v, float) else str(v) for v in xs], rotation=45)
-        ax.set_yticks(range(len(ys)), [f"{v:g}" if isinstance(v, float) else str(v) for v in ys])
         ax.set_xlabel(gk[0])
         ax.set_ylabel(gk[1])
-        for (iy, ix), v in np.ndenumerate(Z):
-            if np.isfinite(v):
-                ax.text(ix, iy, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
+        if len(xs) <= LABELLED_CELLS and len(ys) <= LABELLED_CELLS:  # values written only where they can be read
+            for (iy, ix), v in np.ndenumerate(Z):
+                if np.isfinite(v):
+                    ax.text(ix, iy, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
+        step = max(1, len(xs) // LABELLED_CELLS), max(1, len(ys) // LABELLED_CELLS)  # readable tick labels
+        ax.set_xticks(range(0, len(xs), step[0]), [_tick(v) for v in xs[::step[0]]], rotation=45)
+        ax.set_yticks(range(0, len(ys), step[1]), [_tick(v) for v in ys[::step[1]]])
         fig.colorbar(im, ax=ax, label=metric)
         ax.set_title(f"{metric} (blank: diverged/error)")
         paths.append(P.save(fig, os.path.join(out_dir, f"heatmap_{metric}.png")))
@@ -731,6 +800,14 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
         ax.set_ylabel("simulations")
         paths.append(P.save(fig, os.path.join(out_dir, f"distribution_{metric}.png")))
     return paths
+
+
+#: the heat map writes each cell's value (and every tick label) only up to this many cells per axis
+LABELLED_CELLS = 16
+
+
+def _tick(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 def _match(values, v):

@@ -23,16 +23,19 @@ def simulate(machine, backend: str, t_end: float, **kw):
 
 
 def simulate_many(machines, backend: str, t_end: float, record_dt: float = 1e-3, options=None, nthread: int = 0,
-                  progress=None, loop=None):
+                  progress=None, loop=None, consume=None):
     """Run a list of machines on the named backend → ``BatchResult`` (each run equals its single run).
 
     ``options``: the backend's options (``runner.backend_options``); the reduced batch integrates
-    with RK4 (a scenario's ``solve_ivp`` method is replaced by RK4 here)."""
+    with RK4 (a scenario's ``solve_ivp`` method is replaced by RK4 here).  ``consume(i, trajectory)``:
+    called with each run's :class:`~mjbench.trajectory.Trajectory` as soon as the run ends, the
+    records are then not kept (``BatchResult.results`` holds what it returned)."""
     _check(backend)
     if backend == "multibody":
         from . import batch
         return batch.simulate(list(machines), t_end, record_dt=record_dt, options=options, progress=progress,
-                              loop=loop)
+                              loop=loop, consume=consume)
     from . import reduced_batch
     o = {**(options or {}), "method": "rk4"}
-    return reduced_batch.simulate(machines, t_end, record_dt=record_dt, options=o, progress=progress, loop=loop)
+    return reduced_batch.simulate(machines, t_end, record_dt=record_dt, options=o, progress=progress, loop=loop,
+                                  consume=consume)

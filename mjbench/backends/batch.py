@@ -27,6 +27,7 @@ class BatchResult:
 
     def __init__(self, record):
         self.record = record
+        self.results = getattr(record, "results", None)  # what a consumer returned per run (records not kept)
         self.data, self.columns, self.nrows = record.data, record.columns, record.nrows
         self.diverged, self.t_diverged, self.messages = record.diverged, record.t_diverged, record.messages
         self.meta = record.meta
@@ -45,6 +46,20 @@ class BatchResult:
     def column(self, name):
         """(nsim, nrec) array of one column (NaN after a divergence)."""
         return self.data[:, :, list(self.columns).index(name)]
+
+
+def consumer(consume, backend: str):
+    """The kernel's per-run consumer for ``consume(i, trajectory)`` (None passes through)."""
+    if consume is None:
+        return None
+
+    def on_run(i, rec):
+        tr = Trajectory.from_record(rec, backend)  # the run's own record: a view, freed after the call
+        tr.meta["sim"] = i
+        if rec.diverged[0]:
+            tr.meta["diverged"] = rec.messages[0]
+        return consume(i, tr)
+    return on_run
 
 
 # ================================================================= models
@@ -68,7 +83,8 @@ def build_models(machines, options=None):
 
 # ================================================================= simulation
 def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3,
-             options: dict | None = None, nthread: int = 0, models=None, progress=None, loop=None) -> BatchResult:
+             options: dict | None = None, nthread: int = 0, models=None, progress=None, loop=None,
+             consume=None) -> BatchResult:
     """Co-simulate the machines (a list, one per simulation) on MuJoCo for ``t_end`` seconds.
 
     ``models``: compiled models per simulation (default: :func:`build_models`).  Returns a
@@ -84,7 +100,8 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
         models = build_models(machines, o)
     plants = [MultibodyPlant(mc, o, m) for mc, m in zip(machines, models)]
     try:
-        rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="", loop=loop)
+        rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="", loop=loop,
+                              consume=consumer(consume, "batch"))
     finally:
         for pl in plants:
             pl.finish()

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from .. import kernel
 from ..errors import ParameterError
-from .batch import BatchResult
+from .batch import BatchResult, consumer
 from .reduced import ReducedPlant
 
 
 def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3, options: dict | None = None,
-             progress=None, model: str | None = None, loop=None, **_ignored) -> BatchResult:
+             progress=None, model: str | None = None, loop=None, consume=None, **_ignored) -> BatchResult:
     """Co-simulate the machines' reduced models for ``t_end`` s → :class:`BatchResult`
     (``.trajectory(i)``, ``diverged``, ``messages``).  ``options``: the reduced backend's
     (``timestep``, ``method`` — RK4 only —, ``model``)."""
@@ -32,7 +32,8 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
     model = model or o.get("model", "table")
     kernel.check_times(t_end, h, record_dt)
     plants = [ReducedPlant(mc, h, "rk4", model=model) for mc in machines]
-    rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="reduced", loop=loop)
+    rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="reduced", loop=loop,
+                          consume=consumer(consume, "reduced"))
     rec.meta.pop("div_state", None)
     return BatchResult(rec)
 

@@ -161,8 +161,14 @@ TableP = namedtuple("TableP", "C n k m viscous")
 
 
 def table_params(tab: "ReducedTable") -> TableP:
-    """The parameters of :func:`table_model` for a table."""
-    return TableP(np.ascontiguousarray(tab.coef.T), int(tab.n), float(tab.k), int(tab.m), bool(tab.viscous))
+    """The parameters of :func:`table_model` for a table (one per table: the runs that share a
+    mechanism share its coefficients, read-only)."""
+    P = getattr(tab, "_params", None)
+    if P is None:
+        C = np.ascontiguousarray(tab.coef.T)
+        C.flags.writeable = False
+        P = tab._params = TableP(C, int(tab.n), float(tab.k), int(tab.m), bool(tab.viscous))
+    return P
 
 
 @law
