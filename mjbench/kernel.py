@@ -3,7 +3,8 @@
 One co-simulation step h (0.1 ms by default) of one run, in this order (:func:`_loop`):
 
 1. measurement: t_n, q_n, q̇_n from the plant, q̈_n = (q̇_n − q̇_{n−1})/h (the backward difference a
-   digital controller sees; 0 at the first sample), I_n;
+   digital controller sees; 0 at the first sample — the record's row 0 gets the forward difference
+   (q̇_1 − q̇_0)/h of the first step once it is taken), I_n;
 2. at each control sample (every ``controller.period``, a multiple of h): the sensor (encoder,
    speed estimate, noise; ideal: the exact values), the reference φ_ref, φ̇_ref, φ̈_ref, the
    control law, the limiter (±v_max, or ±i_max for a current reference), the one-sample delay;
@@ -45,8 +46,9 @@ Slot signatures (P: the component's parameter tuple, S: its state array):
   ``EFF(T_m, φ̇, P) → T``;
 * the drive's ``DLIMIT(I, V, φ̇, P) → V_a`` (the voltage its amplifier applies: the command
   limited so that the current stays within ±i_max over the step), ``DMEAN(I, V, φ̇, P) → Ī`` (step-mean current), ``DTORQUE(Ī, φ̇, P) → T_m`` (motor
-  torque without its viscous part), ``DSTEP(I, V, φ̇̄, P) → I₊``, ``DREC(I, φ̇, P)`` (recorded crank
-  torque); P has at least ``z`` and ``k_m``;
+  torque without its viscous part), ``DSTEP(I, V, φ̇̄, P) → I₊``, ``DREC(out, b, I, V_a, φ̇, P)`` (the
+  drive's five recorded columns — current, voltage, crank torque, mechanical and electrical power —
+  into ``out[b:b+5]``); P has at least ``z``.  A drive type is its form (:mod:`mjbench.drives`);
 * ``PLANT(τ, t, P, S) → (q, q̇, δ, δ̇)``; ``READ(P, S)`` the same at the start;
   ``CLOSURE(P, S) → m``; ``UNSTABLE(P, S) → bool``; ``PWRITE(out, b, P, S)`` the plant's recorded
   columns.
@@ -75,9 +77,10 @@ from .trajectory import NAMES
 MAX_SPEED = 1e4  #: rad/s: beyond this an input speed is a diverged simulation, not physics
 MAX_CURRENT = 1e5  #: A
 NCORE = len(NAMES)
-#: co-steps from which a single run is compiled when numba is not loaded yet (see the module doc;
-#: measured in docs/performance.md: numba import + cached kernel load ≈ 0.35 s CPU, CPython loop
-#: ≈ 2.5–4 µs per co-step more than the compiled one → break-even ≈ 1e5 steps)
+#: co-steps from which a job is compiled when numba is not loaded yet, unless its plant states its
+#: own (``Form.flags["min_steps"]``): the start-up (numba import + cached kernel load) against the
+#: CPython loop's extra cost per co-step, measured in docs/performance.md — reduced model ≈ 0.21 s
+#: against ≈ 4.8 µs → 45 000 steps; MuJoCo ≈ 0.39 s against ≈ 2.2 µs → 180 000 steps
 MIN_STEPS = 150_000
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.1
@@ -176,7 +179,6 @@ def _loop(n0, n1, K, X):
     Pp = X.plant_P
     Sp = X.plant_S
     z = Pd.z
-    k_m = Pd.k_m
     q = ks[0]
     qd = ks[1]
     qd_prev = ks[2]
@@ -243,11 +245,7 @@ def _loop(n0, n1, K, X):
             out[b + 2] = qd
             out[b + 3] = qdd
             out[b + 4] = w
-            out[b + 5] = I
-            out[b + 6] = volt
-            out[b + 7] = DREC(I, w, Pd)
-            out[b + 8] = k_m * I * w
-            out[b + 9] = volt * I
+            DREC(out, b + 5, I, volt, w, Pd)  # current, voltage, crank torque, mechanical and electrical power
             out[b + 10] = CLOSURE(Pp, Sp) if HAS_CLOSURE else 0.0
             c = b + 11
             if NEXTRA > 0:
@@ -291,6 +289,8 @@ def _loop(n0, n1, K, X):
         if HAS_EFF:
             Tm = EFF(Tm, w0, Peff)
         q1, qd1, dm, dmd = PLANT(z * Tm, t, Pp, Sp)
+        if n == 0 and k > 0:  # row 0's acceleration: the forward difference of the first step
+            out[3] = (qd1 - qd) * inv_h
         qd_prev = qd
         wm = 0.5 * (w0 + z * (qd1 + dmd))
         if AMP_MODE == 2:
@@ -365,13 +365,14 @@ class Program:
         ``every`` steps: every component contributes its form (``form(...)`` methods)."""
         pr = cls()
         drive, ctrl = machine.drive, machine.controller
-        df = drive.form(h)  # the drive's laws: step-mean current, motor torque, current update, recorded torque
+        df = drive.form(h)  # the drive's laws: limit, step-mean current, motor torque, current update, record
         pr.drive = df.P
         for slot, name in (("DMEAN", "mean"), ("DTORQUE", "torque"), ("DSTEP", "step"), ("DREC", "record"),
                            ("DLIMIT", "limit")):
             pr.use(slot, df.laws[name], "drive")
         dforms = drive.forms(h, every, plant)  # the drive train's elements (empty: ideal)
-        pr.u_lim = dforms.get("limit", (-float(drive.v_max), float(drive.v_max)))
+        lim = dforms.get("limit")  # the controller output's clip: the drive train's, else ±v_max
+        pr.u_lim = lim if lim is not None else (-float(drive.v_max), float(drive.v_max))
         parts = {}
         # controller (+ reference)
         cf = controller_form(ctrl, h, every, machine)
@@ -421,6 +422,7 @@ class Program:
         pr.flags["HAS_CLOSURE"] = "closure" in pf.laws
         pr.flags["HAS_UNSTABLE"] = "unstable" in pf.laws
         pr.flags["NEXTRA"] = int(pf.flags.get("nextra", 0))
+        pr.min_steps = int(pf.flags.get("min_steps", MIN_STEPS))
         pr.read = pf.laws["read"]
         parts["plant"] = pf
         pr.forms = parts
@@ -521,9 +523,10 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
         return "compiled", "compiled loop requested (MJBENCH_JIT=1 / loop='compiled')"
     if jit.loaded():
         return "compiled", "numba already loaded"
-    if run_steps >= MIN_STEPS:
-        return "compiled", f"{run_steps:.3g} co-steps ≥ {MIN_STEPS:g} (pays numba's start-up)"
-    return "python", f"{run_steps:.3g} co-steps < {MIN_STEPS:g}: numba's start-up would cost more than it saves"
+    need = program.min_steps
+    if run_steps >= need:
+        return "compiled", f"{run_steps:.3g} co-steps ≥ {need:g} (pays numba's start-up)"
+    return "python", f"{run_steps:.3g} co-steps < {need:g}: numba's start-up would cost more than it saves"
 
 
 def preload(run_steps: float) -> bool:
@@ -690,6 +693,9 @@ def diagnose(machine, h: float) -> str:
     (J the smallest input inertia) below 2·h, i.e. an inertia too small for the step (or a unit
     slip in the inertias)."""
     drive = machine.drive
+    own = getattr(drive, "diagnose", None)  # a drive type with its own causes (mjbench.drives)
+    if own is not None:
+        return own(machine, h)
     I0, imax = abs(float(machine.I0)), float(drive.i_max)
     if I0 > imax:
         return (f" Likely cause: initial.I0 = {machine.I0:g} A is beyond the amplifier's current limit "

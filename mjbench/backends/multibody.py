@@ -22,6 +22,7 @@ from .. import compiled as C
 from .. import kernel
 from ..errors import ParameterError
 from ..trajectory import Trajectory
+from .joints import addresses, column_names, joint_list
 
 DEFAULT_OPTIONS = {"integrator": "RK4", "timestep": 1e-4}
 
@@ -50,7 +51,7 @@ MAX_SPEED, MAX_CURRENT = kernel.MAX_SPEED, kernel.MAX_CURRENT
 def build_model(machine, options=None, native_dcmotor=False):
     """Compile the machine's MuJoCo model (reflected drive inertia and viscous friction on the
     input joint).  With ``native_dcmotor`` the drive is MuJoCo's ``<dcmotor>`` actuator instead."""
-    o = {**DEFAULT_OPTIONS, **(options or {})}
+    o = {k: v for k, v in {**DEFAULT_OPTIONS, **(options or {})}.items() if k != "record_joints"}
     mech, drive = machine.mechanism, machine.drive
     if native_dcmotor:
         spec = mech.build_spec(armature=float(drive.J_b), options=o)
@@ -90,6 +91,10 @@ def integrator_name(i):
             int(mujoco.mjtIntegrator.mjINT_IMPLICITFAST): "implicitfast"}.get(int(i), str(i))
 
 
+#: co-steps from which a single MuJoCo run pays for loading the compiled loop (≈ 0.39 s of start-up
+#: against ≈ 2.2 µs saved per co-step, docs/performance.md; the kernel's choose_loop)
+MIN_COMPILED_STEPS = 180_000
+
 class MultibodyPlant:
     """One machine's MuJoCo model and data; its compiled form is :meth:`form` (the kernel's plant slot)."""
 
@@ -105,8 +110,12 @@ class MultibodyPlant:
         jnt = m.joint(mech.input_joint)
         self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
         self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
-        self.extra_columns = _extra_names(mech)
+        # [simulation] record_joints: every hinge/slide's qpos and qvel after the internal coordinates
+        self._joints = joint_list(m) if o.get("record_joints") else []
+        self.extra_columns = _extra_names(mech) + column_names(self._joints)
         self.meta = {"integrator": integrator_name(m.opt.integrator)}
+        if o.get("record_joints"):
+            self.meta["joint_columns"] = "MuJoCo's qpos and qvel of every hinge and slide joint"
 
     def start(self):
         mc, m, d = self.machine, self.model, self.data
@@ -127,19 +136,21 @@ class MultibodyPlant:
         closure = mech.closure_form(m, d)
         motor = mech.motor_index(m)  # compliant gear: (qpos, qvel) of the motor's own hinge
         internal = mech.internal_index(m) if mech.internal else np.zeros((0, 5))
+        jq, jv = addresses(self._joints)
         P = MujocoP(step, m._address, d._address, d.qpos, d.qvel, d.qfrc_applied, self._qa, self._va,
                     self._vd, -1 if motor is None else int(motor[0]), -1 if motor is None else int(motor[1]),
                     d.warning.number, int(mujoco.mjtWarning.mjWARN_BADQACC),
                     np.ascontiguousarray(internal[:, :4], dtype=np.int64) if internal is not None else None,
                     np.ascontiguousarray(internal[:, 4], dtype=float) if internal is not None else None,
-                    C.NO_PARAMS if load is None else load.P, closure.P)
+                    C.NO_PARAMS if load is None else load.P, closure.P, jq, jv)
         laws = {"read": mujoco_read, "closure": closure.law, "unstable": mujoco_unstable}
-        flags = {"nextra": len(self.extra_columns)}
-        if mech.internal:
-            if internal is None:
-                laws["write"] = _python_internal(self)
-            else:
-                laws["write"] = mujoco_internal
+        flags = {"nextra": len(self.extra_columns), "min_steps": MIN_COMPILED_STEPS}
+        if mech.internal and internal is None:
+            laws["write"] = _python_internal(self)
+        elif self._joints:
+            laws["write"] = mujoco_write
+        elif mech.internal:
+            laws["write"] = mujoco_internal
         if load is None:
             f = C.Form(mujoco_step, P, laws=laws, flags=flags)
         else:
@@ -161,8 +172,9 @@ class MultibodyPlant:
 #: the MuJoCo plant's parameters: mj_step's address, model and data addresses, live views of
 #: qpos, qvel, qfrc_applied, the input joint's qpos/dof and the drive's dof, the motor hinge of a
 #: compliant gear (−1: none), the warning counters and the bad-qacc index, the internal coordinates
-#: (rows qpos a, qpos b, dof a, dof b; x = q_a − c·q_b), the loads' and the closure's parameters
-MujocoP = namedtuple("MujocoP", "step m d qpos qvel qfrc qa va vd qm vm warn bad xi xc load closure")
+#: (rows qpos a, qpos b, dof a, dof b; x = q_a − c·q_b), the loads' and the closure's parameters, the
+#: recorded joints' qpos and dof addresses (``record_joints``; empty: none)
+MujocoP = namedtuple("MujocoP", "step m d qpos qvel qfrc qa va vd qm vm warn bad xi xc load closure jq jv")
 #: data address → (model, data): the CPython side of :func:`mj_step_at`
 _OBJECTS: dict = {}
 
@@ -224,6 +236,17 @@ def mujoco_internal(out, b, P, S):
 
 
 @C.law
+def mujoco_write(out, b, P, S):
+    """The internal coordinates and their rates (:func:`mujoco_internal`), then every recorded
+    joint's coordinate and rate, qpos and qvel (``joint_<name>_…``, :mod:`mjbench.backends.joints`)."""
+    mujoco_internal(out, b, P, S)
+    c = b + 2 * len(P.xc)
+    for k in range(len(P.jq)):
+        out[c + 2 * k] = P.qpos[P.jq[k]]
+        out[c + 2 * k + 1] = P.qvel[P.jv[k]]
+
+
+@C.law
 def site_pairs_closure(P, S):
     """The loop-closure residual [m]: the largest |component| of the offsets between the two sites
     of every ``connect`` equality (``P.closure.sx`` the flat ``site_xpos``, ``.pairs`` flat index
@@ -243,6 +266,7 @@ SitePairsP = namedtuple("SitePairsP", "sx pairs")
 
 def _python_internal(plant):
     mech, m, d = plant.machine.mechanism, plant.model, plant.data
+    joints = plant._joints
 
     def write(out, b, P, S):
         x, xd = mech.internal_state(m, d.qpos, d.qvel)
@@ -250,6 +274,10 @@ def _python_internal(plant):
         for i in range(n):
             out[b + i] = float(x[i])
             out[b + n + i] = float(xd[i])
+        c = b + 2 * n
+        for k, (_, _, qa, va) in enumerate(joints):
+            out[c + 2 * k] = float(d.qpos[qa])
+            out[c + 2 * k + 1] = float(d.qvel[va])
     return write
 
 

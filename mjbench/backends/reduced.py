@@ -45,6 +45,10 @@ from ..trajectory import Trajectory
 from .multibody import _extra_names
 
 
+#: co-steps from which a reduced run pays for loading the compiled loop (≈ 0.21 s of start-up against
+#: ≈ 4.8 µs saved per co-step, docs/performance.md; the kernel's choose_loop)
+MIN_COMPILED_STEPS = 45_000
+
 class ReducedPlant:
     """The reduced model of one machine; its compiled form is :meth:`form` (the kernel's plant slot)."""
 
@@ -90,7 +94,7 @@ class ReducedPlant:
         coordinates).  A model without a law runs the same RK4 law with a Python adapter of the
         closed forms (CPython loop); ``solve_ivp`` is a Python adapter."""
         mech = self._mech
-        flags = {"nextra": len(self.extra_columns)}
+        flags = {"nextra": len(self.extra_columns), "min_steps": MIN_COMPILED_STEPS}
         if self.method == "solve_ivp":
             return self._ivp_form(flags)
         if self._nx == 0:
