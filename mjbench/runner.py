@@ -16,11 +16,14 @@ BACKENDS = ("multibody", "reduced")
 
 
 def backend_options(scn, backend: str) -> dict:
-    """Options of a backend from the scenario's [multibody] / [reduced] tables and simulation.dt."""
+    """Options of a backend from the scenario's [multibody] / [reduced] tables and simulation.dt
+    (``record_joints`` from [simulation]: the joint columns, mjbench.backends.joints)."""
+    joints = {"record_joints": True} if getattr(scn.simulation, "record_joints", False) else {}
     if backend == "multibody":
-        return scn.multibody_options()
+        return {**scn.multibody_options(), **joints}
     r = scn.reduced
-    return {"timestep": scn.simulation.dt, "method": r.method, "rtol": r.rtol, "atol": r.atol, "model": r.model}
+    return {"timestep": scn.simulation.dt, "method": r.method, "rtol": r.rtol, "atol": r.atol, "model": r.model,
+            **joints}
 
 
 def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:
@@ -62,7 +65,7 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     """Metrics of every backend, their cross-comparison and the paper comparison rows."""
     mt = scn.metrics
     res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
-                                                   steady_from=mt.steady_start)
+                                                   steady_from=mt.steady_start, band_rel=mt.band_rel)
                                       for b, tr in trajs.items()}}
     res["reduced_model"] = reduced_source(scn)
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
@@ -142,27 +145,39 @@ def paper_rows(scn, mode: str, backend_metrics: dict) -> list:
     return rows
 
 
-def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv=None,
-        figure=True) -> dict:
-    """``mjbench run``: simulate, then write trajectory CSV(s), metrics.json, manifest.json and the
-    Fig.-4-style PNG into ``out_dir``.  Returns the metrics dict."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    mode = scn.mode(mode)
+def backends_of(backend: str) -> tuple:
+    """The backends a ``backend`` choice runs: ``"both"`` → (multibody, reduced), else (backend,)."""
     backends = BACKENDS if backend == "both" else (backend,)
     for b in backends:
         if b not in BACKENDS:
             from .errors import ParameterError
             raise ParameterError(f"--backend {b!r}: choose multibody, reduced or both")
+    return backends
+
+
+def simulate_mode(scn, mode: str, backend: str = "both", t_end=None, progress=False) -> tuple:
+    """Simulate ``mode`` on the backends of ``backend`` and compute what ``metrics.json`` holds:
+    ({backend: Trajectory}, metrics dict).  The computing half of :func:`run`."""
+    backends = backends_of(backend)
     trajs = run_mode(scn, mode, backends, t_end, progress)
     res = mode_metrics(scn, mode, trajs)
     res["scenario"] = scn.name
+    return trajs, res
+
+
+def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, argv=None, figure=True) -> None:
+    """Write what ``mjbench run`` writes into ``out_dir``: trajectory CSV(s), metrics.json,
+    manifest.json (``argv``: its ``command``, default ``sys.argv``), the scenario's model files
+    and the Fig.-4-style PNG.  The writing half of :func:`run` (the Python API's
+    ``Result.save`` calls it too)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     for b, tr in trajs.items():
         name = "trajectory.csv" if len(trajs) == 1 else f"trajectory_{b}.csv"
         tr.write_csv(out / name)
     write_json(out / "metrics.json", res)
     copy_model_files(scn, out)
-    write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(backends),
+    write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(trajs),
                                                             "reduced_model": res["reduced_model"],
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
@@ -173,6 +188,15 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
         fig4({mode: trajs}, out / "fig4.png", setpoint=setpoint(scn, mode),
              title=f"{scn.scenario.title or scn.name} — {mode}{tag}",
              chi={mode: chi_txt} if chi_txt else None)
+
+
+def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv=None,
+        figure=True) -> dict:
+    """``mjbench run``: simulate, then write trajectory CSV(s), metrics.json, manifest.json and the
+    Fig.-4-style PNG into ``out_dir``.  Returns the metrics dict."""
+    mode = scn.mode(mode)
+    trajs, res = simulate_mode(scn, mode, backend, t_end, progress)
+    write_run(scn, out_dir, mode, backend, trajs, res, argv, figure)
     return res
 
 
@@ -217,4 +241,47 @@ def chi_text(res):
     dts = {res["backends"][b].get("chi_sampling_s") for b in bs} - {None}
     if lines and dts:  # χ is max − min of the recorded samples: it depends on their interval
         lines.append(f"(from samples every {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms)")
+    return "\n".join(lines)
+
+
+def summary_text(res: dict) -> str:
+    """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
+    lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
+    keys = [("mean_motor_speed_rad_s", "mean motor speed (2nd half) [rad/s]", "{:.3f}"),
+            ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),
+            ("chi_last_turn", "χ last 2π of travel to t_end [%]", "pct"),
+            ("chi_window", "χ in the metrics window [%]", "pct"),
+            ("peak_voltage_V", "peak |voltage| [V]", "{:.2f}"),
+            ("peak_current_A", "peak |current| [A]", "{:.2f}"),
+            ("max_closure_error_m", "max loop-closure error [m]", "{:.2e}")]
+    cs = next((m["coupler_speed"] for m in res["backends"].values() if "coupler_speed" in m), None)
+    after = f"after {cs['settle_time_s']:g} s" if cs else "after settle_time"
+    keys += [("coupler_speed.coupler_dev_max_after_m_s", f"max |V_C − V_des| {after} [m/s]", "{:.5f}"),
+             ("coupler_speed.crank_error_max_after_rad_s", f"max |crank error| {after} [rad/s]", "{:.4f}"),
+             ("coupler_speed.rise_time_s", "rise time of V_C [s]", "{:.3f}"),
+             ("coupler_speed.settling_time_s", "settling time of V_C [s]", "{:.3f}")]
+    for k, label, fmt in keys:
+        vals = []
+        for b, m in res["backends"].items():
+            v = metric_value(m, k)
+            if v is not None:
+                vals.append(f"{b}: " + (f"{100 * v:.3f}" if fmt == "pct" else fmt.format(v)))
+        if vals:
+            lines.append(f"  {label:<40s} " + "   ".join(vals))
+    dts = {m.get("chi_sampling_s") for m in res["backends"].values()} - {None}
+    if dts:  # χ is max − min of the record's samples: it depends on their interval
+        lines.append(f"  {'χ computed from samples every':<40s} {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms "
+                     f"(simulation.record_dt)")
+    if "multibody_vs_reduced" in res:
+        c = res["multibody_vs_reduced"]
+        lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")
+        if c.get("note"):
+            lines.append(f"  {'':<40s} ({c['note']})")
+    if str(res.get("reduced_model", "")).startswith("MuJoCo-derived"):
+        lines.append(f"  reduced model: {res['reduced_model']}")
+    for row in res.get("paper", []):
+        ours = "   ".join(f"{b}: {v:.4g}" for b, v in row["ours"].items() if v is not None)
+        unit = "" if row.get("unit") in ("", "1", None) else f" {row['unit']}"
+        lines.append(f"  paper: {row['name']}: {row['paper_text']}{unit}   ours {ours}\n"
+                     f"         verdict: {row['verdict']['text']}")
     return "\n".join(lines)

@@ -6,13 +6,32 @@ Every option value is checked when the command line is parsed, the way scenario 
 with bounds (a quantity may carry a unit: ``--t-end "500 ms"``); a bad value is ONE line naming the
 option and what is wrong (``--samples: must be an integer >= 0, got '-3'``), exit 2, before any
 work.  An option the chosen run does not use is refused (:func:`refuse_unused`), never ignored.
+
+Each command is a thin layer over the Python API (:mod:`mjbench.api`, docs/api.md): it parses and
+checks its options, calls the API function, and prints; the files it writes are the API's
+(``Result.save``, ``TuneResult.save`` ...).  The API's :class:`~mjbench.api.scenarios.MjbenchWarning`
+is silenced while a command runs (:func:`cli_command`): the command prints the same lines as
+``mjbench: warning: ...``.
 """
 import argparse
+import functools
 import math
+import warnings
 
-#: largest frame [px] ``render``/``reproduce`` accept: 8K UHD, within H.264 level 6.2 and the
-#: 16384-px renderbuffer limit of the usual OpenGL drivers (Mesa, NVIDIA)
-MAX_WIDTH, MAX_HEIGHT = 7680, 4320
+from ..api.video import MAX_HEIGHT, MAX_WIDTH, check_frame  # noqa: F401 - the frame limits of render/reproduce
+
+
+def cli_command(func):
+    """Decorator of a command's ``func(args)``: the API's warnings are not shown as Python
+    warnings (the command prints them itself, one ``mjbench: warning: ...`` line each)."""
+    @functools.wraps(func)
+    def run(args):
+        from ..api.scenarios import MjbenchWarning
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MjbenchWarning)
+            return func(args)
+    return run
 
 
 def integer(ge=None, le=None, what="an integer"):
@@ -62,17 +81,6 @@ def refuse_unused(option, why):
     from ..errors import ParameterError
 
     raise ParameterError(f"{option} has no effect here: {why}")
-
-
-def check_frame(width, height, option="--width/--height"):
-    """Video frame size: even (H.264), 16 px to 8K (:data:`MAX_WIDTH` × :data:`MAX_HEIGHT`)."""
-    from ..errors import ParameterError
-
-    if width is None or height is None:
-        return
-    if not (16 <= width <= MAX_WIDTH and 16 <= height <= MAX_HEIGHT) or width % 2 or height % 2:
-        raise ParameterError(f"{option} = {width}x{height}: need even sizes from 16x16 to {MAX_WIDTH}x{MAX_HEIGHT} px "
-                             f"(H.264 and the offscreen OpenGL framebuffer)")
 
 
 def add_fast_multibody(p):

@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import sys
 
-from . import integer, quantity
+from . import cli_command, integer, quantity
 
-#: most samples ``--points`` takes (0.00036° apart); ``POINT_BYTES`` each are checked against the
-#: available memory before computing (measured ≈ 1.3 kB per point, press-slidercrank; ×3 margin)
+#: most samples ``--points`` takes (0.00036° apart); each is checked against the available memory
+#: before computing (``mjbench.api.analysis.POINT_BYTES``)
 MAX_POINTS = 1_000_000
-POINT_BYTES = 4096
 
 
 def register(sub):
@@ -35,18 +34,18 @@ def register(sub):
     p.set_defaults(func=cmd_analyze)
 
 
+@cli_command
 def cmd_analyze(args):
-    from .. import analyze as A
-    from .. import scenario as S
+    """``mjbench analyze`` = ``mjbench.analyze_mechanism`` → ``Analysis.save`` (docs/api.md)."""
+    from .. import api
     from .. import units as U
+    from ..api.analysis import analysis_size
     from ..errors import ParameterError
 
-    scn = S.load(args.scenario, args.overrides)
+    scn = api.load(args.scenario, args.overrides)
     for w in scn.warnings:
         print(f"mjbench: warning: {w}", file=sys.stderr)
     import math
-
-    from ..kernel import memory_limit
 
     speeds = []
     for text in args.speed:
@@ -57,35 +56,17 @@ def cmd_analyze(args):
         if not (math.isfinite(v) and abs(v) <= 1e5):
             raise ParameterError(f"--speed {text!r}: must be a finite input speed up to 1e5 rad/s in magnitude")
         speeds.append(v)
-    need, lim = args.points * POINT_BYTES * max(1, len(speeds)), memory_limit()
-    if need > lim:
-        raise ParameterError(f"--points {args.points:,}: the analysis would need about {need / 2 ** 20:,.0f} MiB, more "
-                             f"than {lim / 2 ** 20:,.0f} MiB (half the available memory; MJBENCH_MAX_RECORD_MB "
-                             f"overrides): use fewer points")
+    analysis_size(args.points, len(speeds), "--points")
     if args.out:
         from ..outputs import check_out_dir
 
         check_out_dir(args.out, force=args.force)  # refuse a bad --out before computing
-    res = A.analyze(scn, speeds or None, n=args.points, mu_min_deg=args.mu_min)
-    check = None
-    if res.get("applicable"):
-        from ..plausibility import model_warnings, reduced_vs_mujoco
-
-        # the reduced model against MuJoCo's mass matrix and bias forces (analysis.json "plausibility")
-        check = res["plausibility"] = {"model": reduced_vs_mujoco(S.make_mechanism(scn), scn.multibody_options())}
+    res = api.analyze_mechanism(scn, speeds, points=args.points, mu_min_deg=args.mu_min)
     if args.out:
-        from ..outputs import staged_dir
-
-        with staged_dir(args.out, force=args.force) as out:
-            A.write(res, out)
-    print(A.summary_text(res))
-    if check is not None:
-        m = check["model"]
-        if m.get("applicable"):
-            print(f"  reduced model vs MuJoCo at {m['n_angles']} angles: J {m['J_rel_err']:.2g}, J' {m['dJ_rel_err']:.2g}, "
-                  f"E_p' {m['dEp_rel_err']:.2g} (relative; tolerance {m['tolerance']:g})")
-        for w in model_warnings(m):
-            print(f"mjbench: warning: {w.replace('metrics.json', 'analysis.json')}", file=sys.stderr)
+        res.save(args.out, force=args.force, what="--out")
+    print(res.summary())
+    for w in res.warnings:
+        print(f"mjbench: warning: {w}", file=sys.stderr)
     if args.out:
         print(f"results written to {args.out}")
     return 0

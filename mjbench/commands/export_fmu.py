@@ -2,6 +2,8 @@
 as an FMI 2.0 co-simulation FMU (:mod:`mjbench.fmi`, docs/bridges.md)."""
 from __future__ import annotations
 
+from . import cli_command
+
 
 def register(sub):
     p = sub.add_parser(
@@ -27,35 +29,20 @@ def register(sub):
     p.set_defaults(func=cmd_export_fmu)
 
 
+@cli_command
 def cmd_export_fmu(args):
+    """``mjbench export-fmu`` = ``mjbench.export_fmu`` (docs/api.md)."""
     import os
 
-    from .. import scenario as S
+    from .. import api
     from ..errors import ParameterError
-    from ..outputs import output_file
 
     try:
         import pythonfmu  # noqa: F401
     except ImportError:
         raise ParameterError("export-fmu needs pythonfmu: pip install 'mjbench[fmi]' (or pip install pythonfmu)") from None
-    from ..fmi import export_fmu
-
-    scn = S.load(args.scenario, args.overrides)
-    if args.controller:
-        scn.mode(args.controller)  # an unknown mode: one error before any work
-    with output_file(args.out, "--out", suffixes=(".fmu",)) as out:
-        if out.exists() and not args.force:
-            raise ParameterError(f"--out {args.out} exists; use --force to replace it")
-        tmp = out.with_name(f".{out.stem}.tmp-{os.getpid()}.fmu")
-        try:
-            if args.controller:
-                export_fmu(scn, tmp, kind="controller", mode=args.controller)
-            else:
-                export_fmu(scn, tmp, kind="plant", input=args.input, backend=args.backend)
-            os.replace(tmp, out)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+    out = api.export_fmu(api.load(args.scenario, args.overrides), args.out, controller=args.controller,
+                         input=args.input, backend=args.backend, force=args.force, what="--out")
     note = ""
     try:
         import fmpy.validation as V

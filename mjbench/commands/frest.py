@@ -3,10 +3,8 @@ of the running nonlinear machine (plant and loop) with coherence, margins from t
 the linearisation overlaid (:mod:`mjbench.frest`, docs/bridges.md).  Writes frest.json and bode.png."""
 from __future__ import annotations
 
-import os
-
-from ..outputs import add_force_option, staged_dir, write_json
-from . import parse_numbers
+from ..outputs import add_force_option
+from . import cli_command
 
 
 def register(sub):
@@ -39,15 +37,16 @@ def register(sub):
     p.set_defaults(func=cmd_frest)
 
 
+@cli_command
 def cmd_frest(args):
-    from .. import frest as F
-    from .. import scenario as S
+    """``mjbench frest`` = ``mjbench.frequency_response`` → ``FrequencyResponse.save`` (docs/api.md)."""
+    from .. import api
     from ..errors import ParameterError
-    from ..preflight import check_machine
+    from ..outputs import check_out_dir
     from .linearize import parse_at
 
-    scn = S.load(args.scenario, args.overrides)
-    check_machine(scn, args.mode)
+    scn = api.load(args.scenario, args.overrides)
+    scn.check(args.mode)
     at = parse_at(args.at)
     band = None
     if args.band:
@@ -60,39 +59,11 @@ def cmd_frest(args):
         band = (lo, hi)
     if args.periods < 2:
         raise ParameterError(f"--periods {args.periods}: at least 2 (the coherence needs two periods)")
-    with staged_dir(args.out, force=args.force) as out:
-        res = F.measure(scn, args.mode, backend=args.backend, signal=args.signal, amplitude=args.amplitude, band=band,
-                        period=args.period, periods=args.periods, settle=args.settle, n_lines=args.lines, **at)
-        write_json(os.path.join(out, "frest.json"), res["json"], indent=1)
-        F.figure(res, os.path.join(out, "bode.png"), f"{scn.name} ({res['json']['mode']}, {args.backend})")
-    print(summary(res["json"]))
+    check_out_dir(args.out, force=args.force)
+    res = api.frequency_response(scn, args.mode, backend=args.backend, signal=args.signal, amplitude=args.amplitude,
+                                 band=band, period=args.period, periods=args.periods, settle=args.settle,
+                                 lines=args.lines, **at)
+    res.save(args.out, force=args.force, what="--out")
+    print(res.summary())
     print(f"results written to {args.out}")
     return 0
-
-
-def summary(js) -> str:
-    def f(v, fmt="{:.4g}"):
-        return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
-
-    op = js["operating_point"]
-    lines = [f"{js['scenario']} (mode {js['mode']}, {js['backend']}, {js['signal']}): q* = {f(op['q_rad'])} rad, "
-             f"q̇* = {f(op['qd_rad_s'])} rad/s, V* = {f(op['V_V'])} V; amplitude {f(js['amplitude_V'])} V, "
-             f"{len(js['lines_rad_s'])} lines {f(js['lines_rad_s'][0])}-{f(js['lines_rad_s'][-1])} rad/s"]
-    c = js.get("comparison", {})
-    for k in ("plant", "loop"):
-        if k in c and c[k]["max_rel_diff"] is not None:
-            lines.append(f"  {k} vs linearisation over {f(js['band_rad_s'][0])}-{f(js['band_rad_s'][1])} rad/s: "
-                         f"max rel {f(c[k]['max_rel_diff'], '{:.2e}')}, |mag| {f(100 * c[k]['max_mag_diff'], '{:.3g}')} %, "
-                         f"phase {f(c[k]['max_phase_diff_deg'], '{:.3g}')}°")
-    lp = js.get("loop")
-    if lp:
-        m, ml = lp["margins"], lp.get("margins_linear") or {}
-        lines.append(f"  measured loop: GM {f(m['gain_margin_dB'])} dB, PM {f(m['phase_margin_deg'])}°, peak |S| "
-                     f"{f(m['peak_sensitivity'])}" + (f" (linear: {f(ml.get('gain_margin_dB'))} dB, "
-                                                       f"{f(ml.get('phase_margin_deg'))}°, {f(ml.get('peak_sensitivity'))})"
-                                                       if ml else ""))
-    lines.append(f"  min coherence {f(min(js['plant']['coherence']), '{:.4f}')}, distortion ratio "
-                 f"{f(js['distortion_ratio'], '{:.2e}')}; {js['band_note']}")
-    for n in js.get("notes", []):
-        lines.append(f"  note: {n}")
-    return "\n".join(lines)

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import os
 
-from ..outputs import add_force_option, maybe_staged_dir, write_json
-from . import quantity
+from ..outputs import add_force_option
+from . import cli_command, quantity
 
 
 def register(sub):
@@ -61,8 +61,12 @@ def _kv(items, what):
     return out
 
 
+@cli_command
 def cmd_identify(args):
+    """``mjbench identify`` = ``mjbench.identify_motor`` → ``MotorFit.save`` (docs/api.md)."""
+    from .. import api
     from .. import identify as ID
+    from ..errors import ParameterError
     from ..outputs import check_out_dir
 
     if args.out:
@@ -73,25 +77,19 @@ def cmd_identify(args):
         ID.write_record(args.data, ID.synthetic_record(truth, seed=0, omega_s=args.omega_s))
         print(f"synthetic record (Incerti 2012 motor, T_c = 0.05 N·m, noise 0.05 rad/s and 0.05 A) -> {args.data}")
     fixed, guess = _kv(args.fix, "fix"), _kv(args.guess, "guess")
-    from ..errors import ParameterError
     if len(fixed) == len(ID.PARAMS):
         raise ParameterError("--fix: every parameter is fixed, nothing is left to fit")
     both = sorted(set(fixed) & set(guess))
     if both:
         raise ParameterError(f"--guess {both[0]}: the parameter is also fixed (--fix); a start value of a fixed "
                              f"parameter has no effect")
-    rec = ID.read_record(args.data)
+    rec = ID.read_record(args.data)  # (errors name --data, the row and the column)
     if args.no_current and "I" not in rec:
         raise ParameterError(f"--no-current: {args.data} has no current column to ignore")
-    I = None if args.no_current else rec.get("I")
-    res = ID.fit(rec["t"], rec["V"], rec["omega"], I, fixed=fixed, guess=guess, omega_s=args.omega_s)
-    print(ID.report(res, truth))
+    res = api.identify_motor(rec, fix=fixed, guess=guess, current=not args.no_current, omega_s=args.omega_s,
+                             source=os.path.abspath(args.data))
+    print(res.report(truth))
     if args.out:
-        with maybe_staged_dir(args.out, force=args.force) as out:
-            doc = {k: v for k, v in res.items() if k not in ("omega_fit", "I_fit")}
-            doc["data"] = os.path.abspath(args.data)
-            doc["drive"] = ID.drive_table(res)
-            write_json(os.path.join(out, "identify.json"), doc, indent=1)
-            ID.plot({**rec, "I": I}, res, os.path.join(out, "identify_fit.png"))
+        res.save(args.out, force=args.force, what="--out")
         print(f"results written to {args.out}")
     return 0

@@ -3,10 +3,8 @@ model (reduced and multibody), its loop, margins, poles and the frozen-angle fam
 (:mod:`mjbench.linear`).  Writes bode.png, nyquist.png, poles.png, plant.png and linear.json."""
 from __future__ import annotations
 
-import os
-
-from ..outputs import add_force_option, staged_dir, write_json
-from . import integer, parse_numbers
+from ..outputs import add_force_option
+from . import cli_command, integer, parse_numbers
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -56,77 +54,18 @@ def parse_at(items) -> dict:
     return {AT_KEYS[k]: v for k, v in got.items()}
 
 
+@cli_command
 def cmd_linearize(args):
-    from .. import linear as LN
-    from .. import linear_plots as LP
-    from .. import plotstyle
-    from .. import scenario as S
-    from ..preflight import check_machine
-
-    from ..errors import SimulationDiverged
+    """``mjbench linearize`` = ``mjbench.linearize`` → ``LinearResult.save`` (docs/api.md)."""
+    from .. import api
+    from ..outputs import check_out_dir
 
     at = parse_at(args.at)
-    scn = S.load(args.scenario, args.overrides)
-    check_machine(scn, args.mode)
-    with staged_dir(args.out, force=args.force) as out:
-        try:
-            res = LN.study(scn, args.mode, n_angles=args.angles, multibody=not args.no_multibody, **at)
-        except ArithmeticError as e:  # (ZeroDivisionError, OverflowError, FloatingPointError)
-            point = ", ".join(f"{k}={v:g}" for k, v in at.items()) or "the default operating point"
-            raise SimulationDiverged(f"linearize at {point}: the linear model cannot be computed there "
-                                     f"({type(e).__name__}: {e}); the state is out of the model's numerical range "
-                                     f"(a speed or current far beyond the motor's?)") from None
-        js, objs = res["json"], res["objects"]
-        write_json(os.path.join(out, "linear.json"), js, indent=1)
-        with plotstyle.context():
-            LP.family_figures(objs, os.fspath(out), scn.name)
-    print(summary(js))
+    scn = api.load(args.scenario, args.overrides)
+    scn.check(args.mode)
+    check_out_dir(args.out, force=args.force)
+    res = api.linearize(scn, args.mode, angles=args.angles, multibody=not args.no_multibody, **at)
+    res.save(args.out, force=args.force, what="--out")
+    print(res.summary())
     print(f"results written to {args.out}")
     return 0
-
-
-def summary(js) -> str:
-    """Text summary of a linear.json."""
-    def f(v, fmt="{:.4g}"):
-        return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
-
-    op = js["operating_point"]
-    lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}): q* = {f(op['q_rad'])} rad, "
-             f"q̇* = {f(op['qd_rad_s'])} rad/s, I* = {f(op['I_A'])} A, V* = {f(op['V_V'])} V"
-             + (f", t = {f(op['t_s'])} s" if op["t_s"] else "") + f"; angle model: {js['angle_model']}"]
-    for w in js.get("warnings", []):
-        lines.append(f"WARNING: {w}")
-    ag = js.get("agreement", {})
-    if "reduced_vs_multibody_input_coordinates" in ag:
-        a = ag["reduced_vs_multibody_input_coordinates"]
-        lines.append(f"  plant q̇/V, reduced vs multibody (input coordinates): max relative difference "
-                     f"{f(a['max_rel'], '{:.2e}')} over {f(a['omega_lo_rad_s'])}-{f(a['omega_hi_rad_s'])} rad/s")
-    tm = js.get("transmission_modes")
-    if tm:
-        for k, v in tm.items():
-            lines.append(f"  transmission mode, {k:<7s}: " + ", ".join(
-                f"ω_n = {f(m['omega_n_rad_s'])} rad/s, ζ = {f(m['zeta'])}" for m in v))
-    lp = js.get("loop")
-    if lp:
-        lines.append(f"  loop: GM = {f(lp['gain_margin_dB'])} dB, PM = {f(lp['phase_margin_deg'])}°, "
-                     f"peak |S| = {f(lp['peak_sensitivity'])}, bandwidth = {f(lp['bandwidth_rad_s'])} rad/s, "
-                     f"{'stable' if lp['stable'] else 'UNSTABLE'} (spectral radius {f(lp['spectral_radius'], '{:.6f}')})")
-    elif js.get("loop_note"):
-        lines.append(f"  no loop analysis: {js['loop_note']}")
-    fa = js.get("frozen_angle")
-    if fa:
-        w, v = fa["worst"], fa["validity"]
-        lines.append(f"  frozen angles ({len(fa['angles_rad'])}): worst PM {f(w['phase_margin_deg']['value'])}° at q = "
-                     f"{f(w['phase_margin_deg']['at_q_rad'])} rad, worst GM {f(w['gain_margin_dB']['value'])} dB at q = "
-                     f"{f(w['gain_margin_dB']['at_q_rad'])} rad, max peak |S| {f(w['peak_sensitivity']['value'])}"
-                     f"{'' if w['all_stable'] else ', some frozen loops UNSTABLE'}")
-        lines.append(f"  frozen-angle validity ν = {f(v['ratio'])} ({v['verdict']}): inertia/reference change rate "
-                     f"{f(max(v['inertia_rate_max_1_s'] or 0, v['reference_rate_max_1_s'] or 0))} 1/s vs bandwidth "
-                     f"{f(v['bandwidth_min_rad_s'])} rad/s")
-    kr = js.get("kp_ramp")
-    if kr:
-        lim = kr["limit"]
-        lines.append(f"  K_p·t = {f(kr['kp_eff'])} V·s/rad at t = {f(kr['t_s'])} s; the sampled loop loses stability at "
-                     f"t = {f(lim['t_s'])} s (K_p·t = {f(lim['kp_eff'])}, q = {f(lim['at_q_rad'])} rad)")
-    return "\n".join(lines)
-

@@ -5,7 +5,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
-from . import MAX_HEIGHT, MAX_WIDTH, check_frame, integer, quantity  # noqa: E402
+from . import MAX_HEIGHT, MAX_WIDTH, check_frame, cli_command, integer, quantity  # noqa: E402
 
 
 def register(sub):
@@ -30,28 +30,18 @@ def register(sub):
     p.set_defaults(func=run, gl=True)
 
 
+@cli_command
 def run(args) -> int:
-    from .. import outputs, render, scenario
-    from ..preflight import check_machine, simulation_errors
+    """``mjbench render`` = ``mjbench.render_video`` (docs/api.md)."""
+    from .. import api, outputs, render
 
     outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     check_frame(args.width, args.height)
     render.gl_setup()
     outputs.route_mujoco_log()
-    scn = scenario.load(args.scenario, args.set)
-    if scn.get("modes"):
-        check_machine(scn, args.mode)
-    import mujoco
-
-    from ..errors import MjbenchError
-    with outputs.output_file(args.out, suffixes=(".mp4", ".gif")) as out, simulation_errors(scn):
-        try:
-            info = render.render_scenario(scn, out, mode=args.mode, fps=args.fps, width=args.width,
-                                          height=args.height, t_end=args.t_end, progress=not args.no_progress,
-                                          crf=args.crf)
-        except mujoco.FatalError as e:  # e.g. an offscreen framebuffer the OpenGL driver cannot make
-            raise MjbenchError(f"--width/--height = {args.width}x{args.height}: OpenGL cannot render it ({e}); "
-                               f"try a smaller frame") from None
+    scn = api.load(args.scenario, args.set)
+    info = api.render_video(scn, args.out, mode=args.mode, fps=args.fps, width=args.width, height=args.height,
+                            t_end=args.t_end, crf=args.crf, progress=not args.no_progress, what="--out")
     print(f"wrote {info['path']}: {info['frames']} frames {info['width']}x{info['height']} at {info['fps']:g} fps "
           f"({info['duration_s']:.2f} s video); simulation {info['sim_s']:.2f} s, rendering+encoding "
           f"{info['wall_s']:.1f} s ({info['frames_per_s']:.1f} frames/s, OpenGL: {info['gl']})")

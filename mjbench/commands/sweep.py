@@ -1,9 +1,10 @@
 """``mjbench sweep``: grid / Monte Carlo sweeps on the batched backend, locally or on Dask."""
 from __future__ import annotations
 
+import os
 import sys
 
-from . import add_fast_multibody, apply_fast_multibody, given, integer, quantity, refuse_unused
+from . import add_fast_multibody, apply_fast_multibody, cli_command, given, integer, quantity, refuse_unused
 
 
 def register(sub):
@@ -44,10 +45,13 @@ def register(sub):
     p.set_defaults(func=cmd_sweep)
 
 
+@cli_command
 def cmd_sweep(args):
+    """``mjbench sweep`` = ``mjbench.parameter_sweep`` (docs/api.md)."""
+    from .. import api
     from ..errors import ParameterError
     from ..outputs import check_out_dir
-    from ..sweep import SweepSpec, check_scheduler, parse_grid, parse_perturb, run_sweep
+    from ..sweep import check_scheduler, parse_grid, parse_perturb
 
     check_out_dir(args.out, must_be_empty=False)  # resumable: an existing sweep folder is fine
     grid, perturb = parse_grid(args.grid), parse_perturb(args.perturb)
@@ -67,21 +71,21 @@ def cmd_sweep(args):
         except ImportError:
             raise ParameterError("--scheduler needs Dask: pip install 'mjbench[dask]'") from None
         check_scheduler(args.scheduler)  # a malformed address: one line, before anything else
-    spec = SweepSpec(scenario=args.scenario, grid=grid, samples=args.samples,
-                     perturb=perturb, seed=args.seed or 0, mode=args.mode,
-                     t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides), chunk_size=args.chunk,
-                     backend=args.backend, verify=3 if args.verify is None else args.verify)
-    res = run_sweep(spec, args.out, scheduler=args.scheduler, nthread=args.threads,
-                    progress=not args.quiet and sys.stderr.isatty(), metric=args.metric)
-    for note in res.get("notes", []):
+    res = api.parameter_sweep(args.scenario, grid, samples=args.samples, perturb=perturb, seed=args.seed or 0,
+                              mode=args.mode, t_end=args.t_end, overrides=apply_fast_multibody(args, args.overrides),
+                              backend=args.backend, verify=3 if args.verify is None else args.verify,
+                              metric=args.metric, out=args.out, chunk=args.chunk, threads=args.threads,
+                              scheduler=args.scheduler, progress=not args.quiet and sys.stderr.isatty())
+    for note in res.notes:
         print(f"mjbench: warning: {note}", file=sys.stderr)
-    print(f"{res['rows']} simulations ({res['ran']} run now, {res['rows'] - res['ran']} resumed) -> {res['table']}")
-    ver = res.get("verified") or []
+    print(f"{len(res.rows)} simulations ({res.ran} run now, {len(res.rows) - res.ran} resumed) -> "
+          f"{os.path.join(args.out, 'results.csv')}")
+    ver = res.verified
     if ver:
         print(f"best {len(ver)} rows by {ver[0]['metric']}: {args.backend} → multibody (verify.csv)")
         for v in ver:
             print(f"  row {v['row']}: {v[args.backend]:.6g} → {v['multibody']:.6g} "
                   f"(difference {v['difference']:+.3g}, {100 * v['relative']:+.3g} %)")
-    for p in res["plots"]:
+    for p in res.plots:
         print(f"plot: {p}")
     return 0

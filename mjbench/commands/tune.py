@@ -1,11 +1,8 @@
 """``mjbench tune``: autotune controller gains (batched global search + Nelder–Mead + validation)."""
 from __future__ import annotations
 
-import os
-
-from . import add_fast_multibody, apply_fast_multibody, given, integer, parse_numbers, quantity, refuse_unused
-from ..preflight import check_machine
-from ..outputs import add_force_option, maybe_staged_dir, write_json
+from . import add_fast_multibody, apply_fast_multibody, cli_command, given, integer, parse_numbers, quantity, refuse_unused
+from ..outputs import add_force_option
 
 
 def register(sub):
@@ -95,14 +92,14 @@ def parse_bounds(items, gains=None):
     return out
 
 
+@cli_command
 def cmd_tune(args):
-    from .. import scenario as S
-    from ..tune import report, tune
-
+    """``mjbench tune`` = ``mjbench.tune_gains`` → ``TuneResult.save`` (docs/api.md)."""
     import sys
 
+    from .. import api
     from ..linear import parse_margin
-    from ..tune import CONTROLLERS, constraint_status
+    from ..tune import CONTROLLERS
 
     gains = CONTROLLERS[args.controller][1]
     limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds, gains)
@@ -121,35 +118,24 @@ def cmd_tune(args):
         from ..outputs import check_out_dir
 
         check_out_dir(args.out, force=args.force)  # a bad --out: before the search, not after it
-    scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
-    check_machine(scn)  # bad --set values: one message before any simulation
-    span = 10.0 if args.span is None else args.span
-    with maybe_staged_dir(args.out, force=args.force) as out:
-        res = tune(scn, args.controller, args.objective, limits=limits, n_global=args.n_global,
-                   starts=args.starts, maxfev=args.maxfev, span=span, bounds=bounds,
-                   seed=args.seed, t_end=args.t_end, nthread=args.threads, backend=args.backend,
-                   verify=3 if args.verify is None else args.verify, margins=args.margin,
-                   margin_mode=args.margin_mode or "penalty", margin_angles=args.margin_angles or 12)
-        violated, exceeded = constraint_status(res)
-        print(report(res))
-        if out is not None:
-            doc = {"scenario": scn.name, "controller": res.controller, "mode": res.mode,
-                   "objective": res.objective, "tuned": res.best, "scenario_gains": res.baseline,
-                   "limits": res.limits, "margins": [f"{k}{op}{v:g}" for k, op, v in res.margins],
-                   "margin_mode": args.margin_mode or "penalty",
-                   "feasible": not violated, "violated": violated, "limits_exceeded": exceeded,
-                   "validation": res.validation, "improvement": res.improvement,
-                   "search_backend": res.backend, "search": res.search, "verified": res.verified,
-                   "history": res.history}
-            write_json(os.path.join(out, "tune.json"), doc, indent=1)
-            _plot(scn, res, os.path.join(out, "tune_speed.png"))
+    scn = api.load(args.scenario, apply_fast_multibody(args, args.overrides))
+    scn.check()  # bad --set values: one message before any simulation
+    res = api.tune_gains(scn, args.controller, args.objective, limits=limits, bounds=bounds,
+                         span=10.0 if args.span is None else args.span, margins=args.margin,
+                         margin_mode=args.margin_mode or "penalty", margin_angles=args.margin_angles or 12,
+                         n_global=args.n_global, starts=args.starts, maxfev=args.maxfev, t_end=args.t_end,
+                         backend=args.backend, verify=3 if args.verify is None else args.verify, seed=args.seed,
+                         threads=args.threads, log=print)
+    violated, exceeded = res.violated, res.limits_exceeded
+    print(res.report())
     if args.out:
+        res.save(args.out, force=args.force, what="--out")
         print(f"results written to {args.out}")
-    gtxt = ", ".join(f"{p} = {res.best[p]:.4g}" for p in res.params)
+    gtxt = ", ".join(f"{p} = {res.best[p]:.4g}" for p in res.result.params)
     if exceeded:
         print(f"mjbench: warning: the tuned gains ({gtxt}) exceed {'; '.join(exceeded)} (a penalty of the objective, "
               f"not a hard limit)", file=sys.stderr)
-    if violated and args.margin_mode == "constraint" and res.margins:
+    if violated and args.margin_mode == "constraint" and res.result.margins:
         print(f"mjbench: tune: no candidate meets the constraints; the closest ({gtxt}) violates "
               f"{'; '.join(violated)}", file=sys.stderr)
         return 1
@@ -157,35 +143,3 @@ def cmd_tune(args):
         print(f"mjbench: warning: the tuned gains ({gtxt}) do not meet {'; '.join(violated)} (penalised, not "
               f"enforced: use --margin-mode constraint to require the margins)", file=sys.stderr)
     return 0
-
-
-def _plot(scn, res, path):
-    import numpy as np
-
-    from .. import plots as P
-    from ..errors import MjbenchError
-    from ..tune import Problem
-    import matplotlib.pyplot as plt
-
-    prob = Problem(scn, res.controller, res.objective, res.limits)  # (no margins: only the runs are drawn)
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
-    for label, gains, st in (("scenario controller", res.baseline, dict(color="tab:gray")),
-                             (f"tuned {res.controller}", res.best, dict(color="tab:blue"))):
-        try:
-            _, tr = prob.validate(np.array([gains[p] for p in prob.params]), baseline=gains is res.baseline)
-        except MjbenchError:  # (a diverging closest candidate: drawn without it)
-            continue
-        axes[0].plot(tr.t, tr.omega, label=label, **st)
-        axes[1].plot(tr.t, tr.voltage, **st)
-        axes[2].plot(tr.t, tr.current, **st)
-    if prob.window:
-        for ax in axes:
-            ax.axvspan(*prob.window, color="tab:orange", alpha=0.12)
-    axes[0].set_ylabel("motor speed [rad/s]")
-    axes[1].set_ylabel("voltage [V]")
-    axes[2].set_ylabel("current [A]")
-    axes[2].set_xlabel("t [s]")
-    axes[0].legend()
-    axes[0].set_title(f"{res.controller}: {res.objective} {res.validation['baseline']['objective']:.4g} → "
-                      f"{res.validation['tuned']['objective']:.4g}")
-    P.save(fig, path)

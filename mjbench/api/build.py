@@ -1,0 +1,121 @@
+"""A machine built in code, without TOML: the same tables a scenario holds, given as keyword
+arguments (units allowed), validated by the same schema."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from ..errors import MjbenchError, ParameterError, ScenarioError
+
+if TYPE_CHECKING:
+    from controllers.base import Controller
+
+    from ..drive import DCMotorDrive
+    from ..mechanisms.base import Mechanism
+
+
+def make_mechanism(type: str, /, **params: Any) -> Mechanism:
+    """A mechanism from the keys of a ``[mechanism]`` table.
+
+    Parameters
+    ----------
+    type : str
+        A registered mechanism type: ``"fourbar"``, ``"quickreturn"``, ``"linkage"``, ``"mjcf"``,
+        ``"platform"``, ``"rotor"`` or your own (``@mjbench.mechanisms.register``).
+    **params
+        The table's keys; numbers are SI, strings may carry units (``a="60 mm"``,
+        ``m2="0.3 kg"``).  A ``linkage`` takes ``links=[{...}, ...]`` and ``joints=[...]``
+        (docs/linkages.md).
+
+    Returns
+    -------
+    mjbench.mechanisms.Mechanism
+        The mechanism: kinematics, reduced model J(q), J'(q), E_p'(q) and its MuJoCo model.
+
+    Raises
+    ------
+    mjbench.errors.ScenarioError
+        Unknown type or keys, wrong units, values out of range (every problem listed).
+    mjbench.errors.GeometryError
+        A linkage that cannot be assembled or whose input cannot make the full turn.
+    """
+    from .. import mechanisms
+
+    mech: Mechanism = _built(lambda: mechanisms.from_dict({"type": type, **params}), f"make_mechanism({type!r})")
+    return mech
+
+
+def make_drive(**params: Any) -> DCMotorDrive:
+    """A DC motor + gearbox (and optional drive train) from the keys of a ``[drive]`` table.
+
+    Parameters
+    ----------
+    **params
+        ``R`` [Ω], ``L`` [H], ``k_m`` [N·m/A = V·s/rad], ``J_m`` [kg·m²], ``z`` (gear ratio, motor
+        turns per input turn), ``lam`` [N·m·s/rad], optional ``T_0`` [N·m], ``v_max`` [V],
+        ``i_max`` [A] ...; units allowed (``L="9 mH"``).  Drive-train elements are nested tables:
+        ``pwm={...}``, ``encoder={...}``, ``sensor={...}``, ``gear={...}``, ``friction={...}``,
+        ``current_loop={...}`` (docs/drivetrain.md).
+
+    Returns
+    -------
+    mjbench.drive.DCMotorDrive
+
+    Raises
+    ------
+    mjbench.errors.ScenarioError
+        Missing, unknown or invalid keys (every problem listed, as ``drive.KEY: ...``).
+    """
+    from pydantic import ValidationError
+
+    from ..drive import DriveParams
+    from ..schema import format_errors
+
+    try:
+        p = DriveParams.model_validate(params)
+    except ValidationError as e:
+        lines = format_errors(e, ("drive",), DriveParams)
+        raise ScenarioError("invalid [drive] table:\n  " + "\n  ".join(lines), problems=lines) from None
+    drive: DCMotorDrive = _built(p.build, "make_drive")
+    return drive
+
+
+def make_controller(type: str, /, *, drive: DCMotorDrive | None = None, mechanism: Mechanism | None = None,
+                    **params: Any) -> Controller:
+    """A controller from the keys of a ``[modes.NAME]`` table.
+
+    Parameters
+    ----------
+    type : str
+        A registered controller type: ``"open"``, ``"pid"``, ``"smc"``, ``"servo"``, ``"fmu"`` or
+        your own (``@controllers.register``).
+    drive, mechanism : optional
+        The machine's drive and mechanism, for controllers that need them (a PID's speed
+        reference in motor units, a coupler-speed reference, the SMC's model).
+    **params
+        The table's keys (``kp=80``, ``omega0="286.5 rpm"``, ``period="1 ms"``, ``reference={...}``).
+
+    Returns
+    -------
+    controllers.Controller
+        ``controller(t, y)`` gives the voltage [V]; ``period`` [s]; ``reset()``.
+
+    Raises
+    ------
+    mjbench.errors.ScenarioError
+        Unknown type or keys, invalid values (every problem listed).
+    """
+    import controllers
+
+    ctrl: Controller = _built(lambda: controllers.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
+                              f"make_controller({type!r})")
+    return ctrl
+
+
+def _built(make: Any, what: str) -> Any:
+    """``make()``, with a plain ValueError/TypeError from deeper code reported as a ParameterError."""
+    try:
+        return make()
+    except MjbenchError:
+        raise
+    except (ValueError, TypeError, KeyError, ArithmeticError) as e:
+        raise ParameterError(f"{what}: cannot be built ({type(e).__name__}: {e})") from None
