@@ -35,7 +35,7 @@ from typing import Literal
 from pydantic import Field
 
 from mjbench.errors import ParameterError
-from mjbench.schema import OptQ, Q, Strict
+from mjbench.fields import OptQ, Q, Strict
 
 from . import register
 from .base import Controller, Measurement

@@ -7,7 +7,7 @@ from typing import Literal
 from pydantic import Field
 
 from mjbench.compiled import law
-from mjbench.schema import Q, Strict
+from mjbench.fields import Q, Strict
 
 from . import register
 from .base import Controller

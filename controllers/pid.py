@@ -35,7 +35,7 @@ from pydantic_core import PydanticCustomError
 
 from mjbench.compiled import clip, law
 from mjbench.errors import ParameterError
-from mjbench.schema import Bool, OptQ, Q, Strict
+from mjbench.fields import Bool, OptQ, Q, Strict
 
 from . import register
 from .base import Controller

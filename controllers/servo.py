@@ -25,7 +25,7 @@ from pydantic import Field
 
 from mjbench.compiled import clip, law
 from mjbench.errors import ParameterError
-from mjbench.schema import OptQ, Q, Strict
+from mjbench.fields import OptQ, Q, Strict
 
 from . import register
 from .base import Controller

@@ -46,7 +46,7 @@ from pydantic import Field
 
 from mjbench.compiled import clip, law, sgn
 from mjbench.errors import ParameterError
-from mjbench.schema import Bool, OptQ, Q, Strict
+from mjbench.fields import Bool, OptQ, Q, Strict
 
 from . import register
 from .base import Controller

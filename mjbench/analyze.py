@@ -88,7 +88,19 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     curves = {"q": q, "J": J, "dJ": dJ, "dEp": dEp, "Ep": Ep}
     res["reduced"] = {"J_min": float(J.min()), "J_max": float(J.max()), "dJ_absmax": float(np.abs(dJ).max()),
                       "dEp_absmax": float(np.abs(dEp).max()), "Ep_range_J": float(np.ptp(Ep))}
-    # ---- kinematics
+    flags = []
+    _kinematic_rows(res, curves, flags, mech, q, mu_min_deg)
+    res["drive"] = _drive_row(drive)
+    res["speeds"] = [_speed_row(w, mech, res["drive"], q, qunit, dJ, dEp, curves, flags) for w in speeds]
+    res["flags"] = flags
+    res["curves"] = {k: np.asarray(v, float).tolist() for k, v in curves.items()}
+    res["timing"] = {"cpu_s": time.process_time() - t_cpu, "wall_s": time.perf_counter() - t_wall}
+    return res
+
+
+def _kinematic_rows(res, curves, flags, mech, q, mu_min_deg) -> None:
+    """Velocity ratios, strokes, transmission angles (flagged below ``mu_min_deg`` and at dead
+    centres), toggles and limit positions into ``res``, their curves and flags."""
     kin = _kinematics(mech, q)
     res["kinematics_source"] = kin.pop("source")
     res["kinematics_unavailable"] = kin.pop("unavailable", {})
@@ -99,24 +111,13 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     res["velocity_ratios"] = {k: {"unit": kin["ratio_units"].get(k, ""), "min": float(np.nanmin(v)),
                                   "max": float(np.nanmax(v))} for k, v in ratios.items()}
     res["strokes_m"] = kin.get("strokes_m", {})
-    flags = []
     res["transmission_angles_deg"] = {}
     for name, mu in trans.items():
         mu_d = np.degrees(mu)
         imin = int(np.nanargmin(mu_d))
         res["transmission_angles_deg"][name] = {"min": float(np.nanmin(mu_d)), "max": float(np.nanmax(mu_d)),
                                                 "q_at_min": float(q[imin])}
-        for lim, kind in ((DEAD_DEG, "dead_centre"), (mu_min_deg, "poor_transmission")):
-            low = mu_d < lim
-            if np.any(low):
-                from .mechanisms.fourbar import _angle_ranges
-
-                for lo, hi in _angle_ranges(q, low):
-                    flags.append({"kind": kind, "where": name, "q_from": float(lo), "q_to": float(hi),
-                                  "text": f"transmission angle {name} below {lim:g}° for q = "
-                                          f"{math.degrees(lo) % 360:.1f}°..{math.degrees(hi) % 360:.1f}°"})
-                if kind == "dead_centre":
-                    break
+        flags += _transmission_flags(name, q, mu_d, mu_min_deg)
     for jn, lst in kin.get("toggles", {}).items():
         for tg in lst:
             flags.append({"kind": "toggle", "where": jn, "q": tg["q"],
@@ -131,55 +132,77 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     res["limit_positions"] = kin.get("limit_positions", {})
     res["swings_deg"] = kin.get("swings_deg", {})
     res["stroke_arcs_deg"] = kin.get("stroke_arcs_deg", {})
-    # ---- torque at constant speed, through the gearbox, against the motor
+
+
+def _transmission_flags(name, q, mu_d, mu_min_deg) -> list:
+    """Flags of the input ranges where the transmission angle ``name`` is below 1° (a dead centre;
+    then no further flag) or below ``mu_min_deg``."""
+    flags = []
+    for lim, kind in ((DEAD_DEG, "dead_centre"), (mu_min_deg, "poor_transmission")):
+        low = mu_d < lim
+        if np.any(low):
+            from .mechanisms.fourbar import _angle_ranges
+
+            for lo, hi in _angle_ranges(q, low):
+                flags.append({"kind": kind, "where": name, "q_from": float(lo), "q_to": float(hi),
+                              "text": f"transmission angle {name} below {lim:g}° for q = "
+                                      f"{math.degrees(lo) % 360:.1f}°..{math.degrees(hi) % 360:.1f}°"})
+            if kind == "dead_centre":
+                break
+    return flags
+
+
+def _drive_row(drive) -> dict:
+    """The drive's constants (SI) with its no-load speed and stall torque at v_max."""
     z, km, R, L = float(drive.z), float(drive.k_m), float(drive.R), float(drive.L)
     lam, T0, vmax, imax = float(drive.lam), float(drive.T_0), float(drive.v_max), float(drive.i_max)
-    res["drive"] = {"z": z, "k_m": km, "R": R, "L": L, "lam": lam, "T_0": T0, "v_max": vmax, "i_max": imax,
-                    "no_load_motor_speed_rad_s": (vmax / km) if math.isfinite(vmax) else None,
-                    "stall_motor_torque_Nm": (km * vmax / R) if math.isfinite(vmax) else None}
-    res["speeds"] = []
+    return {"z": z, "k_m": km, "R": R, "L": L, "lam": lam, "T_0": T0, "v_max": vmax, "i_max": imax,
+            "no_load_motor_speed_rad_s": (vmax / km) if math.isfinite(vmax) else None,
+            "stall_motor_torque_Nm": (km * vmax / R) if math.isfinite(vmax) else None}
+
+
+def _speed_row(w, mech, drv, q, qunit, dJ, dEp, curves, flags) -> dict:
+    """The torque at constant input speed w through the gearbox against the motor (module doc):
+    the row of ``speeds``, its curves and its voltage/current flags."""
+    z, km, R, L = drv["z"], drv["k_m"], drv["R"], drv["L"]
+    lam, T0, vmax, imax = drv["lam"], drv["T_0"], drv["v_max"], drv["i_max"]
     dq = (q[1] - q[0]) if len(q) > 1 else 1.0
-    for w in speeds:
-        Qext = np.asarray(mech.external_torque(q, w + 0.0 * q, 0.0), float)
-        T_in = 0.5 * dJ * w * w + dEp - Qext
-        wm = z * w
-        Tm = T_in / z + lam * wm + T0 * math.copysign(1.0, wm)
-        I = Tm / km
-        dIdq = np.gradient(I, dq) if qunit == "m" else _periodic_gradient(I, dq)
-        V = R * I + L * dIdq * w + km * wm
-        row = {"input_speed_rad_s": float(w), "input_speed_rpm": float(w * 30 / math.pi),
-               "motor_speed_rad_s": float(wm),
-               "input_torque_Nm": {"min": float(T_in.min()), "max": float(T_in.max()),
-                                   "rms": float(np.sqrt(np.mean(T_in ** 2))), "mean": float(T_in.mean())},
-               "parts_absmax_Nm": {"inertial": float(np.abs(0.5 * dJ * w * w).max()),
-                                   "gravity_springs": float(np.abs(dEp).max()),
-                                   "loads_friction": float(np.abs(Qext).max())},
-               "motor_torque_Nm": {"min": float(Tm.min()), "max": float(Tm.max()),
-                                   "rms": float(np.sqrt(np.mean(Tm ** 2)))},
-               "current_A": {"min": float(I.min()), "max": float(I.max()), "rms": float(np.sqrt(np.mean(I ** 2)))},
-               "voltage_V": {"min": float(V.min()), "max": float(V.max())},
-               "mean_power_W": float(np.mean(T_in) * w),
-               "energy_per_rev_J": float(np.mean(T_in) * 2 * math.pi) if qunit == "rad" else None}
-        if math.isfinite(vmax):
-            Tline = km * (vmax - km * wm) / R
-            row["motor_line_torque_Nm"] = float(Tline)
-            row["torque_margin"] = float(Tline - Tm.max())
-            if V.max() > vmax or V.min() < -vmax:
-                flags.append({"kind": "voltage", "where": f"{w:g} rad/s",
-                              "text": f"at {w:.4g} rad/s the constant speed needs up to {np.abs(V).max():.3g} V "
-                                      f"> v_max = {vmax:g} V: the motor cannot hold that speed over the whole turn"})
-        if math.isfinite(imax) and np.abs(I).max() > imax:
-            flags.append({"kind": "current", "where": f"{w:g} rad/s",
-                          "text": f"at {w:.4g} rad/s the current reaches {np.abs(I).max():.3g} A > i_max = {imax:g} A"})
-        res["speeds"].append(row)
-        curves[f"T_in@{w:g}"] = T_in
-        curves[f"T_m@{w:g}"] = Tm
-        curves[f"I@{w:g}"] = I
-        curves[f"V@{w:g}"] = V
-    res["flags"] = flags
-    res["curves"] = {k: np.asarray(v, float).tolist() for k, v in curves.items()}
-    res["timing"] = {"cpu_s": time.process_time() - t_cpu, "wall_s": time.perf_counter() - t_wall}
-    return res
+    Qext = np.asarray(mech.external_torque(q, w + 0.0 * q, 0.0), float)
+    T_in = 0.5 * dJ * w * w + dEp - Qext
+    wm = z * w
+    Tm = T_in / z + lam * wm + T0 * math.copysign(1.0, wm)
+    I = Tm / km
+    dIdq = np.gradient(I, dq) if qunit == "m" else _periodic_gradient(I, dq)
+    V = R * I + L * dIdq * w + km * wm
+    row = {"input_speed_rad_s": float(w), "input_speed_rpm": float(w * 30 / math.pi),
+           "motor_speed_rad_s": float(wm),
+           "input_torque_Nm": {"min": float(T_in.min()), "max": float(T_in.max()),
+                               "rms": float(np.sqrt(np.mean(T_in ** 2))), "mean": float(T_in.mean())},
+           "parts_absmax_Nm": {"inertial": float(np.abs(0.5 * dJ * w * w).max()),
+                               "gravity_springs": float(np.abs(dEp).max()),
+                               "loads_friction": float(np.abs(Qext).max())},
+           "motor_torque_Nm": {"min": float(Tm.min()), "max": float(Tm.max()),
+                               "rms": float(np.sqrt(np.mean(Tm ** 2)))},
+           "current_A": {"min": float(I.min()), "max": float(I.max()), "rms": float(np.sqrt(np.mean(I ** 2)))},
+           "voltage_V": {"min": float(V.min()), "max": float(V.max())},
+           "mean_power_W": float(np.mean(T_in) * w),
+           "energy_per_rev_J": float(np.mean(T_in) * 2 * math.pi) if qunit == "rad" else None}
+    if math.isfinite(vmax):
+        Tline = km * (vmax - km * wm) / R
+        row["motor_line_torque_Nm"] = float(Tline)
+        row["torque_margin"] = float(Tline - Tm.max())
+        if V.max() > vmax or V.min() < -vmax:
+            flags.append({"kind": "voltage", "where": f"{w:g} rad/s",
+                          "text": f"at {w:.4g} rad/s the constant speed needs up to {np.abs(V).max():.3g} V "
+                                  f"> v_max = {vmax:g} V: the motor cannot hold that speed over the whole turn"})
+    if math.isfinite(imax) and np.abs(I).max() > imax:
+        flags.append({"kind": "current", "where": f"{w:g} rad/s",
+                      "text": f"at {w:.4g} rad/s the current reaches {np.abs(I).max():.3g} A > i_max = {imax:g} A"})
+    curves[f"T_in@{w:g}"] = T_in
+    curves[f"T_m@{w:g}"] = Tm
+    curves[f"I@{w:g}"] = I
+    curves[f"V@{w:g}"] = V
+    return row
 
 
 def _periodic_gradient(f, h):

@@ -39,10 +39,12 @@ from .drivetrain.params import (CurrentLoopParams, EncoderParams, FrictionParams
 from . import compiled as C
 from .compiled import clip, sgn
 from .drivetrain.amplifier import current_limited_voltage
+from .drives import register
 from .errors import ParameterError
 from .schema import Q, Strict
 
 
+@register
 class DriveParams(Strict):
     """``[drive]``: permanent-magnet DC motor + gear reducer (seed 000 Eqs 6-9), SI units.
 
@@ -86,10 +88,12 @@ class DriveParams(Strict):
         return out
 
     def check_against(self, scn) -> list[str]:
-        """Cross-checks of the drive-train tables against the scenario's modes and step."""
+        """Cross-checks of the drive-train tables against the scenario's modes and step; a mode
+        whose output is not a voltage (``type = "constant"``: a torque or a speed) is refused."""
         from .drivetrain.params import check_against
+        from .drives.ideal import mode_output_problems
 
-        return check_against(self, scn)
+        return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 
 
 @dataclass
@@ -116,6 +120,8 @@ class DCMotorDrive:
     i_max: float = math.inf
     #: optional drive-train elements (:class:`mjbench.drivetrain.DriveTrain`), None = ideal
     train: object = field(default=None, compare=False, repr=False)
+    #: ``[drive] type`` of this class (mjbench.drives)
+    type_name = "dcmotor"
 
     def __post_init__(self):
         self.validate()
@@ -163,9 +169,9 @@ class DCMotorDrive:
     def form(self, h: float) -> "C.Form":
         """The drive's compiled form for the kernel: its parameters at step h and its laws
         (``mean``: :func:`current_mean`, ``torque``: :func:`motor_torque`, ``step``:
-        :func:`current_step`, ``record``: :func:`drive_torque`)."""
+        :func:`current_step`, ``record``: :func:`dc_record`, ``limit``: :func:`drive_voltage`)."""
         return C.Form(current_mean, self.step_params(h), laws={"mean": current_mean, "torque": motor_torque,
-                                                               "step": current_step, "record": drive_torque,
+                                                               "step": current_step, "record": dc_record,
                                                                "limit": drive_voltage})
 
     def forms(self, h: float, every: int, plant) -> dict:
@@ -281,3 +287,15 @@ def drive_torque(I, w, P):
     """Drive torque on the crank, z·(k_m·I − (T_0·sgn φ̇ + λ·φ̇)) [N·m] (Eq 9 without J_eq·α̈),
     for motor speed φ̇ = ``w``: the recorded ``torque_crank_Nm``."""
     return P.z * (P.k_m * I - (P.T_0 * sgn(w) + P.lam * w))
+
+
+@C.law
+def dc_record(out, b, I, V, w, P):
+    """The drive's recorded columns of one sample into ``out[b:b+5]``: the current I [A], the
+    applied voltage V [V], the drive torque on the crank (:func:`drive_torque`), the mechanical
+    power k_m·I·φ̇ and the electrical power V·I [W] (φ̇ = ``w``, the motor speed)."""
+    out[b] = I
+    out[b + 1] = V
+    out[b + 2] = drive_torque(I, w, P)
+    out[b + 3] = P.k_m * I * w
+    out[b + 4] = V * I

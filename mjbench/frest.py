@@ -7,6 +7,14 @@ amplitudes, Schroeder phases, on the harmonics of one period, log-spaced) or a *
 The excitation goes through the real kernel: :class:`Excited` wraps the mode's controller, so the
 sensor, the limiter, the delay, PWM, backlash and friction all act on it.
 
+A running linkage is periodically time-varying: its inertia J(q) repeats every turn, so a line at ω
+also drives the output at ω ± m·Ω (Ω the turn frequency; harmonic transfer functions).  Its period
+holds a whole number of turns and its lines are chosen free of each other's sidebands
+(:func:`design_lines`, :func:`free_lines`: no two lines a, b with a ∓ b a multiple m·turns of low
+order m, where 1/J_tot still has harmonics): each line then measures the response averaged over the
+turn, which is compared with the frozen-angle family *followed along the turn* (:func:`along_turn`:
+⟨P·S⟩/⟨S⟩ for the plant, 1/⟨S⟩ − 1 for the loop) and, line by line, with its first sidebands.
+
 Estimation.  Two runs from the same state — excited and not — are subtracted (Δ = excited −
 baseline): what the machine does by itself (the start from the operating point, a linkage's
 angle-periodic speed fluctuation) cancels, what is left is the response to d.  After ``settle``
@@ -23,7 +31,7 @@ All of it as python-control ``FrequencyResponseData``; gain/phase margins and pe
 measured loop (crossings interpolated between lines).  The linearisation of the same machine at
 the same point (:mod:`mjbench.linear`: the co-step plant lifted to the control period, the
 controller's discrete counterpart) is evaluated at the same lines; for an angle-dependent linkage
-also the frozen-angle family (mean and envelope).  ``max_rel_diff_vs_linear`` is max |G − G_lin| /
+also the frozen-angle family (mean, envelope, along the turn).  ``max_rel_diff_vs_linear`` is max |G − G_lin| /
 |G_lin| over the frozen-angle band (where the frozen picture holds: above 10 × the inertia
 variation rate max|J'·q̇*|/J_tot; the platforms: everywhere).
 """
@@ -98,6 +106,194 @@ def harmonic_lines(f0: float, f_lo: float, f_hi: float, n: int, avoid=()) -> np.
     if len(cand) > n:
         cand = cand[np.unique(np.round(np.linspace(0, len(cand) - 1, n)).astype(int))]
     return cand
+
+
+#: the harmonics of the inertia along the turn that couple lines (above this fraction of its mean), at most
+ORDER_TOL, MAX_ORDER = 1e-4, 32
+
+
+def rotation_orders(mechanism, J_eq, tol=ORDER_TOL, cap=MAX_ORDER) -> int:
+    """Highest harmonic m of 1/J_tot(q) along the turn above ``tol`` of its mean (at most ``cap``; 0:
+    constant inertia).  A running linkage is periodically time-varying: its response to a line at ω
+    also carries ω ± m·Ω (Ω: the turn frequency; harmonic transfer functions), weighted like the
+    harmonics of the inertia the motor sees."""
+    q = np.linspace(0.0, 2 * np.pi, 256, endpoint=False)
+    J = np.asarray(mechanism.reduced(q)[0], dtype=float) + float(J_eq) + 0.0 * q
+    c = np.abs(np.fft.rfft(1.0 / J))
+    big = np.flatnonzero(c[1:] > tol * c[0]) + 1
+    return int(min(cap, big.max())) if big.size else 0
+
+
+def collide(a: int, b: int, turns: int, reach: int) -> bool:
+    """Whether lines a, b (harmonic indices of a period of ``turns`` turns) meet through the rotation:
+    a − b or a + b (b's mirror −b) equal to m·turns with 1 ≤ m ≤ ``reach``."""
+    d, s = abs(a - b), a + b
+    return (d % turns == 0 and 0 < d <= reach * turns) or (s % turns == 0 and s <= reach * turns)
+
+
+def free_lines(f0: float, f_lo: float, f_hi: float, n: int, turns: int, orders: int) -> np.ndarray:
+    """Up to n harmonic indices of f0 near log-spaced targets over [f_lo, f_hi] for an angle-periodic
+    machine with ``turns`` turns per period whose lines carry sidebands k ± m·turns up to m = ``orders``:
+    no two lines collide (:func:`collide`) up to reach = orders + 1 (each line's first sidebands are
+    measured too), no line on a rotation harmonic (k = m·turns: the machine's own fluctuation) or on
+    its own mirror (2k = m·turns, m ≤ reach).  Each target takes the nearest free index within half a
+    log step; a target with none is dropped."""
+    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0))), max(1, int(math.floor(f_hi / f0)))
+    if k_hi < k_lo:
+        raise ParameterError(f"frest: the band {f_lo:g}-{f_hi:g} Hz holds no harmonic of the period's {f0:g} Hz; "
+                             f"widen --band or lengthen the period")
+    reach = int(orders) + 1
+    step = (k_hi / k_lo) ** (0.5 / max(n - 1, 1))
+    out: list[int] = []
+    for t in np.logspace(math.log10(k_lo), math.log10(k_hi), n):
+        lo, hi = max(k_lo, int(math.floor(t / step))), min(k_hi, int(math.ceil(t * step)))
+        for b in sorted(range(lo, hi + 1), key=lambda b: (abs(b - t), b)):
+            if b in out or b % turns == 0 or (2 * b % turns == 0 and 2 * b <= reach * turns):
+                continue
+            if not any(collide(a, b, turns, reach) for a in out):
+                out.append(b)
+                break
+    if not out:
+        raise ParameterError(f"frest: no line of {f0:g} Hz in {f_lo:g}-{f_hi:g} Hz is free of the rotation's "
+                             f"harmonics: lengthen --period or widen --band")
+    return np.array(sorted(out), dtype=int)
+
+
+def along_turn(G, angles, q, lags) -> np.ndarray:
+    """(len(lags), lines) time-Fourier coefficients over one period of the frozen-angle responses ``G``
+    (uniform ``angles`` × lines) followed along the machine's own motion ``q`` (its N samples over one
+    period): c_s = (1/N)·Σ_n G(q_n)·e^{−j2π·s·n/N}, G(q) by trigonometric interpolation over the angles.
+    Lag 0 is the time average over the turn — what a line measures if the frozen picture holds; lag
+    ±turns the first sidebands."""
+    G = np.asarray(G, dtype=complex)
+    na = G.shape[0]
+    m = np.fft.fftfreq(na, 1.0 / na)
+    keep = np.abs(m) < na / 2
+    Gh = (np.fft.fft(G, axis=0) / na)[keep]
+    Gq = np.exp(1j * np.outer(np.asarray(q, dtype=float) - float(angles[0]), m[keep])) @ Gh
+    n = np.arange(len(q))
+    return np.array([(Gq * np.exp(-2j * np.pi * s * n / len(q))[:, None]).mean(axis=0) for s in lags])
+
+
+def voltage_limit(drive) -> float:
+    """The largest |voltage| the drive applies: ``v_max``, and a PWM amplifier's bus voltage."""
+    amp = getattr(getattr(drive, "train", None), "pwm", None)
+    return min(float(drive.v_max), float(amp.v_bus)) if amp is not None else float(drive.v_max)
+
+
+def inertia_rate(mechanism, J_eq, qd) -> float:
+    """max|J'(q)·q̇|/J_tot(q) over the turn [1/s]: how fast the inertia changes (0: constant)."""
+    J, dJ, _ = mechanism.reduced(np.linspace(0, 2 * np.pi, 72, endpoint=False))
+    Jt = float(J_eq) + np.asarray(J, dtype=float)
+    return float(np.max(np.abs(np.asarray(dJ, dtype=float) * qd) / Jt))
+
+
+def periodic_note(turns: int, orders: int) -> str:
+    return (f"angle-periodic machine: {turns} turns per period; a line at ω also drives ω ± m·Ω (Ω the turn "
+            f"frequency, harmonic transfer functions; 1/J_tot has harmonics up to m = {orders} above {ORDER_TOL:g} of its mean), "
+            f"so the lines are chosen with no line's sidebands k ± m·{turns} (m ≤ {orders + 1}) on another line or its "
+            f"mirror: each line measures the response averaged over the turn (the diagonal H₀(ω)), compared with the "
+            f"frozen-angle family followed along the turn (`comparison.*_vs_family_along_turn`, band) and its first "
+            f"sidebands ω ± Ω")
+
+
+def periodic_explanation(js, turns) -> str:
+    """How a running linkage's measured response departs from the frozen-angle picture, and why
+    (frest.json ``periodic.explanation``; numbers from ``js``'s comparisons over the frozen band)."""
+    c, ff = js["comparison"], js.get("frozen_family") or {}
+
+    def pct(key):
+        x = (c.get(key) or {}).get("max_rel_diff")
+        return "—" if x is None else f"{100 * x:.3g} %"
+
+    coh = min(js["plant"]["coherence"])
+    head = ("A running linkage is periodically time-varying (its inertia J(q) and the rates J'(q)·q̇ repeat every "
+            "turn): a line at ω drives the output at ω and at ω ± m·Ω (Ω the turn frequency). What a line measures "
+            "is the response averaged over the turn — the frozen-angle loops followed along the machine's own "
+            "motion, ⟨P·S⟩/⟨S⟩ for the plant and 1/⟨S⟩ − 1 for the loop, not the loop at the operating angle nor "
+            "the plain mean of the family over the angles.")
+    if coh < 0.9 or js["limiter_active_fraction"] > 0.05:
+        return (head + f" Here the response is not a linear one (min γ² {coh:.3g}, {100 * js['limiter_active_fraction']:.0f} % "
+                "of the time at the voltage limit): the comparison below does not measure the time variation.")
+    sb = ff.get("sidebands") or {}
+    side = (f" The first sidebands ω ± Ω carry up to {100 * sb['speed_measured_max_rel']:.3g} % of each line's speed "
+            f"response (the frozen family along the turn: {100 * sb['speed_frozen_max_rel']:.3g} %)." if sb else "")
+    return (head + f" Over the frozen band the measured plant is {pct('plant')} from the linearisation at the operating "
+            f"angle, {pct('plant_vs_family_mean')} from the family's mean over the angles, {pct('plant_vs_family_along_turn')} "
+            f"from the family along the turn (loop: {pct('loop')}, {pct('loop_vs_family_mean')}, "
+            f"{pct('loop_vs_family_along_turn')})." + side + " The frozen model keeps the angle as a parameter: what "
+            "depends on the angle's own perturbation (a position-dependent load's stiffness, an angle-dependent "
+            "reference) is in the measurement only.")
+
+
+def along_turn_prediction(fam, q_turn, turns) -> dict:
+    """What the lines of a running linkage measure if the frozen-angle picture holds: the frozen
+    family (sensitivity S = 1/(1+L) and d → q̇ response P·S at each angle) followed along the
+    baseline's turn ``q_turn`` (one period): S̄ = ⟨S⟩, T̄ = ⟨P·S⟩ over time, so the measured
+    plant is T̄/S̄ and the loop 1/S̄ − 1 (not the mean of P or L over the angles); with ``turns``,
+    the first sidebands S_±1, T_±1 (lags ±turns)."""
+    S_ang = 1.0 / (1.0 + fam["L"])
+    T_ang = fam["P"] * S_ang
+    lags = [0, turns, -turns] if turns else [0]
+    cS = along_turn(S_ang, fam["angles_rad"], q_turn, lags)
+    cT = along_turn(T_ang, fam["angles_rad"], q_turn, lags)
+    out = {"S": cS[0], "T": cT[0], "P": cT[0] / cS[0], "L": 1.0 / cS[0] - 1.0}
+    if turns:
+        out["S_side"], out["T_side"] = cS[1:], cT[1:]
+    return out
+
+
+def _lagged(x, N, P, ks, lag):
+    """Per-line DFT coefficient at index k + lag, averaged over the last P periods (NaN off the spectrum)."""
+    b = np.asarray(ks, dtype=int) + int(lag)
+    ok = (b >= 1) & (b <= N // 2)
+    out = np.full(len(b), complex(np.nan, np.nan))
+    if ok.any():
+        out[ok] = _spectra(x, N, P, b[ok]).mean(axis=0)
+    return out
+
+
+def design_lines(T, qd, orders, rate, settle, n_lines, band=None, period=None, running=False):
+    """The excitation's period (N samples of the control period T) and lines: (N, lines, turns, note).
+
+    A machine that does not turn (the platforms, a held point) or has constant inertia: ``n_lines``
+    log-spaced harmonics of a 0.5 s period (:func:`harmonic_lines`).  A running linkage (``running``):
+    a whole number of turns per period (``turns``) and lines free of each other's rotation sidebands
+    (:func:`free_lines`); the default band starts a decade below the frozen-angle band (10 × ``rate``),
+    and of 2 … 4× the shortest period (≥ 2 turns, ≥ 0.5 s), not longer than ``settle``, the first that
+    holds 80 % of ``n_lines`` (else the one that holds most)."""
+    w_hi = min(2 * math.pi * 0.25 * 0.5 / T, 2 * math.pi * 500.0)
+
+    def lines_for(N, turns):
+        f0 = 1.0 / (N * T)
+        lo, hi = band if band is not None else (max(2 * math.pi * f0, rate if running else 0.0), w_hi)
+        if turns:
+            return free_lines(f0, lo / (2 * math.pi), hi / (2 * math.pi), n_lines, turns, orders)
+        return harmonic_lines(f0, lo / (2 * math.pi), hi / (2 * math.pi), n_lines)
+
+    if not running:
+        N = int(round((0.5 if period is None else period) / T))
+        return N, lines_for(N, 0), 0, ""
+    T_rot = 2 * math.pi / abs(qd)
+    if period is not None:
+        N = int(round(period / T))
+        x = N * T / T_rot
+        turns = int(round(x)) if round(x) >= 1 and abs(x - round(x)) < 1e-3 else 0
+        note = "" if turns else (f"the period {N * T:g} s is not a whole number of turns ({x:.3g}): the angle-periodic "
+                                 f"fluctuation and the lines' rotation sidebands leak into the excited lines")
+        return N, lines_for(N, turns), turns, note
+    n_min = max(2, int(round(0.5 / T_rot)))
+    n_max = min(4 * n_min, max(n_min, int(settle / T_rot)))
+    best = None
+    for nt in range(n_min, n_max + 1):
+        N = int(round(nt * T_rot / T))
+        L = lines_for(N, nt)
+        if best is None or len(L) > len(best[1]):
+            best = (N, L, nt)
+        if len(L) >= 0.8 * n_lines:
+            break
+    N, L, nt = best
+    return N, L, nt, ""
 
 
 # ============================================================================ operating point
@@ -194,38 +390,74 @@ def _simulate(mach, backend, t_end, h, T, scn):
 
 def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", signal="multisine",
             amplitude=None, band=None, period=None, periods=3, settle=None, n_lines=30, linear=True,
-            n_angles=12) -> dict:
+            n_angles=None) -> dict:
     """Measure the plant and loop responses of ``scn``'s ``mode`` at an operating point (module doc).
 
     ``q``, ``qd`` [rad, rad/s]: the point (default: the initial angle, the controller's running
     speed); ``t`` [s]: K_p·t frozen there (default: simulation.t_end for a K_p·t PID); ``amplitude``
     [V]: the excitation's peak (default: 2 % of max(|V*|, 1 V), at most 10 % of the voltage headroom);
-    ``band`` (lo, hi) [rad/s]; ``period`` [s] of the multisine (default 0.5 s, a whole number of
-    crank turns for a running linkage); ``periods`` measured after ``settle`` [s] (default: 7 time
-    constants of the slowest linear closed-loop pole, 0.5–12 s).  Returns {"json": plain data,
-    "frd": python-control FRD objects, "lines_rad_s", ...}."""
-    from . import linear as LN
-    from . import scenario as S
-    from .kernel import control_every
-
+    ``band`` (lo, hi) [rad/s]; ``period`` [s] of the multisine (default 0.5 s; a running linkage:
+    whole turns, :func:`design_lines`); ``periods`` measured after ``settle`` [s] (default: 7 time
+    constants of the slowest linear closed-loop pole, 0.5–12 s); ``n_angles`` of the frozen-angle
+    family (default: enough for the inertia's harmonics, ≥ 12).  Returns {"json": plain data, "frd":
+    python-control FRD objects, "lines_rad_s", ...}."""
     if signal not in SIGNALS:
         raise ParameterError(f"--signal {signal!r}: choose one of {', '.join(SIGNALS)}")
     if backend not in ("reduced", "multibody"):
         raise ParameterError(f"--backend {backend!r}: choose reduced or multibody")
+    pt = _operating_point(scn, mode, q, qd, I, t)
+    lin = _linearisation(pt, scn, backend) if linear else {"loop": None, "plant": None, "family": None, "note": ""}
+    if settle is None:
+        settle = _settle_time(lin, pt.T)
+    ex = _excitation(pt, scn, signal, amplitude, band, period, periods, settle, n_lines)
+    meas = _measure_runs(pt, scn, backend, ex)
+    if ex.notes_period:
+        pt.notes.append(ex.notes_period)
+    omega = 2 * np.pi * ex.f0 * np.asarray(ex.lines, dtype=float)
+    closed = pt.tn != "open"
+    Sm = meas.V / meas.D
+    Pm = meas.Y / meas.V
+    Lm = 1.0 / Sm - 1.0 if closed else None
+    from .linear import response
+
+    P_lin = response(lin["plant"], omega, "qd", "V") if lin["plant"] is not None else None
+    L_lin = response(lin["loop"].L, omega) if lin["loop"] is not None else None
+    rate, band_lo, in_band = _frozen_band(pt, omega)
+    fam = _frozen_family(pt, omega, n_angles, pt.notes, ex, meas) if (linear and rate > 0 and closed and
+                                                               lin["loop"] is not None) else None
+    import control as ct
+
+    frd = {"plant": ct.frd(Pm, omega, name="plant_measured"), "S": ct.frd(Sm, omega, name="S_measured")}
+    if closed:
+        frd["loop"] = ct.frd(Lm, omega, name="L_measured")
+    js = _report(scn, pt, backend, signal, ex, meas, omega, Pm, Sm, Lm, rate, band_lo, lin)
+    _compare_linear(js, Pm, Lm, P_lin, L_lin, fam, in_band, lin, closed, omega, meas.sides, ex)
+    from . import linear as LN
+
+    return {"json": LN.plain(js), "frd": frd, "omega": omega, "P": Pm, "L": Lm, "S": Sm, "P_lin": P_lin,
+            "L_lin": L_lin, "coherence": np.minimum(meas.coh_v, meas.coh_y), "family": fam, "in_band": in_band}
+
+
+def _operating_point(scn, mode, q, qd, I, t):
+    """The mode's machine held at the operating point, and the same machine with the ideal drive (the
+    drive-train elements — PWM, encoder, backlash, friction, current loop — have no linear model;
+    what they change is measured): a namespace of both, the point, h, T and the notes so far."""
+    from types import SimpleNamespace
+
+    from . import linear as LN
+    from . import scenario as S
+    from .kernel import control_every
+
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
     ctrl = mach.controller
     h = float(scn.simulation.dt)
     N_every = control_every(ctrl, h)
-    T = N_every * h
-    tn = getattr(ctrl, "type_name", "")
     ramp = bool(getattr(ctrl, "kp_ramp", False))
     if t is None:
         t = float(scn.simulation.t_end) if ramp else 0.0
     q = float(scn.initial.q0) if q is None else float(q)
     qd = LN.running_speed(mach, q) if qd is None else float(qd)
-    # the operating point and the linearisation: the ideal drive (the drive-train elements — PWM,
-    # encoder, backlash, friction, current loop — have no linear model; what they change is measured)
     train = [k for k in DRIVETRAIN if getattr(scn.drive, k, None) is not None]
     scn_lin = scn
     if train:
@@ -235,62 +467,71 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
         scn_lin = S.from_raw(raw, scn.source)
     mach_lin = S.make_machine(scn_lin, mode)
     op = LN.operating_point(mach_lin, q, qd, I, t)
-    held = hold_machine(mach, op, h)
-    held_lin = hold_machine(mach_lin, op, h)
-    z = float(mach.drive.z)
     notes = [f"linearisation of the ideal drive: drive.{', drive.'.join(train)} have no linear model"] if train else []
-    # ---- the linear machine at the point (same held machine)
+    return SimpleNamespace(mode=mode, mach=mach, h=h, N_every=N_every, T=N_every * h,
+                           tn=getattr(ctrl, "type_name", ""), op=op, held=hold_machine(mach, op, h),
+                           held_lin=hold_machine(mach_lin, op, h), notes=notes)
+
+
+def _linearisation(pt, scn, backend) -> dict:
+    """The linear machine at the point (the same held machine): its plant lifted to the control
+    period and, with feedback, its loop and margins (``note``: why not, when it has none)."""
+    from . import linear as LN
+
     lin = {"loop": None, "plant": None, "family": None, "note": ""}
+    op, h = pt.op, pt.h
     angle = "frozen" if op.qd != 0.0 else "state"
-    if linear:
-        try:
-            p_h = (LN.reduced_plant(held_lin, op, h, angle=angle) if backend == "reduced" else
-                   LN.multibody_plant(held_lin, op, scn.multibody_options(), h, coordinates="input", angle=angle))
-            lin["plant"] = LN.sample(p_h, N_every)
-            if tn != "open":
-                lp, mg = LN.analyse(held_lin, op, h, backend, scn.multibody_options(), angle=angle)
-                lin["loop"], lin["margins"] = lp, mg
-        except ParameterError as e:
-            lin["note"] = str(e)
-    # ---- how long to settle
-    if settle is None:
-        settle = 1.0
-        fb = getattr(lin.get("loop"), "feedback", None)
-        if fb is not None:
-            pz = np.asarray(fb.poles(), dtype=complex)
-            pz = pz[np.abs(pz) > 0]
-            if len(pz):
-                s = np.log(pz) / T
-                slow = float(np.min(-s.real[s.real < 0])) if np.any(s.real < 0) else 0.0
-                settle = 7.0 / slow if slow > 0 else 4.0
-        settle = float(min(12.0, max(0.5, settle)))
-    # ---- period and lines
-    rigid = len(S.make_mechanism(scn).internal) == 0
-    if period is None:
-        period = 0.5
-        if rigid and op.qd != 0.0:  # a running linkage: a whole number of turns per period
-            T_rot = 2 * math.pi / abs(op.qd)
-            period = max(2, round(period / T_rot)) * T_rot  # ≥ 2 turns: free lines between its harmonics
-    N = int(round(period / T))
+    try:
+        p_h = (LN.reduced_plant(pt.held_lin, op, h, angle=angle) if backend == "reduced" else
+               LN.multibody_plant(pt.held_lin, op, scn.multibody_options(), h, coordinates="input", angle=angle))
+        lin["plant"] = LN.sample(p_h, pt.N_every)
+        if pt.tn != "open":
+            lp, mg = LN.analyse(pt.held_lin, op, h, backend, scn.multibody_options(), angle=angle)
+            lin["loop"], lin["margins"] = lp, mg
+    except ParameterError as e:
+        lin["note"] = str(e)
+    return lin
+
+
+def _settle_time(lin, T) -> float:
+    """7 time constants of the slowest linear closed-loop pole (1 s without a loop), in 0.5–12 s."""
+    settle = 1.0
+    fb = getattr(lin.get("loop"), "feedback", None)
+    if fb is not None:
+        pz = np.asarray(fb.poles(), dtype=complex)
+        pz = pz[np.abs(pz) > 0]
+        if len(pz):
+            s = np.log(pz) / T
+            slow = float(np.min(-s.real[s.real < 0])) if np.any(s.real < 0) else 0.0
+            settle = 7.0 / slow if slow > 0 else 4.0
+    return float(min(12.0, max(0.5, settle)))
+
+
+def _rotation(scn, pt):
+    """(running, inertia rate, rotation orders) of the held machine: a rigid linkage that turns is
+    angle-periodic (:func:`rotation_orders`); the rate max|J'·q̇*|/J_tot sets the frozen band."""
+    from . import scenario as S
+
+    running = len(S.make_mechanism(scn).internal) == 0 and pt.op.qd != 0.0
+    mech, J_eq = pt.held_lin.mechanism, pt.held_lin.drive.J_eq
+    return running, inertia_rate(mech, J_eq, pt.op.qd), (rotation_orders(mech, J_eq) if running else 0)
+
+
+def _excitation(pt, scn, signal, amplitude, band, period, periods, settle, n_lines):
+    """The disturbance runs: one multisine, or one sine per line, over ``settle`` + ``periods``
+    periods (:func:`design_lines`) → a namespace (runs [(d, lines, N)], lines, f0, period, N, P, nset,
+    t_end, amplitude, note; running, inertia rate, rotation orders, turns per period)."""
+    from types import SimpleNamespace
+
+    op, T = pt.op, pt.T
+    running, rate, orders = _rotation(scn, pt)
+    N, lines, turns, notes_period = design_lines(T, op.qd, orders, rate, settle, n_lines, band, period, running)
+    if turns:
+        notes_period = periodic_note(turns, orders)
     period = N * T
     f0 = 1.0 / period
-    nyq = 0.5 / T
-    lo, hi = band if band is not None else (2 * math.pi * f0, min(2 * math.pi * 0.25 * nyq, 2 * math.pi * 500.0))
-    rot_bins = []
-    notes_period = ""
-    turns = period * abs(op.qd) / (2 * math.pi)
-    if op.qd != 0.0 and rigid and round(turns) >= 2 and abs(turns - round(turns)) < 1e-3:
-        # a whole number of turns per period: the rotation's harmonics fall on lines, left out
-        rot_bins = [int(round(m * turns)) for m in range(1, int(N / 2 / turns) + 1)]
-        if signal == "multisine":
-            notes_period = (f"angle-periodic machine ({turns:.0f} turns per period): an output line k also carries "
-                            f"the response to the excited lines k ± m·{turns:.0f} (harmonic transfer), so a multisine's "
-                            f"lines couple; --signal sine measures each frequency alone")
-    elif op.qd != 0.0 and rigid:
-        notes_period = (f"the period {period:g} s is not a whole number of turns ({turns:.3g}): the angle-periodic "
-                        f"fluctuation leaks into the excited lines")
     if amplitude is None:
-        vmax = float(mach.drive.v_max)
+        vmax = voltage_limit(pt.mach.drive)
         amplitude = 0.02 * max(abs(op.V), 1.0)
         if math.isfinite(vmax):
             amplitude = min(amplitude, 0.1 * max(vmax - abs(op.V), 0.0)) or 0.02 * vmax
@@ -298,29 +539,38 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     nset = int(math.ceil(settle / period))
     P = int(periods)
     if signal == "multisine":
-        lines = harmonic_lines(f0, lo / (2 * math.pi), hi / (2 * math.pi), n_lines, rot_bins)
         one = multisine(N, lines, amplitude)
         runs = [(np.tile(one, nset + P), lines, N)]
-        t_end = (nset + P) * period
     else:
-        lines = harmonic_lines(f0, lo / (2 * math.pi), hi / (2 * math.pi), n_lines, rot_bins)
         runs = []
         for k in lines:
             n = np.arange((nset + P) * N)
             runs.append((amplitude * np.sin(2 * np.pi * k * n / N), np.array([k]), N))
-        t_end = (nset + P) * period
-    # ---- baseline and excited runs through the kernel
-    base = _simulate(dataclasses.replace(held, controller=Excited(held.controller, [], T)), backend, t_end, h, T, scn)
-    Dl, Vl, Yl, Cv, Cy, Dist, Sat = [], [], [], [], [], [], []
-    vlim = float(mach.drive.v_max)
+    return SimpleNamespace(runs=runs, lines=lines, f0=f0, period=period, N=N, P=P, nset=nset,
+                           t_end=(nset + P) * period, amplitude=amplitude, notes_period=notes_period,
+                           running=running, rate=rate, orders=orders, turns=turns)
+
+
+def _measure_runs(pt, scn, backend, ex):
+    """The baseline and the excited runs through the kernel, subtracted, and their spectra at the
+    excited lines → a namespace (D, V, Y line spectra, coherences, distortion ratios, limiter
+    fractions, the baseline's loop meta, the voltage limit, the lines' first rotation sidebands ΔV/d and
+    Δq̇/d, the baseline's crank angle over its last period)."""
+    from types import SimpleNamespace
+
+    h, T, held, P = pt.h, pt.T, pt.held, ex.P
+    base = _simulate(dataclasses.replace(held, controller=Excited(held.controller, [], T)), backend, ex.t_end, h, T, scn)
+    Dl, Vl, Yl, Cv, Cy, Dist, Sat, Vs, Ys = [], [], [], [], [], [], [], [], []
+    vlim = voltage_limit(pt.mach.drive)
     meta = {"loop": base.meta.get("loop"), "loop_reason": base.meta.get("loop_reason")}
-    for d, ks, NN in runs:
-        ex = _simulate(dataclasses.replace(held, controller=Excited(held.controller, d, T)), backend, t_end, h, T, scn)
-        n = min(len(ex.t), len(base.t), len(d))
-        dV = ex.voltage[:n] - base.voltage[:n]
+    for d, ks, NN in ex.runs:
+        exr = _simulate(dataclasses.replace(held, controller=Excited(held.controller, d, T)), backend, ex.t_end, h, T,
+                        scn)
+        n = min(len(exr.t), len(base.t), len(d))
+        dV = exr.voltage[:n] - base.voltage[:n]
         if math.isfinite(vlim):
-            Sat.append(float(np.mean(np.abs(ex.voltage[:n]) >= 0.999 * vlim)))
-        dY = ex.qd[:n] - base.qd[:n]
+            Sat.append(float(np.mean(np.abs(exr.voltage[:n]) >= 0.999 * vlim)))
+        dY = exr.qd[:n] - base.qd[:n]
         D = _spectra(d[:n], NN, P, ks)
         V = _spectra(dV, NN, P, ks)
         Y = _spectra(dY, NN, P, ks)
@@ -329,58 +579,81 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
         Yl.append(Y.mean(axis=0))
         Cv.append(coherence(D, V))
         Cy.append(coherence(D, Y))
-        full = np.abs(np.fft.rfft(np.asarray(dY[-P * NN:]).reshape(P, NN), axis=1)).mean(axis=0)
-        mask = np.zeros(len(full), dtype=bool)
-        mask[ks] = True
-        mask[0] = True
-        Dist.append(float(np.sqrt(np.mean(full[~mask] ** 2)) / np.sqrt(np.mean(full[ks] ** 2))))
-    if notes_period:
-        notes.append(notes_period)
+        Dist.append(_distortion(dY, P, NN, ks))
+        if ex.turns:  # the first rotation sidebands of each line (free bins by the line design)
+            Vs.append([_lagged(dV, NN, P, ks, g) for g in (ex.turns, -ex.turns)])
+            Ys.append([_lagged(dY, NN, P, ks, g) for g in (ex.turns, -ex.turns)])
     D, V, Y = (np.concatenate(a) for a in (Dl, Vl, Yl))
-    coh_v, coh_y = np.concatenate(Cv), np.concatenate(Cy)
-    omega = 2 * np.pi * f0 * np.asarray(lines, dtype=float)
-    Sm = V / D
-    Pm = Y / V
-    closed = tn != "open"
-    Lm = 1.0 / Sm - 1.0 if closed else None
-    # ---- linear overlay and comparison band
+    sides = (np.concatenate(Vs, axis=1) / D, np.concatenate(Ys, axis=1) / D) if Vs else None
+    return SimpleNamespace(D=D, V=V, Y=Y, coh_v=np.concatenate(Cv), coh_y=np.concatenate(Cy), Dist=Dist, Sat=Sat,
+                           meta=meta, vlim=vlim, sides=sides, q_turn=base.q[:n][-ex.N:])
+
+
+def _distortion(dY, P, N, ks) -> float:
+    """RMS of the non-excited lines of Δq̇ relative to the excited ones (last P periods)."""
+    full = np.abs(np.fft.rfft(np.asarray(dY[-P * N:]).reshape(P, N), axis=1)).mean(axis=0)
+    mask = np.zeros(len(full), dtype=bool)
+    mask[ks] = True
+    mask[0] = True
+    return float(np.sqrt(np.mean(full[~mask] ** 2)) / np.sqrt(np.mean(full[ks] ** 2)))
+
+
+def _frozen_band(pt, omega):
+    """The inertia variation rate max|J'·q̇*|/J_tot and the band above 10 × it where the
+    frozen-angle picture holds → (rate, band_lo, in_band mask)."""
+    rate = inertia_rate(pt.held_lin.mechanism, pt.held_lin.drive.J_eq, pt.op.qd)
+    band_lo = max(float(omega[0]), 10.0 * rate)
+    return rate, band_lo, omega >= band_lo * (1 - 1e-12)
+
+
+def _frozen_family(pt, omega, n_angles, notes, ex=None, meas=None):
+    """The frozen-angle family's loops and plants at the lines, and (with the runs ``ex``, ``meas``)
+    the family followed along the baseline's turn (:func:`along_turn_prediction`); None, with a note,
+    if it cannot be computed.  ``n_angles=None``: enough angles for the inertia's harmonics."""
+    from . import linear as LN
     from .linear import response
 
-    P_lin = response(lin["plant"], omega, "qd", "V") if lin["plant"] is not None else None
-    L_lin = response(lin["loop"].L, omega) if lin["loop"] is not None else None
-    mech = held_lin.mechanism
-    Jq, dJ, _ = mech.reduced(np.linspace(0, 2 * np.pi, 72, endpoint=False))
-    Jt = float(held_lin.drive.J_eq) + np.asarray(Jq, dtype=float)
-    rate = float(np.max(np.abs(np.asarray(dJ, dtype=float) * op.qd) / Jt))
-    band_lo = max(float(omega[0]), 10.0 * rate)
-    in_band = omega >= band_lo * (1 - 1e-12)
-    fam = None
-    if linear and rate > 0 and closed and lin["loop"] is not None:
-        try:
-            F = LN.frozen_angle_family(held_lin, h, n_angles, speed=op.qd, t=op.t, plant_kind="reduced", angle="frozen")
-            Ls = np.array([response(lp_.L, omega) for lp_ in F.loops])
-            Ps = np.array([response(lp_.plant, omega, "qd", "V") for lp_ in F.loops])
-            fam = {"angles_rad": F.angles, "L": Ls, "P": Ps}
-        except Exception as e:  # noqa: BLE001 - the family is an overlay only
-            notes.append(f"frozen-angle family not computed: {e}")
-    ct = LN._ct()
-    frd = {"plant": ct.frd(Pm, omega, name="plant_measured"), "S": ct.frd(Sm, omega, name="S_measured")}
-    if closed:
-        frd["loop"] = ct.frd(Lm, omega, name="L_measured")
-    js = {"scenario": scn.name, "mode": mode, "controller": tn, "backend": backend, "signal": signal,
-          "operating_point": op.as_dict(), "co_step_s": h, "control_period_s": T, "amplitude_V": amplitude,
-          "period_s": period, "periods": P, "settle_s": nset * period, "n_runs": len(runs) + 1,
-          "lines_rad_s": omega, "drivetrain": bool(getattr(held.drive, "train", None)),
+    op = pt.op
+    if n_angles is None:  # follow the inertia's harmonics along the turn without aliasing
+        n_angles = max(12, 12 * math.ceil((2 * (ex.orders if ex is not None else 0) + 2) / 12))
+    try:
+        F = LN.frozen_angle_family(pt.held_lin, pt.h, n_angles, speed=op.qd, t=op.t, plant_kind="reduced",
+                                   angle="frozen")
+        Ls = np.array([response(lp_.L, omega) for lp_ in F.loops])
+        Ps = np.array([response(lp_.plant, omega, "qd", "V") for lp_ in F.loops])
+        fam = {"angles_rad": F.angles, "L": Ls, "P": Ps}
+        if meas is not None:
+            fam["along_turn"] = along_turn_prediction(fam, meas.q_turn, ex.turns)
+        return fam
+    except Exception as e:  # noqa: BLE001 - the family is an overlay only
+        notes.append(f"frozen-angle family not computed: {e}")
+    return None
+
+
+def _report(scn, pt, backend, signal, ex, meas, omega, Pm, Sm, Lm, rate, band_lo, lin) -> dict:
+    """``frest.json`` before the comparison with the linear machine."""
+    js = {"scenario": scn.name, "mode": pt.mode, "controller": pt.tn, "backend": backend, "signal": signal,
+          "operating_point": pt.op.as_dict(), "co_step_s": pt.h, "control_period_s": pt.T,
+          "amplitude_V": ex.amplitude, "period_s": ex.period, "periods": ex.P, "settle_s": ex.nset * ex.period,
+          "n_runs": len(ex.runs) + 1, "lines_rad_s": omega, "drivetrain": bool(getattr(pt.held.drive, "train", None)),
           "band_rad_s": [float(band_lo), float(omega[-1])],
           "band_note": ("constant inertia: the frozen-angle model is exact over the whole band" if rate == 0 else
                         f"frozen-angle band: above 10 × the inertia variation rate max|J'·q̇*|/J_tot = {rate:.4g} 1/s"),
           "inertia_rate_1_s": rate,
-          "plant": {"re": Pm.real, "im": Pm.imag, "coherence": np.minimum(coh_v, coh_y)},
-          "distortion_ratio": float(max(Dist)),
-          "limiter_active_fraction": float(max(Sat)) if Sat else 0.0, "loop_meta": meta, "notes": notes + ([lin["note"]] if lin["note"] else [])}
-    if closed:
-        js["loop"] = {"re": Lm.real, "im": Lm.imag, "coherence": coh_v, "margins": margins_from_frd(omega, Lm)}
+          "plant": {"re": Pm.real, "im": Pm.imag, "coherence": np.minimum(meas.coh_v, meas.coh_y)},
+          "distortion_ratio": float(max(meas.Dist)),
+          "limiter_active_fraction": float(max(meas.Sat)) if meas.Sat else 0.0, "voltage_limit_V": meas.vlim,
+          "loop_meta": meas.meta,
+          "notes": pt.notes + ([lin["note"]] if lin["note"] else [])}
+    if Lm is not None:
+        js["loop"] = {"re": Lm.real, "im": Lm.imag, "coherence": meas.coh_v, "margins": margins_from_frd(omega, Lm)}
         js["sensitivity"] = {"re": Sm.real, "im": Sm.imag}
+    return js
+
+
+def _compare_linear(js, Pm, Lm, P_lin, L_lin, fam, in_band, lin, closed, omega, sides=None, ex=None) -> None:
+    """The measured responses against the linearisation (in the frozen-angle band) and the family
+    (:func:`family_comparison`); a running linkage's ``periodic`` explanation."""
     cmp = {}
     if P_lin is not None:
         cmp["plant"] = compare(Pm, P_lin, in_band)
@@ -389,23 +662,53 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
         cmp["loop"] = compare(Lm, L_lin, in_band)
         js["loop"]["linear"] = {"re": L_lin.real, "im": L_lin.imag}
         js["loop"]["margins_linear"] = lin["margins"].as_dict()
-    if fam is not None:
-        Lmean, Pmean = fam["L"].mean(axis=0), fam["P"].mean(axis=0)
-        cmp["loop_vs_family_mean"] = compare(Lm, Lmean, np.ones(len(omega), bool))
-        cmp["plant_vs_family_mean"] = compare(Pm, Pmean, np.ones(len(omega), bool))
-        inside = (np.abs(Pm) >= np.abs(fam["P"]).min(axis=0) * 0.99) & (np.abs(Pm) <= np.abs(fam["P"]).max(axis=0) * 1.01)
-        js["frozen_family"] = {"n_angles": len(fam["angles_rad"]), "plant_inside_envelope_fraction": float(inside.mean()),
-                               "plant_mag_min": np.abs(fam["P"]).min(axis=0), "plant_mag_max": np.abs(fam["P"]).max(axis=0)}
+        js["loop"]["margins_linear_on_lines"] = margins_from_frd(omega, L_lin)  # read like the measured ones
+    if fam is not None and "along_turn" in fam:
+        js["frozen_family"] = family_comparison(fam, Pm, Lm, 1.0 / (1.0 + Lm), in_band, cmp, sides)
     js["comparison"] = cmp
+    if ex is not None and ex.running:
+        js["periodic"] = {"turns_per_period": ex.turns, "rotation_orders": ex.orders,
+                          "explanation": periodic_explanation(js, ex.turns)}
     vals = [c["max_rel_diff"] for k, c in cmp.items() if k in ("plant", "loop") and c["max_rel_diff"] is not None]
     js["max_rel_diff_vs_linear"] = max(vals) if vals else None
-    return {"json": LN.plain(js), "frd": frd, "omega": omega, "P": Pm, "L": Lm, "S": Sm, "P_lin": P_lin,
-            "L_lin": L_lin, "coherence": np.minimum(coh_v, coh_y), "family": fam, "in_band": in_band}
+
+
+def family_comparison(fam, Pm, Lm, Sm, in_band, cmp, sides=None) -> dict:
+    """Measured vs the frozen-angle family over the frozen band ``in_band`` (adds to ``cmp``): the
+    family's mean over the angles, its envelope, and the family followed along the turn
+    (:func:`along_turn_prediction`) with, for a whole number of turns per period, the first sidebands
+    (``sides``: measured ΔV/d and Δq̇/d at k ± turns)."""
+    m = np.asarray(in_band, dtype=bool)
+    cmp["loop_vs_family_mean"] = compare(Lm, fam["L"].mean(axis=0), m)
+    cmp["plant_vs_family_mean"] = compare(Pm, fam["P"].mean(axis=0), m)
+    at = fam["along_turn"]
+    cmp["plant_vs_family_along_turn"] = compare(Pm, at["P"], m)
+    cmp["loop_vs_family_along_turn"] = compare(Lm, at["L"], m)
+    cmp["sensitivity_vs_family_along_turn"] = compare(Sm, at["S"], m)
+    lo, hi = np.abs(fam["P"]).min(axis=0), np.abs(fam["P"]).max(axis=0)
+    inside = (np.abs(Pm) >= lo * 0.99) & (np.abs(Pm) <= hi * 1.01)
+    js = {"n_angles": len(fam["angles_rad"]),
+          "plant_inside_envelope_fraction": float(inside[m].mean()) if m.any() else None,
+          "plant_mag_min": lo, "plant_mag_max": hi,
+          "plant_along_turn": {"re": at["P"].real, "im": at["P"].imag},
+          "loop_along_turn": {"re": at["L"].real, "im": at["L"].imag}}
+    if sides is not None and "S_side" in at and m.any():
+        Sside, Tside = sides
+        s_ref, t_ref = np.abs(at["S"])[m], np.abs(at["T"])[m]
+        js["sidebands"] = {
+            "what": "first rotation sidebands ω ± Ω of each line, relative to the line's own response",
+            "sensitivity_measured_max_rel": float(np.nanmax(np.abs(Sside[:, m]) / s_ref)),
+            "sensitivity_frozen_max_rel": float(np.nanmax(np.abs(at["S_side"][:, m]) / s_ref)),
+            "speed_measured_max_rel": float(np.nanmax(np.abs(Tside[:, m]) / t_ref)),
+            "speed_frozen_max_rel": float(np.nanmax(np.abs(at["T_side"][:, m]) / t_ref)),
+            "max_diff_rel": float(max(np.nanmax(np.abs(Sside - at["S_side"])[:, m] / s_ref),
+                                      np.nanmax(np.abs(Tside - at["T_side"])[:, m] / t_ref)))}
+    return js
 
 
 def figure(res, path, title=""):
     """Bode plot of the measured plant and loop (dots) with the linearisation (line), the frozen-angle
-    envelope (band) and the coherence."""
+    envelope (band), the family followed along the turn (dashed) and the coherence."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -427,6 +730,9 @@ def figure(res, path, title=""):
             F = fam[key]
             ax[0, j].fill_between(w, np.abs(F).min(axis=0), np.abs(F).max(axis=0), alpha=0.2,
                                   label="frozen-angle family")
+            if "along_turn" in fam:  # what a line of the running linkage measures if the frozen picture holds
+                ax[0, j].loglog(w, np.abs(fam["along_turn"][key]), "--", lw=1, label="frozen family along the turn")
+                ax[1, j].semilogx(w, np.degrees(np.unwrap(np.angle(fam["along_turn"][key]))), "--", lw=1)
         ax[0, j].set_title(name)
         ax[0, j].legend(fontsize=7)
         ax[1, j].set_ylabel("phase [deg]")

@@ -249,6 +249,35 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
 
     t, V, omega = (np.asarray(a, dtype=float) for a in (t, V, omega))
     I = None if I is None else np.asarray(I, dtype=float)
+    fixed = _fixed(fixed, I)
+    start, method = _start(t, V, omega, I, fixed, guess, omega_s)
+    free = [p for p in PARAMS if p not in fixed]
+    scale = np.array([max(abs(start[p]), 1e-9) for p in free])
+    sig_w = _noise(omega)
+    sig_i = _noise(I) if I is not None else None
+    theta_rows = _theta_rows(free, scale, fixed)
+    fun, jac = _residuals(theta_rows, t, V, omega, I, sig_w, sig_i, omega_s)
+    z0 = np.array([start[p] for p in free]) / scale
+    lb = np.zeros(len(free))
+    sol = least_squares(fun, z0, jac=jac, bounds=(lb, np.inf), method="trf", x_scale="jac",
+                        max_nfev=max_nfev, xtol=1e-12, ftol=1e-12, gtol=1e-12)
+    std, cond = _uncertainty(sol, len(free), scale)
+    th = theta_rows(sol.x)[0]
+    w_fit, i_fit = simulate(th[None, :], t, V, omega[0], I[0] if I is not None else 0.0, omega_s)
+    out = {"params": _param_rows(th, std, free, fixed), "method": method,
+           "solver": "scipy.optimize.least_squares (trf)",
+           "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
+           "sigma": {"speed_rad_s": sig_w, "current_A": sig_i},
+           "rms": {"speed_rad_s": float(np.sqrt(np.mean((w_fit[0] - omega) ** 2)))},
+           "condition": cond, "omega_s": omega_s, "n_samples": len(t),
+           "omega_fit": w_fit[0], "I_fit": i_fit[0]}
+    if I is not None:
+        out["rms"]["current_A"] = float(np.sqrt(np.mean((i_fit[0] - I) ** 2)))
+    return out
+
+
+def _fixed(fixed, I) -> dict:
+    """The fixed parameters, checked: known names; at least two without a current record."""
     fixed = {k: float(v) for k, v in (fixed or {}).items()}
     for k in fixed:
         if k not in PARAMS:
@@ -257,6 +286,12 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
         raise ParameterError("identify: without a current column only four combinations of (R, L, K, J, b, T_c) "
                              "are identifiable from voltage and speed; fix at least two parameters "
                              "(e.g. --fix R=... --fix L=... measured with a meter)")
+    return fixed
+
+
+def _start(t, V, omega, I, fixed, guess, omega_s):
+    """The starting point (defaults, the equation-error estimate with a current record, the
+    user's guess, the fixed values) → (θ0 dict, method text)."""
     start = dict(DEFAULT_GUESS)
     method = "output error, start from defaults"
     if I is not None:
@@ -267,19 +302,23 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
         method = "output error, start from equation error"
     start.update(guess or {})
     start.update(fixed)
-    free = [p for p in PARAMS if p not in fixed]
-    scale = np.array([max(abs(start[p]), 1e-9) for p in free])
-    sig_w = _noise(omega)
-    sig_i = _noise(I) if I is not None else None
-    n = len(t)
+    return start, method
 
+
+def _theta_rows(free, scale, fixed):
+    """theta_rows(Z): full parameter rows (PARAMS order) from scaled free parameters Z (rows)."""
     def theta_rows(Z):
         Z = np.atleast_2d(Z)
         rows = np.empty((len(Z), 6))
         for k, p in enumerate(PARAMS):
             rows[:, k] = Z[:, free.index(p)] * scale[free.index(p)] if p in free else fixed[p]
         return rows
+    return theta_rows
 
+
+def _residuals(theta_rows, t, V, omega, I, sig_w, sig_i, omega_s):
+    """(fun, jac) of the output error: simulated speed (and current) minus the record, over the
+    noise levels; the Jacobian by forward differences in one vectorised simulation."""
     def resid_rows(Z):
         th = theta_rows(Z)
         th[:, [0, 1, 2, 3]] = np.maximum(th[:, [0, 1, 2, 3]], 1e-12)  # R, L, K, J > 0
@@ -297,16 +336,16 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
         Z = np.vstack([z] + [z + np.eye(len(z))[k] * hstep[k] for k in range(len(z))])
         r = resid_rows(Z)
         return ((r[1:] - r[0]) / hstep[:, None]).T
+    return fun, jac
 
-    z0 = np.array([start[p] for p in free]) / scale
-    lb = np.zeros(len(free))
-    sol = least_squares(fun, z0, jac=jac, bounds=(lb, np.inf), method="trf", x_scale="jac",
-                        max_nfev=max_nfev, xtol=1e-12, ftol=1e-12, gtol=1e-12)
-    m, p = len(sol.fun), len(free)
+
+def _uncertainty(sol, p, scale):
+    """Standard deviations of the free parameters and the condition number of the normalised
+    normal matrix (covariance in column-normalised coordinates: the condition number then measures
+    identifiability, not the units); ill-conditioned (> 1e12): infinite deviations."""
+    m = len(sol.fun)
     s2 = 2 * sol.cost / max(1, m - p)
     Jm = sol.jac
-    # covariance in the column-normalised coordinates (the condition number then measures
-    # identifiability, not the units of the parameters)
     cn = np.linalg.norm(Jm, axis=0)
     cn[cn == 0] = 1.0
     Jn = Jm / cn
@@ -319,8 +358,10 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
         std, cond = np.full(p, np.inf), float("inf")
     if not np.isfinite(cond) or cond > 1e12:
         std = np.full(p, np.inf)
-    th = theta_rows(sol.x)[0]
-    w_fit, i_fit = simulate(th[None, :], t, V, omega[0], I[0] if I is not None else 0.0, omega_s)
+    return std, cond
+
+
+def _param_rows(th, std, free, fixed) -> dict:
     params = {}
     for k, name in enumerate(PARAMS):
         if name in fixed:
@@ -329,15 +370,7 @@ def fit(t, V, omega, I=None, fixed=None, guess=None, omega_s=OMEGA_S, max_nfev=2
             j = free.index(name)
             v, sd = float(th[k]), float(std[j])
             params[name] = {"value": v, "std": sd, "ci95": [v - 1.96 * sd, v + 1.96 * sd], "fixed": False}
-    out = {"params": params, "method": method, "solver": "scipy.optimize.least_squares (trf)",
-           "nfev": int(sol.nfev), "cost": float(sol.cost), "status": int(sol.status),
-           "sigma": {"speed_rad_s": sig_w, "current_A": sig_i},
-           "rms": {"speed_rad_s": float(np.sqrt(np.mean((w_fit[0] - omega) ** 2)))},
-           "condition": cond, "omega_s": omega_s, "n_samples": n,
-           "omega_fit": w_fit[0], "I_fit": i_fit[0]}
-    if I is not None:
-        out["rms"]["current_A"] = float(np.sqrt(np.mean((i_fit[0] - I) ** 2)))
-    return out
+    return params
 
 
 def drive_table(res) -> dict:

@@ -48,7 +48,8 @@ Slot signatures (P: the component's parameter tuple, S: its state array):
   limited so that the current stays within ±i_max over the step), ``DMEAN(I, V, φ̇, P) → Ī`` (step-mean current), ``DTORQUE(Ī, φ̇, P) → T_m`` (motor
   torque without its viscous part), ``DSTEP(I, V, φ̇̄, P) → I₊``, ``DREC(out, b, I, V_a, φ̇, P)`` (the
   drive's five recorded columns — current, voltage, crank torque, mechanical and electrical power —
-  into ``out[b:b+5]``); P has at least ``z``.  A drive type is its form (:mod:`mjbench.drives`);
+  into ``out[b:b+5]``); P has at least ``z``.  A drive type (:mod:`mjbench.drives`: a DC motor, an
+  ideal torque or speed source) is these five laws — the loop reads no drive quantity but ``z``;
 * ``PLANT(τ, t, P, S) → (q, q̇, δ, δ̇)``; ``READ(P, S)`` the same at the start;
   ``CLOSURE(P, S) → m``; ``UNSTABLE(P, S) → bool``; ``PWRITE(out, b, P, S)`` the plant's recorded
   columns.

@@ -82,7 +82,7 @@ def bode(systems, path, angles=None, nominal=None, title="", ylabel="loop L at t
     if ref.dt:
         ap.set_xlim(om[0], om[-1])
     if title:
-        fig.suptitle(title, fontsize=10.5)
+        ps.suptitle(fig, title, fontsize=10.5)
     return save(fig, path)
 
 
@@ -121,7 +121,7 @@ def nyquist(systems, path, angles=None, nominal=None, title="", margins=None, sp
     ax.set_ylabel("Im L")
     ax.legend(loc="lower right")
     if title:
-        fig.suptitle(title, fontsize=10.5)
+        ps.suptitle(fig, title, fontsize=10.5)
     return save(fig, path)
 
 

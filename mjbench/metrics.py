@@ -44,6 +44,17 @@ SUMMARY_METRICS = {
     "last_turn_end_s": "end of that turn [s]",
     "chi_window": "χ in the scenario's metrics.chi_window",
     "chi_sampling_s": "interval of the samples χ is computed from (the record's, simulation.record_dt) [s]",
+    # the end state (transient runs that never reach a periodic steady state; :func:`end_state`)
+    "final_crank_angle_rad": "input (crank) angle at t_end, unwrapped [rad]",
+    "final_crank_speed_rad_s": "input (crank) speed at t_end [rad/s]",
+    "final_crank_accel_rad_s2": "input (crank) acceleration at t_end (the record's backward difference) [rad/s²]",
+    "final_current_A": "current at t_end [A] (NaN for an ideal drive)",
+    "final_voltage_V": "applied voltage at t_end [V] (NaN for an ideal drive)",
+    "final_torque_crank_Nm": "drive torque on the crank at t_end [N·m]",
+    "final_power_mech_W": "mechanical power of the drive at t_end [W]",
+    "speed_settling_band_rad_s": "half-width of the settling band: band_rel × |crank speed at t_end| [rad/s]",
+    "speed_settling_time_s": "time from which the crank speed stays within the settling band around its value at "
+                             "t_end until the end [s] (t_s[0] if always inside)",
 }
 #: the numeric metrics of :func:`coupler_tracking` (``coupler_speed.<name>`` in a run's metrics)
 COUPLER_METRICS = (
@@ -173,11 +184,14 @@ def energy(t, p, t0=None, t1=None):
     return float(np.trapezoid(p[sel], t[sel]))
 
 
-def summary(traj, chi_window=None, average="mean", steady_from=None):
+def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.10):
     """Standard metrics of a machine trajectory (dict of floats, SI units in the key names).
 
     chi_window: (t0, t1) for the windowed χ; steady_from: start of the 'steady state' [s]
-    (default: half the run) for the mean speed and the per-cycle χ statistics.
+    (default: half the run) for the mean speed and the per-cycle χ statistics; band_rel: the
+    settling band of :func:`end_state` as a fraction of the final speed (``[metrics] band_rel``).
+    Per-cycle metrics (χ) describe a periodic steady state; the ``final_*`` ones and the speed's
+    settling time (:func:`end_state`) describe where a transient run ends.
     """
     t, om = traj.t, traj.omega
     if steady_from is None or steady_from >= t[-1] - 1e-12:  # default, or a run too short for it
@@ -195,6 +209,7 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
         "energy_mech_J": energy(t, traj.p_mech),
         "max_closure_error_m": float(np.max(traj.closure)),
     }
+    out.update(end_state(traj, band_rel))
     cyc, vals = chi_per_cycle(t, traj.q, om, average)
     # two readings of "χ over the last cycle" (docs/validation.md): the last complete cycle
     # counted from α(0) (cycles() — it may end up to one period before t_end), and the last
@@ -222,6 +237,29 @@ def summary(traj, chi_window=None, average="mean", steady_from=None):
         # χ is max − min of the *recorded* samples: it depends on the record's grid (module doc),
         # so every χ is labelled with it
         out["chi_sampling_s"] = sampling_interval(t)
+    return out
+
+
+#: the trajectory columns whose last value is an end-state metric (``final_<column>``)
+END_COLUMNS = ("crank_angle_rad", "crank_speed_rad_s", "crank_accel_rad_s2", "current_A", "voltage_V",
+               "torque_crank_Nm", "power_mech_W")
+
+
+def end_state(traj, band_rel=0.10) -> dict:
+    """Where a run ends (the last recorded sample) and when its crank speed settled there.
+
+    ``final_<column>``: the crank angle, speed and acceleration, current, voltage, drive torque and
+    mechanical power at t_end (:data:`END_COLUMNS`; the energies over the run are ``energy_mech_J``
+    and ``energy_elec_J``); ``speed_settling_time_s``: the time from
+    which |α̇ − α̇(t_end)| ≤ ``speed_settling_band_rad_s`` = band_rel·|α̇(t_end)| holds at every later
+    sample (a machine coming to rest: the band is 0 and the time is when it stopped)."""
+    if not band_rel > 0:
+        raise ParameterError(f"metrics.band_rel = {band_rel!r}: must be > 0")
+    t, qd = traj.t, traj.qd
+    out = {f"final_{c}": float(traj[c][-1]) for c in END_COLUMNS}
+    band = float(band_rel) * abs(float(qd[-1]))
+    out["speed_settling_band_rad_s"] = band
+    out["speed_settling_time_s"] = _last_exceed(t, np.abs(qd - qd[-1]) > band)
     return out
 
 

@@ -325,11 +325,6 @@ class PseudoPolynomialLaw(MotionLaw):
                 "C": self.C.tolist()}
 
 
-def polynomial_345(Phi: float, T: float) -> PseudoPolynomialLaw:
-    """The standard 3-4-5 polynomial (γ = 3, 4, 5; C = 10, −15, 6)."""
-    return PseudoPolynomialLaw(Phi, T, (3.0, 4.0, 5.0))
-
-
 # ====================================================================== Bezier laws
 def bernstein(n: int, i: int, lam):
     """B(n, i, λ) = C(n, i)·λ^i·(1 − λ)^{n−i} (seed 003 Eq 11, corrected exponent n − i)."""

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 BACKENDS_TOLERANCE = 1e-3  #: max |multibody − reduced| crank speed / peak |crank speed|
 
 
@@ -88,7 +90,6 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     mechanism's kinematics against the model's constraints.  Mechanisms with internal (elastic)
     coordinates are not compared (their reduced model is not a J(q))."""
     import mujoco
-    import numpy as np
 
     out = {"n_angles": int(n), "tolerance": MODEL_TOLERANCE,
            "method": "J = Γᵀ M Γ (mj_fullM), E_p' = Γᵀ(qfrc_bias − qfrc_spring) at zero speed, J' by 4th-order "
@@ -96,23 +97,59 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     if getattr(mech, "internal", ()):
         out.update(applicable=False, note="not compared: the mechanism has internal (elastic) coordinates")
         return out
-    opts = dict(options or {})
-    model = mech.build_spec(0.0, opts).compile()
-    data = mujoco.MjData(model)
-    nv = model.nv
-    M = np.zeros((nv, nv))
+    model = mech.build_spec(0.0, dict(options or {})).compile()
+    grid = _model_angles(mech, n)
+    if grid is None:
+        out.update(applicable=False, note="not compared: the input is not periodic and its range is unknown")
+        return out
+    qs, delta = grid
+    state = _mujoco_state(mech, model, mujoco.MjData(model))
+    rows = []
+    for q in qs:
+        J, dEp, pos, vel = state(q, True)
+        Jp = [state(q + k * delta, False) for k in (-2, -1, 1, 2)]
+        dJ = (8.0 * (Jp[2] - Jp[1]) - (Jp[3] - Jp[0])) / (12.0 * delta)
+        Jr, dJr, dEpr = (float(v) for v in mech.reduced(float(q)))
+        rows.append((q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel))
+    q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel = np.array(rows).T
+    jscale = float(np.max(np.abs(J)))
+    if not jscale > 0:
+        out.update(applicable=False, note="not compared: MuJoCo's model has no inertia at the input (J = 0)")
+        return out
+    tscale = max(float(np.max(np.abs(dEp))), jscale * 1.0)
+    err = {"J_rel_err": float(np.max(np.abs(Jr - J)) / jscale),
+           "dJ_rel_err": float(np.max(np.abs(dJr - dJ)) / jscale),
+           "dEp_rel_err": float(np.max(np.abs(dEpr - dEp)) / tscale)}
+    worst = {k: float(q[int(np.argmax(np.abs(d)))]) for k, d in
+             (("J_rel_err", Jr - J), ("dJ_rel_err", dJr - dJ), ("dEp_rel_err", dEpr - dEp))}
+    out.update(applicable=True, **err, at_q_rad=worst,
+               J_range_kg_m2=[float(np.min(J)), float(np.max(J))],
+               closure_position_m=float(np.max(pos)), closure_velocity_rel=float(np.max(vel)))
+    _verdict(out, err, worst)
+    return out
+
+
+def _model_angles(mech, n):
+    """(angles, δ of the J' differences): ``n`` angles over one period, or over the range a slide
+    input's reduced model covers (a user MJCF); None when neither is known."""
     period = getattr(mech, "reduced_period", None)
     if period:
-        qs = np.linspace(0.0, float(period), int(n), endpoint=False)
-        delta = 1e-3
-    else:  # a slide input (a user MJCF): over the range its reduced model covers
-        table = getattr(getattr(mech, "_m", None), "table", None)
-        if table is None or not hasattr(table, "lo"):
-            out.update(applicable=False, note="not compared: the input is not periodic and its range is unknown")
-            return out
-        lo, hi = float(table.lo), float(table.hi)
-        delta = 1e-3 * (hi - lo)
-        qs = np.linspace(lo + 2 * delta, hi - 2 * delta, int(n))
+        return np.linspace(0.0, float(period), int(n), endpoint=False), 1e-3
+    table = getattr(getattr(mech, "_m", None), "table", None)
+    if table is None or not hasattr(table, "lo"):
+        return None
+    lo, hi = float(table.lo), float(table.hi)
+    delta = 1e-3 * (hi - lo)
+    return np.linspace(lo + 2 * delta, hi - 2 * delta, int(n)), delta
+
+
+def _mujoco_state(mech, model, data):
+    """state(q, velocity): MuJoCo's J = Γᵀ·M·Γ of the chain assembled at q and, with ``velocity``,
+    also Γᵀ·(qfrc_bias − qfrc_spring), the closure residual [m] and the relative violation |efc_J·Γ|."""
+    import mujoco
+
+    nv = model.nv
+    M = np.zeros((nv, nv))
 
     def state(q, velocity):
         data.qpos[:] = mech.initial_qpos(model, float(q))
@@ -131,29 +168,11 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
             Jc = np.asarray(data.efc_J).reshape(-1)[:ne * nv].reshape(ne, nv)
             vel = float(np.max(np.abs(Jc @ G)) / max(np.linalg.norm(Jc) * np.linalg.norm(G), 1e-300))
         return J, dEp, pos, vel
+    return state
 
-    rows = []
-    for q in qs:
-        J, dEp, pos, vel = state(q, True)
-        Jp = [state(q + k * delta, False) for k in (-2, -1, 1, 2)]
-        dJ = (8.0 * (Jp[2] - Jp[1]) - (Jp[3] - Jp[0])) / (12.0 * delta)
-        Jr, dJr, dEpr = (float(v) for v in mech.reduced(float(q)))
-        rows.append((q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel))
-    a = np.array(rows)
-    q, J, dJ, dEp, Jr, dJr, dEpr, pos, vel = a.T
-    jscale = float(np.max(np.abs(J)))
-    if not jscale > 0:
-        out.update(applicable=False, note="not compared: MuJoCo's model has no inertia at the input (J = 0)")
-        return out
-    tscale = max(float(np.max(np.abs(dEp))), jscale * 1.0)
-    err = {"J_rel_err": float(np.max(np.abs(Jr - J)) / jscale),
-           "dJ_rel_err": float(np.max(np.abs(dJr - dJ)) / jscale),
-           "dEp_rel_err": float(np.max(np.abs(dEpr - dEp)) / tscale)}
-    worst = {k: float(q[int(np.argmax(np.abs(d)))]) for k, d in
-             (("J_rel_err", Jr - J), ("dJ_rel_err", dJr - dJ), ("dEp_rel_err", dEpr - dEp))}
-    out.update(applicable=True, **err, at_q_rad=worst,
-               J_range_kg_m2=[float(np.min(J)), float(np.max(J))],
-               closure_position_m=float(np.max(pos)), closure_velocity_rel=float(np.max(vel)))
+
+def _verdict(out: dict, err: dict, worst: dict) -> None:
+    """``models_agree`` and, when not, the note naming each quantity beyond MODEL_TOLERANCE."""
     bad = [k for k, v in err.items() if not (np.isfinite(v) and v <= MODEL_TOLERANCE)]
     if out["closure_velocity_rel"] > MODEL_TOLERANCE or not np.isfinite(out["closure_velocity_rel"]):
         bad.append("closure_velocity_rel")
@@ -165,7 +184,6 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
                        + ", ".join(f"{what[k]} by {out[k]:.3g}" + (f" (worst at q = {worst[k]:.4g} rad)" if k in worst else "")
                                    for k in bad)
                        + f" (tolerance {MODEL_TOLERANCE:g}); one of the two models is wrong")
-    return out
 
 
 def model_warnings(check: dict) -> list:

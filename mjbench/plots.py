@@ -5,16 +5,22 @@ from __future__ import annotations
 import sys
 
 from .plotstyle import BACKEND as BACKEND_STYLE
-from .plotstyle import SETPOINT, context
+from .plotstyle import SETPOINT, context, suptitle
 from .trajectory import atomic_write
 
 MODE_TITLE = {"open": "open loop", "pid": "closed loop (PID)", "smc": "sliding-mode control"}
 
 
-def save(fig, path, dpi=130, tight=True):
-    """Save a figure atomically (complete file or none) and close it.  ``tight=False`` for a figure
-    already laid out (``tight_layout``): one draw instead of two."""
+def save(fig, path, dpi=130, tight=None):
+    """Save a figure atomically (complete file or none) and close it.
+
+    ``tight``: crop to a tight bounding box, which draws the figure twice (once to measure it).
+    By default only a figure with no layout of its own is cropped: a figure made in the mjbench
+    style (:mod:`mjbench.plotstyle`: tight layout engine, or ``tight_layout()`` / constrained
+    layout) already fits its canvas and is drawn once."""
     fmt = str(path).rsplit(".", 1)[-1]
+    if tight is None:
+        tight = fig.get_layout_engine() is None
     atomic_write(path, lambda f: fig.savefig(f, format=fmt, dpi=dpi, bbox_inches="tight" if tight else None),
                  mode="wb")
     plt = sys.modules.get("matplotlib.pyplot")  # a figure made by pyplot is released there too
@@ -72,6 +78,6 @@ def _fig4(runs, path, setpoint, title, chi):
         col[3].legend(fontsize=7, loc="upper right")
         col[-1].set_xlabel("time t [s]")
     if title:
-        fig.suptitle(title, fontsize=11)
+        suptitle(fig, title, fontsize=11)
     fig.tight_layout()
     return save(fig, path, tight=False)

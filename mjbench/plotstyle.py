@@ -1,7 +1,9 @@
 """One matplotlib style for every mjbench figure (Agg backend, no display needed).
 
 * ``use()`` / ``context()``: rcParams — DejaVu Sans, 9-10 pt, light grid, thin axes, legends with
-  a white frame, 130 dpi PNG with a tight bounding box;
+  a white frame, 130 dpi PNG; every figure laid out tight (``figure.autolayout``: the layout is
+  computed when the figure is drawn, so a figure is drawn once when saved — a tight *bounding
+  box* at save time would draw it twice: once to measure, once to write);
 * ``BACKEND``: one line style per simulator backend, so that multibody and reduced results are
   told apart the same way in every figure (solid blue / dashed orange);
 * ``setpoint(ax, value, label)``: the paper's set-point line (seed 000 Fig. 4: horizontal dashed
@@ -33,7 +35,7 @@ RC = {
     "ytick.labelsize": 8.5,
     "figure.dpi": 100,
     "savefig.dpi": 130,
-    "savefig.bbox": "tight",
+    "figure.autolayout": True,  # tight layout at draw time (no "savefig.bbox": "tight": one draw per save)
     "figure.constrained_layout.use": False,
     "axes.prop_cycle": matplotlib.cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
                                                 "tab:purple", "tab:brown", "tab:pink", "tab:gray"]),
@@ -83,16 +85,40 @@ def band(ax, lo, hi, text):
     return ax.axhspan(float(lo), float(hi), **BAND, label=text)
 
 
+def suptitle(fig, text, **kw):
+    """``fig.suptitle(text)`` wrapped onto as many lines as it needs to fit the figure's width:
+    figures are saved at their canvas size (no tight bounding box, see :data:`RC`), so a title
+    wider than the figure would be cut.  Call it before the layout is computed."""
+    t = fig.suptitle(text, **kw)
+    if not text:
+        return t
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if hasattr(fig.canvas, "get_renderer") else FigureCanvasAgg(fig)
+    room = 0.96 * fig.bbox.width
+    width = t.get_window_extent(canvas.get_renderer()).width
+    if width > room:
+        import textwrap
+
+        longest = max(len(line) for line in text.split("\n"))
+        n = max(20, int(longest * room / width))
+        t.set_text("\n".join(textwrap.fill(line, n) for line in text.split("\n")))
+    return t
+
+
 def finish(fig, title=None):
     if title:
-        fig.suptitle(title, fontsize=10.5)
+        suptitle(fig, title, fontsize=10.5)
     fig.tight_layout()
     return fig
 
 
-def new(nrows=1, ncols=1, **kw):
-    """``plt.subplots`` with the mjbench style active for the created figure."""
-    import matplotlib.pyplot as plt
+def new(nrows=1, ncols=1, *, figsize=None, layout=None, **kw):
+    """A figure and its axes (like ``plt.subplots``) with the mjbench style active for the created
+    figure.  A plain :class:`~matplotlib.figure.Figure`: no pyplot (its import, its figure manager),
+    nothing to close; save it with :func:`mjbench.plots.save`."""
+    from matplotlib.figure import Figure
 
     with context():
-        return plt.subplots(nrows, ncols, **kw)
+        fig = Figure(figsize=figsize, layout=layout)
+        return fig, fig.subplots(nrows, ncols, **kw)

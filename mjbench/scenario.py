@@ -17,17 +17,47 @@ import importlib.resources
 import json
 import os
 import tomllib
+import warnings
 
+from . import mechanisms
 from .errors import ScenarioError
-from .schema import Scenario, validate
+from .registry import GROUPS, PluginWarning, entry_points
+from .schema import Scenario
+from .validation import validate
 
 SCENARIO_DIR = "scenarios"
 
 
 def builtin_names():
-    """Names of the scenarios shipped in the package."""
+    """Names of the scenarios ``load`` accepts by name: those shipped in the package and those of
+    installed plugins (:func:`plugin_scenarios`)."""
+    return sorted(set(shipped_names()) | set(plugin_scenarios()))
+
+
+def shipped_names():
+    """Names of the scenarios shipped in the package (``mjbench/scenarios/NAME.toml``)."""
     files = importlib.resources.files("mjbench").joinpath(SCENARIO_DIR)
     return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".toml"))
+
+
+def plugin_scenarios() -> dict:
+    """{name: TOML file} of the scenarios of installed plugins: every ``NAME.toml`` in the folder of
+    a package named by an entry point of group ``mjbench.scenarios`` (a name already shipped keeps
+    the shipped file).  A plugin package that cannot be imported is skipped with a warning."""
+    shipped, out = set(shipped_names()), {}
+    for ep in entry_points(GROUPS[2]).values():
+        try:
+            folder = importlib.resources.files(ep.value.split(":")[0])
+            files = sorted((p for p in folder.iterdir() if p.name.endswith(".toml")), key=lambda p: p.name)
+        except Exception as e:  # noqa: BLE001 - a third-party package
+            warnings.warn(f"scenario plugin {ep.name} = {ep.value!r} cannot be read: {type(e).__name__}: {e}",
+                          PluginWarning, stacklevel=2)
+            continue
+        for f in files:
+            name = f.name[:-5]
+            if name not in shipped:
+                out.setdefault(name, f)
+    return out
 
 
 def read_raw(name_or_path: str) -> tuple[dict, str]:
@@ -52,11 +82,14 @@ def read_raw(name_or_path: str) -> tuple[dict, str]:
             return copy.deepcopy(man["scenario"]), source
     else:
         res = importlib.resources.files("mjbench").joinpath(SCENARIO_DIR, f"{name_or_path}.toml")
-        if not res.is_file():
-            raise ScenarioError(f"unknown scenario {name_or_path!r}: not a file, and not one of the "
-                                f"built-in scenarios {builtin_names()}")
-        text = res.read_bytes()
         source = f"builtin:{name_or_path}"
+        if not res.is_file():
+            res = plugin_scenarios().get(name_or_path)
+            if res is None:
+                raise ScenarioError(f"unknown scenario {name_or_path!r}: not a file, and not one of the "
+                                    f"built-in scenarios {builtin_names()}")
+            source = os.path.abspath(str(res))  # a plugin's file: its own folder resolves its paths
+        text = res.read_bytes()
     try:
         raw = tomllib.loads(text.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
@@ -86,19 +119,10 @@ def _resolve_paths(raw: dict, source: str) -> None:
     table = raw.get("mechanism")
     if not isinstance(table, dict) or not isinstance(table.get("type"), str):
         return
-    from . import mechanisms
-
     cls = mechanisms.get(table["type"])
     hook = getattr(cls, "resolve_paths", None) if cls is not None else None
     if hook is not None:
         hook(table, source)
-
-
-def with_overrides(scn: Scenario, overrides) -> Scenario:
-    """A new validated scenario: ``scn``'s raw tables with more overrides."""
-    raw = copy.deepcopy(scn.raw)
-    applied = list(scn.overrides) + apply_overrides(raw, overrides)
-    return validate(raw, scn.source, applied)
 
 
 def with_values(scn: Scenario, values: dict) -> Scenario:

@@ -1,26 +1,50 @@
-"""Simulation results: preallocated columns, SI units in the names, written atomically."""
+"""Simulation results: preallocated columns, SI units in the names, written atomically.
+
+CSV files (:meth:`Trajectory.write_csv`) hold every value at full precision: Python's ``repr``
+of each float64, the shortest decimal that reads back as the same number (``0.033``, not
+``0.033000000000000002``; at most 17 significant digits), so the reduced backend's 1e-9 agreement
+with a reference survives the file and :meth:`Trajectory.read_csv` gives back the same bits; NaN
+and ±inf are written ``nan``, ``inf``, ``-inf``.
+"""
 from __future__ import annotations
 
 import numpy as np
 
 from .outputs import atomic_write  # noqa: F401 - the one atomic writer (0644, UTF-8), re-exported
 
-#: columns every backend records, in CSV order (name, meaning)
+#: columns every backend records, in CSV order (name, meaning).  The drive's five columns depend on
+#: its type (``[drive] type``, :mod:`mjbench.drives`): a DC motor records its electrics; the ideal
+#: torque and speed sources have none (``current_A``, ``voltage_V``, ``power_elec_W`` are NaN: not
+#: modelled) and record the torque they apply and the power they deliver.
 COLUMNS = (
     ("t_s", "time"),
     ("crank_angle_rad", "input (crank) angle α, unwrapped"),
     ("crank_speed_rad_s", "crank speed α̇"),
-    ("crank_accel_rad_s2", "crank acceleration α̈ at the sample's state"),
-    ("motor_speed_rad_s", "motor speed φ̇ = z·α̇"),
-    ("current_A", "armature current I"),
-    ("voltage_V", "armature voltage V_a after the limiter"),
-    ("torque_crank_Nm", "drive torque on the crank (Eq 9 without J_eq·α̈)"),
-    ("power_mech_W", "mechanical power converted by the motor k_m·I·φ̇"),
-    ("power_elec_W", "electrical power V_a·I"),
+    ("crank_accel_rad_s2", "crank acceleration: the mean α̈ over a step next to the sample — row n ≥ 1 "
+                           "the backward difference (α̇_n − α̇_{n−1})/h of the step ending there (what a digital "
+                           "controller sees), row 0 (t = 0) the forward difference (α̇_1 − α̇_0)/h of the first step "
+                           "(h the co-simulation step; both α̈ + O(h))"),
+    ("motor_speed_rad_s", "motor speed φ̇ = z·α̇ (ideal drives: z = 1, the input speed)"),
+    ("current_A", "armature current I (ideal drives: NaN)"),
+    ("voltage_V", "armature voltage V_a applied by the amplifier, after the limiter (ideal drives: NaN)"),
+    ("torque_crank_Nm", "drive torque on the crank without J_eq·α̈, its viscous part included (DC motor: "
+                        "Eq 9; torque source: the commanded torque − damping·α̇; speed source: "
+                        "k_v·(ω* − α̇) + k_i·∫(ω* − α̇)dt)"),
+    ("power_mech_W", "mechanical power converted by the motor k_m·I·φ̇ (ideal drives: the power the source "
+                     "delivers, T·α̇, before its own viscous loss)"),
+    ("power_elec_W", "electrical power V_a·I (ideal drives: NaN)"),
     ("closure_error_m", "largest loop-closure violation (multibody; 0 for the reduced model)"),
 )
+# Optional columns follow the core ones, in this order: a plant's internal coordinates
+# (``<name>_rad``, ``<name>_rate_rad_s``); with ``[simulation] record_joints`` every MuJoCo joint
+# (``joint_<name>_rad`` and ``joint_<name>_rate_rad_s`` for a hinge, ``joint_<name>_m`` and
+# ``joint_<name>_rate_m_s`` for a slide: mjbench.backends.joints); then the drive train's
+# (``angle_meas_rad``, ``speed_est_rad_s``, ``accel_est_rad_s2``, ``voltage_bridge_V``,
+# ``current_mean_A``, ``current_min_A``, ``current_max_A``, ``current_ref_A``: docs/drivetrain.md).
 NAMES = tuple(c[0] for c in COLUMNS)
 INDEX = {n: i for i, n in enumerate(NAMES)}
+#: rows written per chunk of a CSV file
+CSV_CHUNK = 10_000
 
 
 class Trajectory:
@@ -84,16 +108,22 @@ class Trajectory:
     closure = property(lambda s: s["closure_error_m"])
 
     def write_csv(self, path):
-        """Write the CSV completely or not at all (temp file + atomic rename)."""
-        header = ",".join(self.columns)
-        atomic_write(path, lambda f: np.savetxt(f, self.data[: self.n], delimiter=",", header=header,
-                                                comments="", fmt="%.10g"))
+        """Write the CSV completely or not at all (temp file + atomic rename), every value at full
+        precision (the shortest ``repr`` that round-trips: re-reading gives the same float64 bits)."""
+        rows = np.asarray(self.data[: self.n], dtype=np.float64).tolist()
+
+        def write(f):
+            f.write(",".join(self.columns) + "\n")
+            for i in range(0, len(rows), CSV_CHUNK):
+                f.write("".join(",".join(map(repr, r)) + "\n" for r in rows[i:i + CSV_CHUNK]))
+        atomic_write(path, write)
 
     @classmethod
     def read_csv(cls, path, backend="csv"):
+        """A trajectory CSV written by :meth:`write_csv` (the same floats, bit for bit)."""
         with open(path) as f:
             cols = f.readline().strip().split(",")
-        arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        arr = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=np.float64)
         tr = cls(len(arr), backend, columns=cols)
         tr.data[:] = arr
         tr.n = len(arr)

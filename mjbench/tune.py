@@ -309,9 +309,6 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
          backend="reduced", verify=3, margins=(), margin_mode="penalty", margin_angles=12) -> TuneResult:
     """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains on ``backend``,
     then the ``verify`` best candidates on MuJoCo; see the module doc."""
-    from scipy.optimize import minimize
-    from scipy.stats import qmc
-
     t0 = time.perf_counter()
     prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
                    margin_mode=margin_mode, margin_angles=margin_angles)
@@ -327,6 +324,35 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     prob.limits = lim
     base_m["score"] = prob.score(base_m)
     lo, hi = search_box(prob.params, prob.x0, span, bounds)
+    X, scores, order = _global_stage(prob, lo, hi, n_global, seed, log, t0)
+    hist = {"global_X": X.tolist(), "global_scores": scores.tolist(), "local": []}
+    best_x, best_s = X[order[0]].copy(), float(scores[order[0]])
+    cands, best_x, best_s = _local_stage(prob, X, order, lo, hi, starts, maxfev, log, hist, best_x, best_s)
+    t_search = time.perf_counter() - t0
+    verified, tuned_m = [], None
+    if backend != "multibody" and verify > 0:  # the best distinct candidates on MuJoCo
+        verified, tuned_m, best_x = _verify(prob, cands, X, scores, order, verify, log, best_x)
+    if not verified or tuned_m is None:
+        tuned_m = _validated(prob, best_x)
+    search, base_mb = _search_metrics(prob, backend, best_x, tuned_m, base_m)
+    zb = np.log(best_x)
+    hist["at_bound"] = [p for k, p in enumerate(prob.params)
+                        if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
+    hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
+    hist["evaluations"] = prob.nfev
+    hist["seconds_search"] = t_search
+    hist["seconds"] = time.perf_counter() - t0
+    return TuneResult(controller, objective, prob.mode, list(prob.params),
+                      dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
+                      {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
+                      verified=verified, margins=list(prob.margins))
+
+
+def _global_stage(prob, lo, hi, n_global, seed, log, t0):
+    """The scenario's gains and ``n_global`` scrambled Sobol points of the log-box, one batch →
+    (X, scores, their ranking)."""
+    from scipy.stats import qmc
+
     sob = qmc.Sobol(len(lo), scramble=True, seed=seed)
     n_global = max(1, int(n_global))
     U = sob.random_base2(max(0, math.ceil(math.log2(n_global))))[:n_global]  # first n of 2^m points
@@ -335,16 +361,20 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     scores, mets = prob.evaluate(X)
     log(f"global stage: {len(X)} candidates in {time.perf_counter() - t0:.1f} s, best score "
         f"{scores.min():.5g} (scenario gains in the tuned form {scores[0]:.5g})")
-    order = np.argsort(scores)
-    best_x, best_s = X[order[0]].copy(), float(scores[order[0]])
-    hist = {"global_X": X.tolist(), "global_scores": scores.tolist(), "local": []}
+    return X, scores, np.argsort(scores)
+
+
+def _local_stage(prob, X, order, lo, hi, starts, maxfev, log, hist, best_x, best_s):
+    """Nelder–Mead in the log-box from the ``starts`` best global candidates → (the local winners
+    [(score, gains)], the best gains and score)."""
+    from scipy.optimize import minimize
 
     def f(z):
         z = np.clip(z, lo, hi)
         s, _ = prob.evaluate(np.exp(z)[None, :])
         return float(s[0])
 
-    cands = []  # (search score, gains) of the local winners, then the best global candidates
+    cands = []  # (search score, gains) of the local winners
     for r in range(max(0, starts)):
         z0 = np.log(X[order[r]])
         step = 0.1 * (hi - lo)
@@ -358,60 +388,59 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
         cands.append((float(opt.fun), x))
         if opt.fun < best_s:
             best_x, best_s = x, float(opt.fun)
-    t_search = time.perf_counter() - t0
-    # ---- verification of the best distinct candidates on MuJoCo
+    return cands, best_x, best_s
+
+
+def _verify(prob, cands, X, scores, order, verify, log, best_x):
+    """The ``verify`` best distinct candidates (local winners, then the global ranking) re-run on
+    MuJoCo → (their rows, the best one's multibody metrics, its gains)."""
     verified, tuned_m = [], None
-    if backend != "multibody" and verify > 0:
-        cands.sort(key=lambda c: c[0])
-        cands += [(float(scores[i]), X[i]) for i in order]
-        pick = []
-        for sc, x in cands:
-            if sc < DIVERGED and all(np.max(np.abs(np.log(x) - np.log(y))) > 1e-6 for _, y in pick):
-                pick.append((sc, x))
-            if len(pick) == verify:
-                break
-        if not pick:  # no candidate ran (all diverged, or none met --margin-mode constraint)
-            log("verification: no candidate ran to the end on the search backend; the closest one is validated")
-        else:
-            Xv = np.array([x for _, x in pick])
-            sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
-            for k, (sc, x) in enumerate(pick):
-                verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
-                                 "score_multibody": float(sv[k]),
-                                 "objective_multibody": (mv[k] or {}).get("objective", float("nan"))})
-            kbest = int(np.argmin(sv[:len(pick)]))
-            if kbest != 0:
-                log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
-            best_x = pick[kbest][1]
-            log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
-            tuned_m = mv[kbest]
-    if not verified or tuned_m is None:
-        try:
-            tuned_m, _ = prob.validate(best_x)
-        except MjbenchError as e:  # the closest candidate diverges: reported, not a traceback
-            tuned_m = {"objective": float("nan"), "score": DIVERGED, "diverged": str(e),
-                       **({"margins": prob.linear_margins(best_x)} if prob.margins else {})}
+    cands.sort(key=lambda c: c[0])
+    cands += [(float(scores[i]), X[i]) for i in order]
+    pick = []
+    for sc, x in cands:
+        if sc < DIVERGED and all(np.max(np.abs(np.log(x) - np.log(y))) > 1e-6 for _, y in pick):
+            pick.append((sc, x))
+        if len(pick) == verify:
+            break
+    if not pick:  # no candidate ran (all diverged, or none met --margin-mode constraint)
+        log("verification: no candidate ran to the end on the search backend; the closest one is validated")
+        return verified, tuned_m, best_x
+    Xv = np.array([x for _, x in pick])
+    sv, mv = prob.evaluate(Xv, backend="multibody")  # the same numbers as single multibody runs
+    for k, (sc, x) in enumerate(pick):
+        verified.append({"gains": dict(zip(prob.params, map(float, x))), "score_search": sc,
+                         "score_multibody": float(sv[k]),
+                         "objective_multibody": (mv[k] or {}).get("objective", float("nan"))})
+    kbest = int(np.argmin(sv[:len(pick)]))
+    if kbest != 0:
+        log(f"verification: candidate {kbest + 1} of the search ranking is best on MuJoCo")
+    log(f"verification: {len(pick)} best candidates re-run on the multibody backend")
+    return verified, mv[kbest], pick[kbest][1]
+
+
+def _validated(prob, best_x) -> dict:
+    """The multibody metrics of the best gains (a diverging candidate is reported, not raised)."""
+    try:
+        return prob.validate(best_x)[0]
+    except MjbenchError as e:  # the closest candidate diverges: reported, not a traceback
+        return {"objective": float("nan"), "score": DIVERGED, "diverged": str(e),
+                **({"margins": prob.linear_margins(best_x)} if prob.margins else {})}
+
+
+def _search_metrics(prob, backend, best_x, tuned_m, base_m):
+    """The tuned and baseline metrics on the search backend, and the baseline on MuJoCo."""
     search = {"baseline": base_m}
-    if backend != "multibody":
-        try:
-            search["tuned"], _ = prob.run(best_x)
-        except MjbenchError as e:
-            search["tuned"] = {"objective": float("nan"), "score": DIVERGED, "diverged": str(e)}
-        base_mb, _ = prob.validate(prob.x0, baseline=True)
-        base_mb["score"] = prob.score(base_mb)
-    else:
-        search["tuned"], base_mb = tuned_m, base_m
-    zb = np.log(best_x)
-    hist["at_bound"] = [p for k, p in enumerate(prob.params)
-                        if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
-    hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
-    hist["evaluations"] = prob.nfev
-    hist["seconds_search"] = t_search
-    hist["seconds"] = time.perf_counter() - t0
-    return TuneResult(controller, objective, prob.mode, list(prob.params),
-                      dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
-                      {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
-                      verified=verified, margins=list(prob.margins))
+    if backend == "multibody":
+        search["tuned"] = tuned_m
+        return search, base_m
+    try:
+        search["tuned"], _ = prob.run(best_x)
+    except MjbenchError as e:
+        search["tuned"] = {"objective": float("nan"), "score": DIVERGED, "diverged": str(e)}
+    base_mb, _ = prob.validate(prob.x0, baseline=True)
+    base_mb["score"] = prob.score(base_mb)
+    return search, base_mb
 
 
 def search_box(params, x0, span, bounds):

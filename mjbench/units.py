@@ -3,18 +3,22 @@
     a = 0.06            # SI (m)
     a = "60 mm"         # converted to 0.06 m by pint
     J_m = "13 kg*cm^2"  L = "9 mH"  omega0 = "286.5 rpm"  theta1 = "30 deg"
+    omega0 = "10 Hz"    # an angular velocity in cycles per second: 2π·10 rad/s (not 10 rad/s)
 
-Each physical field of the scenario schema (:mod:`mjbench.schema`) is declared with a *kind*
+Each physical field of the scenario tables (:func:`mjbench.fields.Q`) is declared with a *kind*
 (``length``, ``inertia``, ``resistance`` ...) that fixes its SI unit, the dimension a string must
 have, and a plausible range.  A value outside the plausible range is accepted but produces a
-:class:`PlausibilityWarning` that suggests the likely unit slip ("mechanism.a = 60 m is outside
-1e-4 … 20 m for a link length; did you mean 60 mm?").
+plausibility warning (``Scenario.warnings``, printed by the CLI) that suggests the likely unit
+slip ("mechanism.a = 60 m is outside 1e-4 … 20 m for a link length; did you mean 60 mm?").
+
+Angles are dimensionless for pint, so it would read "10 Hz" as 10 rad/s; here a frequency unit
+given to a quantity that carries an angle is cycles per second (1 Hz = 2π rad/s), and an angular
+rate given to a frequency is converted the other way (:func:`to_si`).
 
 pint is imported (≈1 s to build its registry) only when a string with a unit is met.
 """
 from __future__ import annotations
 
-import contextvars
 import math
 from dataclasses import dataclass
 
@@ -64,13 +68,7 @@ _SUGGEST = {
 }
 
 
-class PlausibilityWarning(UserWarning):
-    """A value is far outside the usual range of its quantity (a likely unit slip)."""
-
-
 _UREG = None
-#: plausibility messages collected while a scenario is validated (see :func:`collect_warnings`)
-_WARNINGS: contextvars.ContextVar[list | None] = contextvars.ContextVar("mjbench_unit_warnings", default=None)
 
 
 def ureg():
@@ -123,11 +121,42 @@ def to_si(value, kind: str) -> float:
         q = reg.Quantity(q)
     target = reg.Unit(si) if si else reg.dimensionless
     try:
-        return float(q.to(target).magnitude)
+        return float(q.to(target).magnitude) * _cycle_factor(q, kind, reg)
     except pint.errors.DimensionalityError:
         got = f"{q.units:~}" or "no unit"
         raise UnitError(f"{value!r} has the wrong dimension ({got}); expected a {kind.replace('_', ' ')} "
                         f"in {label} or a compatible unit") from None
+
+
+def _angle_powers(q, reg) -> tuple[int, int]:
+    """(angle power, cycle power) of a quantity's unit: the power of radian in it (rad, deg, rpm, rev
+    all carry one) and the power of frequency units without an angle (Hz, kHz: cycles per second)."""
+    angle = cycles = 0
+    for name, exp in q.unit_items():
+        root = dict(reg.get_root_units(name)[1]._units)
+        if root.get("radian"):
+            angle += exp * root["radian"]
+        elif root == {"second": -1}:
+            cycles += exp
+    return angle, cycles
+
+
+def _cycle_factor(q, kind: str, reg) -> float:
+    """Factor that makes a frequency given to an angular quantity (or an angular rate given to a
+    frequency) mean what it says: pint treats the radian as dimensionless, so "10 Hz" converts to
+    10 rad/s and "10 rad/s" to 10 Hz.  Here 1 Hz = 1 cycle/s = 2π rad/s for every kind whose SI unit
+    carries an angle (angular velocity and acceleration, gains per rad/s …), and 2π rad/s = 1 Hz for
+    a frequency.  A unit that already names its angle (rad/s, rpm, deg/s, rev/min) is converted by pint."""
+    si = KINDS[kind][0]
+    if not si:
+        return 1.0
+    want = dict(reg.get_root_units(si)[1]._units).get("radian", 0)
+    angle, cycles = _angle_powers(q, reg)
+    if angle == 0 and cycles != 0 and cycles == want:
+        return (2.0 * math.pi) ** cycles  # Hz → rad/s (V/Hz → V·s/rad: 1/2π)
+    if kind == "frequency" and angle == 1 and cycles == 0:
+        return 1.0 / (2.0 * math.pi)  # rad/s, rpm → Hz
+    return 1.0
 
 
 @dataclass(frozen=True)
@@ -183,28 +212,3 @@ def plausibility(v: float, kind: str, what: str = "") -> str | None:
         hint = f"; bare numbers are SI ({label})"
     return (f"= {v:g} {label} is outside the plausible range {lo:g} … {hi:g} {label}"
             f"{' for ' + what if what else ''}{hint}")
-
-
-def note_warning(path: str, text: str) -> None:
-    """Record a plausibility warning for the scenario being validated (or warn directly)."""
-    sink = _WARNINGS.get()
-    msg = f"{path} {text}"
-    if sink is not None:
-        sink.append(msg)
-    else:
-        import warnings
-
-        warnings.warn(msg, PlausibilityWarning, stacklevel=3)
-
-
-class collect_warnings:
-    """Context manager collecting the plausibility warnings raised during validation."""
-
-    def __enter__(self):
-        self.items: list[str] = []
-        self._token = _WARNINGS.set(self.items)
-        return self.items
-
-    def __exit__(self, *exc):
-        _WARNINGS.reset(self._token)
-        return False

@@ -37,8 +37,9 @@ import numpy as np
 
 from .errors import ParameterError
 from .metrics import RESIDUAL_METRICS  # noqa: F401 - the names residual_from_trajectory writes
-from .mechanisms.platform import Oscillator
+from .mechanisms.platform import Oscillator, Platform
 from .motionlaws import BezierLaw, MotionLaw, PseudoPolynomialLaw, shaped_form
+from .schema import CheckParams, OptimizeParams
 
 
 # ====================================================================== shaped laws
@@ -476,7 +477,27 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
     scale = 1.0 / E0 if E0 > 0 else 1.0
     hist = []
     held = {"n": 0, "why": ""}
+    fun = _scaled_energy(law0, osc, scale, fd_step, hist, held, callback)
+    cons = _constraints(law0, osc, constraints)
+    method = method or ("SLSQP" if cons else "BFGS")
+    if method == "BFGS":
+        res = minimize(fun, x0, jac=True, method="BFGS", options={"gtol": gtol, "maxiter": maxiter})
+    elif method == "SLSQP":
+        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=cons,
+                       options={"ftol": 1e-16, "maxiter": maxiter})
+    else:
+        res = minimize(fun, x0, jac=True, method=method, options={"maxiter": maxiter})
+    law = law0.with_params(res.x)
+    if degeneracy(law):  # (the walls keep every accepted point healthy; a last guard)
+        law = law0
+    return OptResult(law0=law0, law=law, E0=E0, E=residual_energy(law, osc), nit=int(res.get("nit", 0)),
+                     nfev=int(res.nfev), message=str(res.message), method=method, history=hist,
+                     held=held["n"], held_reason=held["why"])
 
+
+def _scaled_energy(law0, osc, scale, fd_step, hist, held, callback):
+    """fun(x) → (E/E0, its gradient 2·Jᵣᵀ·r) for the optimiser (module doc of :func:`optimize`); a
+    parameter vector giving an invalid or degenerate law is a wall (1e6, counted in ``held``)."""
     def resid(x):
         try:
             law = law0.with_params(x)
@@ -508,42 +529,32 @@ def optimize(law0: MotionLaw, osc: Oscillator, constraints: Constraints | None =
         if callback is not None:
             callback(x, val)
         return val, 2.0 * scale * (Jr.T @ r)
+    return fun
 
-    cons = []
-    if constraints is not None and constraints.active():
-        c = constraints
-        tg = np.linspace(0.0, law0.T, c.ngrid)
-        inertia = c.J_motor + osc.ratio ** 2 * osc.J
 
-        def g(x):
-            try:
-                _, v, a = law0.with_params(x).evaluate(tg, 2)
-            except ParameterError:
-                return -np.ones(3)
-            out = []
-            if c.max_speed is not None:
-                out.append(1.0 - np.max(np.abs(v)) / c.max_speed)
-            if c.max_accel is not None:
-                out.append(1.0 - np.max(np.abs(a)) / c.max_accel)
-            if c.max_torque is not None:
-                out.append(1.0 - inertia * np.max(np.abs(a)) / c.max_torque)
-            return np.array(out)
+def _constraints(law0, osc, constraints) -> list:
+    """The motor-law limits as one SLSQP inequality g(x) ≥ 0 (empty without an active limit)."""
+    if constraints is None or not constraints.active():
+        return []
+    c = constraints
+    tg = np.linspace(0.0, law0.T, c.ngrid)
+    inertia = c.J_motor + osc.ratio ** 2 * osc.J
 
-        cons = [{"type": "ineq", "fun": g}]
-    method = method or ("SLSQP" if cons else "BFGS")
-    if method == "BFGS":
-        res = minimize(fun, x0, jac=True, method="BFGS", options={"gtol": gtol, "maxiter": maxiter})
-    elif method == "SLSQP":
-        res = minimize(fun, x0, jac=True, method="SLSQP", constraints=cons,
-                       options={"ftol": 1e-16, "maxiter": maxiter})
-    else:
-        res = minimize(fun, x0, jac=True, method=method, options={"maxiter": maxiter})
-    law = law0.with_params(res.x)
-    if degeneracy(law):  # (the walls keep every accepted point healthy; a last guard)
-        law = law0
-    return OptResult(law0=law0, law=law, E0=E0, E=residual_energy(law, osc), nit=int(res.get("nit", 0)),
-                     nfev=int(res.nfev), message=str(res.message), method=method, history=hist,
-                     held=held["n"], held_reason=held["why"])
+    def g(x):
+        try:
+            _, v, a = law0.with_params(x).evaluate(tg, 2)
+        except ParameterError:
+            return -np.ones(3)
+        out = []
+        if c.max_speed is not None:
+            out.append(1.0 - np.max(np.abs(v)) / c.max_speed)
+        if c.max_accel is not None:
+            out.append(1.0 - np.max(np.abs(a)) / c.max_accel)
+        if c.max_torque is not None:
+            out.append(1.0 - inertia * np.max(np.abs(a)) / c.max_torque)
+        return np.array(out)
+
+    return [{"type": "ineq", "fun": g}]
 
 
 # ====================================================================== summaries
@@ -596,17 +607,7 @@ def study(scn, progress=None, multibody=None) -> dict:
 
     Returns a dict with plain numbers under "report" (JSON-ready) and the objects (platform,
     oscillator, laws) under "objects" for the plots."""
-    from .schema import CheckParams, OptimizeParams
-    from .scenario import make_mechanism
-
-    from .mechanisms.platform import Platform
-
-    plat = make_mechanism(scn)
-    if not isinstance(plat, Platform):
-        raise ParameterError(f"optimize-law needs a platform mechanism ([mechanism] type = \"platform\"), "
-                             f"scenario {scn.name!r} has {scn.mechanism.type!r}")
-    if scn.law is None:
-        raise ParameterError(f"optimize-law: scenario {scn.name!r} has no [law] table")
+    plat = _study_platform(scn)
     osc = plat.oscillator()
     law0 = scn.law.build()
     opt = scn.optimize or OptimizeParams()
@@ -624,41 +625,16 @@ def study(scn, progress=None, multibody=None) -> dict:
     res = optimize(law0, osc, cons if cons.active() else None,
                    method=None if cons.active() else opt.method, gtol=opt.gtol, maxiter=opt.maxiter)
     tick()
-    law1 = res.law
-    laws = {"initial": law0, "optimised": law1}
+    laws = {"initial": law0, "optimised": res.law}
     if "gammas_optimum" in paper and isinstance(law0, PseudoPolynomialLaw):
         laws["paper_optimum"] = PseudoPolynomialLaw(law0.Phi, law0.T, paper["gammas_optimum"])
     rep = {"scenario": scn.name, "paper_name": scn.scenario.paper,
            "platform": plat.describe(), "oscillator": osc.describe(),
-           "omega_n_rad_s": osc.omega_n, "xi": osc.xi,
-           "optimiser": {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
-                         "message": res.message,
-                         "constraints": {"max_speed": cons.max_speed, "max_accel": cons.max_accel,
-                                         "max_torque": cons.max_torque},
-                         "degenerate_trials_refused": res.held,
-                         "degenerate_bounds": {"gamma_gap_min": GAMMA_GAP_MIN, "gamma_limit_margin": GAMMA_LIMIT_MARGIN,
-                                               "coeff_max": COEFF_MAX, "polygon_margin": POLYGON_MARGIN},
-                         **({"held_back": f"{res.held} trial laws were degenerate and refused (last: {res.held_reason}); "
-                                          f"the optimum may lie at the edge of the healthy laws"} if res.held else {})},
+           "omega_n_rad_s": osc.omega_n, "xi": osc.xi, "optimiser": _optimiser_report(res, cons),
            "laws": {}, "paper": {k: v for k, v in paper.items()}}
-    for name, law in laws.items():
-        rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor), "warnings": law_warnings(law)}
-    for name, law in laws.items():
-        try:
-            rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
-            rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
-        except ODEBudgetExceeded as e:  # reported, never a hang
-            rep["laws"][name].update(E_T_ode_J=None, peak_torque_elastic_Nm=None, ode_note=str(e))
+    _law_rows(rep, laws, osc, J_motor)
     tick()
-    shaped = {}
-    for kind in chk.shapers:
-        for same in (False, True):
-            try:
-                sl = shape(law0, osc, kind, same_total_time=same)
-            except ParameterError:
-                continue
-            shaped[sl.name] = sl
-            rep["laws"][sl.name] = {"law": sl.describe(), **summary(sl, osc, J_motor)}
+    shaped = _shaped_laws(rep, law0, osc, chk.shapers, J_motor)
     tick()
     errs = chk.sensitivity
     sens_laws = {**laws, **shaped}
@@ -686,6 +662,57 @@ def study(scn, progress=None, multibody=None) -> dict:
     return {"report": rep, "objects": {"platform": plat, "osc": osc, "laws": laws, "shaped": shaped,
                                        "sens_fine": (fine, sens_fine), "servo_runs": servo_runs,
                                        "t_after": chk.t_after}}
+
+
+def _study_platform(scn):
+    """The scenario's platform (a ParameterError unless it is one with a ``[law]``)."""
+    from .scenario import make_mechanism
+
+    plat = make_mechanism(scn)
+    if not isinstance(plat, Platform):
+        raise ParameterError(f"optimize-law needs a platform mechanism ([mechanism] type = \"platform\"), "
+                             f"scenario {scn.name!r} has {scn.mechanism.type!r}")
+    if scn.law is None:
+        raise ParameterError(f"optimize-law: scenario {scn.name!r} has no [law] table")
+    return plat
+
+
+def _optimiser_report(res: OptResult, cons: Constraints) -> dict:
+    return {"method": res.method, "iterations": res.nit, "evaluations": res.nfev,
+            "message": res.message,
+            "constraints": {"max_speed": cons.max_speed, "max_accel": cons.max_accel,
+                            "max_torque": cons.max_torque},
+            "degenerate_trials_refused": res.held,
+            "degenerate_bounds": {"gamma_gap_min": GAMMA_GAP_MIN, "gamma_limit_margin": GAMMA_LIMIT_MARGIN,
+                                  "coeff_max": COEFF_MAX, "polygon_margin": POLYGON_MARGIN},
+            **({"held_back": f"{res.held} trial laws were degenerate and refused (last: {res.held_reason}); "
+                             f"the optimum may lie at the edge of the healthy laws"} if res.held else {})}
+
+
+def _law_rows(rep, laws, osc, J_motor) -> None:
+    """Each law's closed-form summary, then its ODE residual energy and elastic peak torque."""
+    for name, law in laws.items():
+        rep["laws"][name] = {"law": law.describe(), **summary(law, osc, J_motor), "warnings": law_warnings(law)}
+    for name, law in laws.items():
+        try:
+            rep["laws"][name]["E_T_ode_J"] = residual_energy_ode(law, osc)
+            rep["laws"][name]["peak_torque_elastic_Nm"] = peak_torque_ode(law, osc, J_motor)
+        except ODEBudgetExceeded as e:  # reported, never a hang
+            rep["laws"][name].update(E_T_ode_J=None, peak_torque_elastic_Nm=None, ode_note=str(e))
+
+
+def _shaped_laws(rep, law0, osc, shapers, J_motor) -> dict:
+    """The initial law input-shaped (each shaper, at its own and at the same total time)."""
+    shaped = {}
+    for kind in shapers:
+        for same in (False, True):
+            try:
+                sl = shape(law0, osc, kind, same_total_time=same)
+            except ParameterError:
+                continue
+            shaped[sl.name] = sl
+            rep["laws"][sl.name] = {"law": sl.describe(), **summary(sl, osc, J_motor)}
+    return shaped
 
 
 # ====================================================================== real motor and servo

@@ -87,10 +87,11 @@ def test_plant_closure_law_equals_the_constraint_residual(name, mode, npairs, la
         plant.finish()
 
 
-def test_models_use_dense_jacobian(scn):
-    """MuJoCo 4.0.0's sparse Cholesky is wrong on closed chains (upstream #3767): force dense."""
+def test_models_use_mujocos_default_jacobian(scn):
+    """No forced dense Jacobian any more (the MuJoCo 4.0.0 workaround for upstream #3767, dropped
+    on 4.0.1 by tests/test_mujoco_version.py): the model keeps MuJoCo's default."""
     _, m = multibody.build_model(S.make_machine(scn, "open"))
-    assert m.opt.jacobian == mujoco.mjtJacobian.mjJAC_DENSE
+    assert m.opt.jacobian == mujoco.MjModel.from_xml_string("<mujoco/>").opt.jacobian
 
 
 def _passive(scn, integrator="RK4", h=1e-4, t_end=2.0, qd0=20.0):
@@ -175,7 +176,7 @@ def test_committed_mjcf_loads_and_matches_the_builder(scn):
     assert m.nq == m2.nq == 3 and m.neq == 1
     np.testing.assert_allclose(m.body_mass, m2.body_mass)
     np.testing.assert_allclose(m.dof_armature, m2.dof_armature)
-    assert m.opt.jacobian == mujoco.mjtJacobian.mjJAC_DENSE
+    assert m.opt.jacobian == m2.opt.jacobian == mujoco.MjModel.from_xml_string("<mujoco/>").opt.jacobian
 
 
 def test_unbounded_kp_ramp_divergence_is_detected_and_explained():

@@ -77,25 +77,107 @@ def test_margins_from_frd_on_a_known_loop():
 def test_seed000_pid_on_the_limiter_departs_from_the_linear_loop():
     """Seed 000's PID (K_p·t frozen at 2 s) sits on its ±48 V limiter at 30 rad/s: the measured loop
     is not the linear one (low coherence, distortion), and frest.json says how much of the time the
-    limiter is on."""
-    js = frest.measure(S.load("incerti2012"), "pid", backend="reduced", periods=2, n_lines=12)["json"]
-    assert js["limiter_active_fraction"] > 0.05
+    limiter is on, and that its departure from the frozen-angle family is not the time variation."""
+    js = frest.measure(S.load("incerti2012"), "pid", backend="reduced", periods=2, n_lines=12, settle=1.0)["json"]
+    assert js["limiter_active_fraction"] > 0.05 and min(js["plant"]["coherence"]) < 0.5
     assert js["max_rel_diff_vs_linear"] > 0.5
     assert js["band_rad_s"][0] > 500.0  # the frozen band of a running four-bar: above 10 × max|J'·q̇|/J
-    assert js["frozen_family"]["n_angles"] == 12
+    # enough frozen angles to follow 1/J's harmonics along the turn without aliasing
+    assert js["frozen_family"]["n_angles"] >= 2 * js["periodic"]["rotation_orders"] + 2
+    assert "not a linear one" in js["periodic"]["explanation"]
+
+
+# ------------------------------------------------------------------ the running four-bar (time-varying)
+NO_LIMIT = ["drive.v_max=inf", "modes.pid.v_limit=none"]  # seed 000's PID as a linear loop
+
+
+def _turn(scn):
+    """One crank turn [s] at the PID's set-point (motor speed ω₀ through the gear ratio z)."""
+    return 2 * math.pi * float(scn.drive.z) / float(scn.modes["pid"].omega0)
+
+
+@pytest.fixture(scope="module")
+def running_fourbar():
+    """Seed 000's PID without its limiter, 4 turns per period, 12 lines, 2 periods, 1 s settling."""
+    scn = S.load("incerti2012", NO_LIMIT)
+    return scn, frest.measure(scn, "pid", period=4 * _turn(scn), periods=2, settle=1.0, n_lines=12)
+
+
+def test_running_fourbar_equals_the_frozen_family_along_the_turn(running_fourbar):
+    """A running four-bar (J varies ×5 over the turn) is periodically time-varying: coherent, but
+    > 50 % from the linearisation at the operating angle; each line equals the frozen-angle family
+    followed along the machine's own turn (⟨P·S⟩/⟨S⟩, 1/⟨S⟩ − 1) within 3 % over the frozen band,
+    much closer than the family's plain mean over the angles; the first rotation sidebands ω ± Ω are
+    large (> 10 % of the line) and as the family along the turn predicts (≤ 5 % of the line)."""
+    _, res = running_fourbar
+    js, c = res["json"], res["json"]["comparison"]
+    assert js["periodic"]["turns_per_period"] == 4
+    assert min(js["plant"]["coherence"]) > 0.999 and js["limiter_active_fraction"] == 0.0
+    assert res["in_band"].sum() >= 4
+    assert c["plant"]["max_rel_diff"] > 0.5 and c["loop"]["max_rel_diff"] > 0.5
+    for k in ("plant", "loop"):
+        along = c[f"{k}_vs_family_along_turn"]["max_rel_diff"]
+        assert along <= 0.03, (k, along)
+        assert c[f"{k}_vs_family_mean"]["max_rel_diff"] > 3 * along
+    assert js["frozen_family"]["plant_inside_envelope_fraction"] == 1.0
+    sb = js["frozen_family"]["sidebands"]
+    assert sb["speed_measured_max_rel"] > 0.1 and sb["max_diff_rel"] <= 0.05
+    assert "from the family along the turn" in js["periodic"]["explanation"]
+
+
+def test_free_lines_avoid_each_others_rotation_sidebands():
+    """No two lines a, b with a ∓ b = m·turns (m ≤ orders + 1), none on a rotation harmonic or its own
+    mirror; the plain log-spaced design on the same grid breaks the rule (the multisine of before)."""
+    turns, orders = 4, 22
+    lines = frest.free_lines(1.0, 1.0, 400.0, 30, turns, orders)
+    assert len(lines) >= 10
+    bad = [(a, b) for i, a in enumerate(lines) for b in lines[i + 1:] if frest.collide(a, b, turns, orders + 1)]
+    assert not bad
+    assert not any(k % turns == 0 or (2 * k % turns == 0 and 2 * k <= (orders + 1) * turns) for k in lines)
+    plain = frest.harmonic_lines(1.0, 1.0, 400.0, 30)
+    assert any(frest.collide(a, b, turns, orders + 1) for i, a in enumerate(plain) for b in plain[i + 1:])
+    assert frest.collide(10, 18, 4, 2) and frest.collide(3, 5, 4, 2) and not frest.collide(10, 18, 4, 1)
+    assert frest.rotation_orders(S.make_mechanism(S.load("incerti-bezier")), 1e-3) == 0  # constant inertia
+
+
+def test_running_fourbar_multisine_lines_do_not_couple(running_fourbar, monkeypatch):
+    """Each line of the multisine equals a stepped sine at that frequency alone (≤ 0.5 %); a
+    multisine that puts lines on each other's rotation sidebands (k ± 4, k ± 8 with 4 turns per period)
+    does not (the design this replaces), so the test can fail."""
+    scn, res = running_fourbar
+    period = 4 * _turn(scn)
+    N = int(round(period / float(scn.simulation.dt)))
+    k_all = np.round(res["omega"] * period / (2 * np.pi)).astype(int)
+    pick = [int(k_all[i]) for i in np.flatnonzero(res["in_band"])[[0, -1]]]
+    kw = dict(period=period, periods=2, settle=1.0, linear=False)
+    monkeypatch.setattr(frest, "free_lines", lambda *a, **k: np.array(pick))
+    alone = frest.measure(scn, "pid", signal="sine", **kw)
+    for k, P1 in zip(pick, alone["P"]):
+        P = res["P"][list(k_all).index(k)]
+        assert abs(P - P1) <= 5e-3 * abs(P1), (k, P, P1)
+    crowded = sorted({k + d for k in pick for d in (-8, -4, 0, 4, 8)})
+    monkeypatch.setattr(frest, "free_lines", lambda *a, **k: np.array(crowded))
+    both = frest.measure(scn, "pid", **kw)
+    err = max(abs(both["P"][crowded.index(k)] - P1) / abs(P1) for k, P1 in zip(pick, alone["P"]))
+    assert err > 0.02, err
+    assert N > 2 * max(crowded)
 
 
 SCENARIOS = S.builtin_names()
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
-def test_frest_runs_on_every_shipped_scenario(name, tmp_path):
-    """The CLI on every built-in scenario with its default mode (short settings: smoke test)."""
+def test_frest_runs_on_every_shipped_scenario(name, tmp_path, capsys):
+    """The CLI on every built-in scenario with its default mode (short settings: smoke test); an
+    ideal drive ([drive] type = "torque"/"speed") has no motor to linearise: refused in one line."""
     from mjbench.cli import main
 
     out = tmp_path / "fr"
     rc = main(["frest", name, "--lines", "6", "--periods", "2", "--settle", "0.1", "--period", "0.2",
                "--band", "30,2000", "--out", str(out)])
+    if S.load(name).drive.type != "dcmotor":
+        assert rc == 2 and "ideal" in capsys.readouterr().err
+        return
     assert rc == 0
     js = json.loads((out / "frest.json").read_text())
     assert {"max_rel_diff_vs_linear", "band_rad_s", "lines_rad_s", "plant", "comparison"} <= set(js)

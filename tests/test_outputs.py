@@ -259,9 +259,9 @@ def test_reproduce_without_opengl_still_writes_the_report(tmp_path, monkeypatch)
     from mjbench import render
     from mjbench import reproduce as R
 
-    monkeypatch.setattr(render, "_GL_CHOICE", None)
-    monkeypatch.setattr(render, "_GL_ERROR", None)
-    monkeypatch.setattr(render, "_probe", lambda backend, timeout=60.0: (False, f"{backend} missing"))
+    monkeypatch.setattr(render.gl, "_GL_CHOICE", None)
+    monkeypatch.setattr(render.gl, "_GL_ERROR", None)
+    monkeypatch.setattr(render.gl, "_probe", lambda backend, timeout=60.0: (False, f"{backend} missing"))
     with pytest.raises(render.RenderError, match="apt-get install libegl1"):
         render.gl_setup()
     from mjbench import papers

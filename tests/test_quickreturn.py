@@ -169,7 +169,7 @@ def test_passive_energy_conservation_and_closure():
     """No drive, no cutting: MuJoCo (RK4, 0.1 ms) conserves E_k + E_p; energy = reduced model's."""
     m = QuickReturn(cut_profile="none")
     model = m.build_spec(options={"timestep": 1e-4}).compile()
-    assert model.opt.jacobian == mujoco.mjtJacobian.mjJAC_DENSE
+    assert model.opt.jacobian == mujoco.MjModel.from_xml_string("<mujoco/>").opt.jacobian  # MuJoCo's default
     assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_RK4
     d = mujoco.MjData(model)
     q0, qd0 = 0.3, 6.0
@@ -405,7 +405,7 @@ def test_asset_mjcf_loads():
     p = pathlib.Path(__file__).resolve().parents[1] / "assets" / "mjcf" / "quickreturn.xml"
     model = mujoco.MjModel.from_xml_path(str(p))
     assert model.nv == 5 and model.neq == 2
-    assert model.opt.jacobian == mujoco.mjtJacobian.mjJAC_DENSE
+    assert model.opt.jacobian == mujoco.MjModel.from_xml_string("<mujoco/>").opt.jacobian  # MuJoCo's default
 
 
 def test_design_closed_loop_check_reduced_then_multibody(capsys):

@@ -115,5 +115,7 @@ def test_render_view_comes_from_the_mechanism_class():
     assert m.joint(rv.output_joint).id >= 0 and m.body(rv.output_body).id >= 0
     wrapped = DrivenMechanism(plat, scenario.make_drive(scn), Gear(backlash=math.radians(0.1)))
     assert wrapped.render_view() == rv and wrapped.internal == (rv.deflection, "gear_deflection")
-    with pytest.raises(render.ParameterError, match="not a top view"):
+    from mjbench.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="not a top view"):
         render.PlatformView(scenario.make_mechanism(scenario.load("incerti2012")))

@@ -1,6 +1,9 @@
 """Reproduction report: generated, tables = metrics.json numbers, verdicts that follow the numbers
-(re-derived here by the plain definitions), opens in headless Chromium without errors (images
-load, video decodes, screenshot not empty).  The verdict logic itself: tests/test_verdicts.py."""
+(re-derived here by the plain definitions), the page leads with pictures (per case: headline
+figure, video, headline numbers, then the other figures and the folded full tables; a summary of
+every case's verdicts on top), and it opens in headless Chromium without errors (every image
+loads, the video decodes, every link resolves, the headline figure is laid out before the folded
+tables, screenshot not empty).  The verdict logic itself: tests/test_verdicts.py."""
 import html
 import importlib.resources
 import os
@@ -14,6 +17,7 @@ import numpy as np
 import pytest
 
 from mjbench import papers
+from mjbench import report as RP
 from mjbench import reproduce as R
 from mjbench.outputs import read_json
 
@@ -29,14 +33,20 @@ def report(tmp_path_factory):
                        modes=["open", "pid"], t_end=0.6, video=True, video_mode="pid", video_t_end=0.5,
                        paper="incerti2012")
     res = R._clean(R.run_case(case, out, quick=True, progress=False, width=320, height=180))
-    md, htm = R.write_report([res], out, total_s=res["runtime_s"])
+    # a second paper and kind: a study with an extra table and no video
+    study = next(c for c in R.load_cases() if c.name == "yigit2023-design")
+    res2 = R._clean(R.run_case(study, out, quick=True, progress=False))
+    md, htm = R.write_report([res, res2], out, total_s=res["runtime_s"] + res2["runtime_s"])
     return out, res, md, htm
 
 
 def test_registry_covers_every_paper():
     cases = R.load_cases()
     assert {c.paper for c in cases} == set(papers.MODULES)
-    assert {c.scenario for c in cases if c.kind != "design"} == set(__import__("mjbench.scenario").scenario.builtin_names())
+    # every case runs a shipped scenario; a shipped scenario needs no case (a user's or a plugin's
+    # scenario, a new example, are not report material until someone writes a case for them)
+    from mjbench.scenario import shipped_names
+    assert {c.scenario for c in cases if c.kind != "design"} <= set(shipped_names())
     from mjbench.design.requirements import builtin_names as requirement_names
     assert {c.scenario for c in cases if c.kind == "design"} == set(requirement_names())
     assert len({c.name for c in cases}) == len(cases)
@@ -53,9 +63,35 @@ def test_files_written(report):
     assert res["video"]["frames"] == 16  # 0.5 s at 30 fps: frames at k/30, k = 0..15
 
 
-def _md_cells(md_text, name):
-    line = next(l for l in md_text.splitlines() if l.startswith(f"| {name.replace('|', chr(92) + '|')} |"))
-    return [c.strip() for c in line.strip().strip("|").split(" | ")]
+def _split(line):
+    return [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line.strip().strip("|"))]
+
+
+def _md_tables(md_text, case):
+    """The markdown tables of one case's section: [(header cells, [row cells])] in page order."""
+    sec = md_text.split(f'<a id="{RP._anchor(case)}"></a>')[1].split('<a id="')[0]
+    tables, lines = [], sec.splitlines()
+    for i, line in enumerate(lines):
+        if line.startswith("| quantity |") or (line.startswith("| ") and lines[i + 1].startswith("|---")):
+            body = []
+            for b in lines[i + 2:]:
+                if not b.startswith("| "):
+                    break
+                body.append(_split(b))
+            tables.append((_split(line), body))
+    return tables
+
+
+def _check_md_row(head, cells, row):
+    """A table line prints exactly the row's numbers of metrics.json, its verdict (and reason)."""
+    col = {c: i for i, c in enumerate(head)}
+    assert cells[col["quantity"]] == row["name"]
+    assert cells[col["unit"]] == row["unit"] and cells[col["paper"]] == row["paper_text"]
+    for b, v in row["ours"].items():
+        assert cells[col[f"ours: {b}"]] == R.fmt(v)
+    assert cells[col["verdict"]] == row["verdict"]["text"]
+    if "reason" in col:
+        assert cells[col["reason"]] == (row["reason"] or "—")
 
 
 def test_tables_hold_metrics_json_numbers(report):
@@ -71,25 +107,78 @@ def test_tables_hold_metrics_json_numbers(report):
         for b, v in row["ours"].items():
             assert v == pytest.approx(100 * m["modes"][row["mode"]]["backends"][b][row["metric"]], rel=1e-12)
         assert row["difference"] == pytest.approx(row["ours"]["multibody"] - row["paper"], rel=1e-12)
-    lines = md_text.splitlines()
-    for row in m["rows"]:
-        # ... and the report's table line prints exactly them, with the verdict and the reason
-        k = next(i for i, l in enumerate(lines) if l.startswith(f"| {row['name'].replace('|', chr(92) + '|')} |"))
-        head = next(lines[i] for i in range(k, -1, -1) if lines[i].startswith("| quantity |"))
-        col = {c.strip(): i for i, c in enumerate(head.strip().strip("|").split(" | "))}
-        cells = _md_cells(md_text, row["name"])
-        assert cells[col["unit"]] == row["unit"] and cells[col["paper"]] == row["paper_text"]
-        for b, v in row["ours"].items():
-            assert cells[col[f"ours: {b}"]] == R.fmt(v)
-        assert cells[col["verdict"]] == row["verdict"]["text"]
-        assert cells[col["reason"]] == (row["reason"] or "—")
-        hrow = re.search(r"<tr[^>]*><td>" + re.escape(html.escape(row["name"])) + r"</td>(.*?)</tr>", html_text)
-        assert hrow, row["name"]
-        for v in (row["ours"].get("multibody"), row["ours"].get("reduced")):
-            if v is not None:
-                assert f">{R.fmt(v)}<" in hrow.group(1)
-        assert f">{html.escape(row['verdict']['text'])}<" in hrow.group(1)
+    # ... and the report prints exactly them: the headline table (its rows: metrics.json "headline"),
+    # then the full table, every row, with the reason
+    (h_head, h_body), (f_head, f_body) = _md_tables(md_text, "incerti2012-short")
+    assert "reason" not in h_head and f_head[-1] == "reason"
+    assert len(f_body) == len(m["rows"]) and len(h_body) == len(m["headline"]) == RP.HEADLINE_MAX
+    for cells, row in zip(f_body, m["rows"]):
+        _check_md_row(f_head, cells, row)
+    for cells, i in zip(h_body, m["headline"]):
+        _check_md_row(h_head, cells, m["rows"][i])
+    for row in m["rows"]:  # the HTML tables hold the same cells
+        hrows = re.findall(r"<tr[^>]*><td>" + re.escape(html.escape(row["name"])) + r"</td>(.*?)</tr>", html_text)
+        assert len(hrows) == (2 if m["rows"].index(row) in m["headline"] else 1), row["name"]
+        for hrow in hrows:
+            for v in (row["ours"].get("multibody"), row["ours"].get("reduced")):
+                if v is not None:
+                    assert f">{R.fmt(v)}<" in hrow
+            assert f">{html.escape(row['verdict']['text'])}<" in hrow
     assert 'src="incerti2012-short/fig4.png"' in html_text and 'src="incerti2012-short/video.mp4"' in html_text
+
+
+def test_headline_rows():
+    """Headline numbers: at most HEADLINE_MAX rows in table order — the rows a paper module marks
+    headline, then those with a paper figure, then the others."""
+    judged = {"ok": True}
+    rows = ([{"verdict": {"ok": None}}] * 3 + [{"verdict": judged}] * 4 + [{"verdict": {"ok": None}, "headline": True}]
+            + [{"verdict": {"ok": False}}] * 2)
+    assert R.headline(rows) == [3, 4, 5, 6, 7]           # flagged (7) + the first four judged, in table order
+    assert R.headline(rows, n=3) == [3, 4, 7]
+    assert R.headline(rows[:3]) == [0, 1, 2]             # no paper figure at all: the first rows
+    assert R.headline([]) == []
+
+
+def test_page_leads_with_pictures(report):
+    """Per case, in page order: title, headline figure, video, headline numbers, the other figures,
+    then the folded tables (every row, the extra tables); a summary with every case's verdict bar
+    on top; report.md in the same order."""
+    out, res, md, htm = report
+    html_text, md_text = htm.read_text(), md.read_text()
+    cases = [("incerti2012-short", res), ("yigit2023-design", read_json(out / "yigit2023-design" / "metrics.json"))]
+    summary = html_text.split('<h2 id="case-', 1)[0]
+    for case, r in cases:
+        assert f'href="#{RP._anchor(case)}"' in summary
+        c = RP._counts(r)
+        widths = re.search(rf'href="#{RP._anchor(case)}".*?<div class="bar"[^>]*>(.*?)</div>', summary, re.S).group(1)
+        n = sum(c.values())
+        for k, v in c.items():  # the bar's segments are the verdict counts, to scale
+            seg = re.search(rf'class="c-{k}" style="width:([\d.]+)%"', widths)
+            assert (seg is None) == (v == 0) and (seg is None or float(seg.group(1)) == pytest.approx(100 * v / n, abs=0.01))
+    sec = {case: html_text.split(f'<h2 id="{RP._anchor(case)}"')[1].split("<h2 ")[0] for case, _ in cases}
+    s = sec["incerti2012-short"]
+    pos = [s.index(x) for x in ('<img src="incerti2012-short/fig4.png"', "<video ", 'class="headline"',
+                                '<img src="incerti2012-short/linear_bode_pid.png"', "<details>")]
+    assert pos == sorted(pos), pos
+    assert s.count("<details>") == 1 and s.index('<table class="rows">') > s.index("<details>")
+    s = sec["yigit2023-design"]  # no video, an extra table: folded after the full table
+    assert "<video" not in s and s.count("<details>") == 2
+    assert s.index('<img src="yigit2023-design/designs.png"') < s.index('class="headline"') < s.index("<details>")
+    assert re.search(r"<details><summary>Table: Designs.*?<table", s, re.S)
+    for case, r in cases:
+        m = md_text.split(f'<a id="{RP._anchor(case)}"></a>')[1]
+        m = m.split('<a id="')[0]
+        first = f"[![{r['figures'][0]}]({case}/{r['figures'][0]})]"
+        assert m.index(first) < m.index("**Headline numbers**") < m.index("<details><summary>All ")
+    assert "🟧" in md_text.split("<details>")[0]  # the summary's verdict bars (incerti2012: 'differ' rows)
+
+
+def test_markdown_bar():
+    bar = RP._bar_md
+    assert bar({"meet": 31, "fitted": 0, "differ": 0, "unjudged": 0}) == "🟩" * 10
+    b = bar({"meet": 1, "fitted": 0, "differ": 2, "unjudged": 97})
+    assert len(b) == 10 and b.count("🟩") == 1 and b.count("🟧") == 1 and b.count("⬜") == 8
+    assert bar({"meet": 0, "fitted": 0, "differ": 0, "unjudged": 0}) == "—"
 
 
 def test_verdicts_follow_the_numbers(report):
@@ -157,26 +246,48 @@ def _chromium(args, tmp_path, timeout=60):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
 
 
+def _targets(dom: str):
+    """Every href and src of a page (as written in its DOM)."""
+    return [html.unescape(u) for u in re.findall(r'\s(?:href|src)="([^"]+)"', dom)]
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason="headless Chromium not installed (Debian package `chromium`; "
                                              "scripts/ci_system_deps.sh installs it)")
 def test_html_opens_in_headless_chromium(report, tmp_path):
     import imageio.v3 as iio
 
     out, res, _, htm = report
+    n_figs = len(res["figures"]) + len(read_json(out / "yigit2023-design" / "metrics.json")["figures"])
     url = htm.resolve().as_uri()
-    p = _chromium(["--dump-dom", url], tmp_path)
+    p = _chromium(["--window-size=1280,1600", "--dump-dom", url], tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
-    m = re.search(r'data-check="images (\d+)/(\d+) video-errors (\d+)/(\d+)"', p.stdout)
+    m = re.search(r'data-check="images (\d+)/(\d+) video-errors (\d+)/(\d+) anchors-missing (\d+)/(\d+) '
+                  r'first-figure-top (-?\d+) first-details-top (-?\d+)"', p.stdout)
     assert m, "the report's load check did not run:\n" + p.stdout[:500] + p.stderr[-1500:]
-    ok, n_img, verr, n_vid = map(int, m.groups())
-    assert n_img == len(res["figures"]) == 4 and ok == n_img, "an embedded figure did not load"
+    ok, n_img, verr, n_vid, bad, n_links, fig_top, det_top = map(int, m.groups())
+    # the page renders: every figure (headline and thumbnails, each once) loaded, the video decodes
+    assert n_img == n_figs == 5 and ok == n_img, "an embedded figure did not load"
     assert n_vid == 1 and verr == 0, "the embedded video reports a media error"
     assert "Uncaught" not in p.stderr and "SyntaxError" not in p.stderr
+    # every link resolves: in-page anchors (checked by the page), files next to the report (here)
+    assert n_links >= 3 and bad == 0, "an in-page link points at no element"
+    files = {u for u in _targets(p.stdout) if not u.startswith(("#", "data:"))}
+    assert {f"incerti2012-short/{f}" for f in res["figures"]} | {"incerti2012-short/metrics.json",
+                                                                  "incerti2012-short/video.mp4"} <= files
+    for u in files:
+        assert "://" not in u, f"the report links outside its folder: {u}"
+        assert (out / u).is_file() and (out / u).stat().st_size > 0, f"broken link {u}"
+    # it leads with pictures: the first case's headline figure is in the first screen, above its folded tables
+    assert 0 < fig_top < 1600 and fig_top < det_top, (fig_top, det_top)
     shot = tmp_path / "shot.png"
-    p = _chromium([f"--screenshot={shot}", "--window-size=1200,1600", "--hide-scrollbars", url], tmp_path)
+    p = _chromium([f"--screenshot={shot}", "--window-size=1280,1600", "--hide-scrollbars", url], tmp_path)
     assert p.returncode == 0 and shot.exists(), p.stderr[-2000:]
     img = iio.imread(shot)
     assert img.shape[0] >= 1000 and img.shape[1] >= 1000
     gray = np.asarray(img[..., :3], float).mean(axis=2)
     assert gray.std() > 10.0                         # not a blank page
     assert (gray < 128).mean() > 0.005               # text, table borders and the figure are drawn
+    rgb = np.asarray(img[..., :3], int)
+    green = (rgb[..., 1] > 150) & (rgb[..., 0] < 110) & (rgb[..., 2] < 110)
+    orange = (rgb[..., 0] > 220) & (rgb[..., 1] > 130) & (rgb[..., 1] < 180) & (rgb[..., 2] < 80)
+    assert orange.sum() > 200, "the summary's verdict bars are not drawn"

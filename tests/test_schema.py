@@ -39,7 +39,7 @@ def test_missing_value_unknown_key_wrong_type_all_in_one_error():
     raw["drive"]["L"] = "9 m"  # wrong dimension
     probs, _ = _problems(raw)
     assert "mechanism.m2: required value is missing (coupler mass [kg])" in probs
-    assert any(p.startswith("simulation.dtt: unknown key; allowed here: backend, dt, mode, record_dt, t_end")
+    assert any(p.startswith("simulation.dtt: unknown key; allowed here: backend, dt, mode, record_dt, record_joints, t_end")
                for p in probs)
     assert any(p.startswith("drive.R: '1.5' is a number written as a string") for p in probs)
     assert any(p.startswith("modes.pid.kpp: unknown key; allowed here:") and "kp" in p for p in probs)

@@ -337,14 +337,14 @@ def test_dask_worker_killed_mid_sweep(tmp_path):
             distributed.Client(cluster) as client:
         old = tmp_path / "old"
         th = kill_after_first_chunk(client, old / "results.csv")
-        orig = SW.ship_scenario, SW.DASK_RETRIES
-        SW.ship_scenario, SW.DASK_RETRIES = SW.scatter_scenario, 0
+        orig = SW.cluster.ship_scenario, SW.cluster.DASK_RETRIES
+        SW.cluster.ship_scenario, SW.cluster.DASK_RETRIES = SW.scatter_scenario, 0
         try:
             with pytest.raises(MjbenchError, match=r"the Dask cluster lost a chunk .* rows are saved in .* run the same "
                                                    r"command again to resume"):
                 SW.run_sweep(SW.SweepSpec(**spec), old, client=client, progress=False, plots=False)
         finally:
-            SW.ship_scenario, SW.DASK_RETRIES = orig
+            SW.cluster.ship_scenario, SW.cluster.DASK_RETRIES = orig
             th.join()
         client.wait_for_workers(1, timeout=60)
         new = tmp_path / "new"
@@ -479,7 +479,8 @@ def test_disk_full_in_run_and_sweep(tmp_path, capsys, monkeypatch):
     assert code == 2 and "No space left on device" in one_line(err) and "--out" in one_line(err)
     assert not (tmp_path / "a").exists()  # no folder left behind
     import mjbench.sweep as SW
-    monkeypatch.setattr(SW, "atomic_write", _enospc)
+    for part in (SW.folder, SW.table, SW.chunks):  # every writer of the sweep's folder
+        monkeypatch.setattr(part, "atomic_write", _enospc)
     code, err = run_cli(["sweep", "incerti2012", "--grid", "drive.R=2,3", "--t-end", "0.05", "--out", tmp_path / "s"],
                         capsys)
     assert code == 2 and "No space left on device" in one_line(err) and "nothing was written" in one_line(err)
@@ -487,7 +488,8 @@ def test_disk_full_in_run_and_sweep(tmp_path, capsys, monkeypatch):
 
 
 def test_incomplete_mp4_is_not_saved(tmp_path):
-    from mjbench.render import RenderError, _check_mp4
+    from mjbench.render import RenderError
+    from mjbench.render.video import _check_mp4
 
     p = tmp_path / "v.mp4"
     p.write_bytes(b"\x00\x00\x00\x10ftypisom\x00\x00\x00\x00" + b"\x00\x00\x10\x00mdat" + b"\x00" * 100)

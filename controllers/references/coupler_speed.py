@@ -59,7 +59,7 @@ from pydantic import Field
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
 from mjbench.mechanisms.fourbar import arc_length_law, coupler_speed_ratio_law
-from mjbench.schema import Bool, Q, Strict
+from mjbench.fields import Bool, Q, Strict
 
 from ..reference import Reference
 

@@ -18,7 +18,7 @@ from pydantic import Field
 
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
-from mjbench.schema import Q, Strict
+from mjbench.fields import Q, Strict
 
 from ..reference import Reference
 

@@ -111,6 +111,15 @@ def frest_summary(js: dict[str, Any]) -> str:
             lines.append(f"  {k} vs linearisation over {f(js['band_rad_s'][0])}-{f(js['band_rad_s'][1])} rad/s: "
                          f"max rel {f(c[k]['max_rel_diff'], '{:.2e}')}, |mag| {f(100 * c[k]['max_mag_diff'], '{:.3g}')} %, "
                          f"phase {f(c[k]['max_phase_diff_deg'], '{:.3g}')}°")
+    for k in ("plant", "loop"):  # a running linkage: against the frozen-angle family followed along the turn
+        x = c.get(f"{k}_vs_family_along_turn")
+        if x and x["max_rel_diff"] is not None:
+            lines.append(f"  {k} vs the frozen-angle family along the turn: max rel {f(x['max_rel_diff'], '{:.2e}')}, "
+                         f"|mag| {f(100 * x['max_mag_diff'], '{:.3g}')} %, phase {f(x['max_phase_diff_deg'], '{:.3g}')}°")
+    sb = (js.get("frozen_family") or {}).get("sidebands")
+    if sb:
+        lines.append(f"  rotation sidebands ω ± Ω of the speed response: up to {f(100 * sb['speed_measured_max_rel'], '{:.3g}')} % "
+                     f"of the line (frozen family along the turn: {f(100 * sb['speed_frozen_max_rel'], '{:.3g}')} %)")
     lp = js.get("loop")
     if lp:
         m, ml = lp["margins"], lp.get("margins_linear") or {}

@@ -42,6 +42,7 @@ from .. import kernel
 from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
 from ..trajectory import Trajectory
+from .joints import table_joints
 from .multibody import _extra_names
 
 
@@ -55,7 +56,7 @@ class ReducedPlant:
     nsim = None
 
     def __init__(self, machine, dt: float = 1e-4, method: str = "rk4", rtol: float = 1e-10, atol: float = 1e-12,
-                 model: str = "table"):
+                 model: str = "table", record_joints: bool = False):
         if method not in ("rk4", "solve_ivp"):
             raise ParameterError(f"reduced.method = {method!r}: choose 'rk4' or 'solve_ivp'")
         if model not in ("table", "closed"):
@@ -73,6 +74,13 @@ class ReducedPlant:
         self._nx = len(mech.internal)
         self.extra_columns = _extra_names(mech)
         self.meta = {"method": method, "model": "closed"}
+        self._joints = None  # [simulation] record_joints: the mechanism's own joint table (joints.py)
+        self._joint_note = {}
+        if record_joints:
+            self._joints, names, info = _joint_table(machine, self.h)
+            self.extra_columns += names
+            self._joint_note = {"joint_columns": info if self._joints is not None else f"not provided: {info}"}
+            self.meta.update(self._joint_note)
 
     # ------------------------------------------------------------------ protocol
     def start(self):
@@ -105,9 +113,11 @@ class ReducedPlant:
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
-            P = RigidP(self.h, self._Ja, self._c, model.P)
-            return C.Form(rk4_rigid, P, np.array(self._state0()), laws={"read": reduced_read}, flags=flags,
-                          fn_args=(model,))
+            P = RigidP(self.h, self._Ja, self._c, model.P, C.NO_PARAMS if self._joints is None else self._joints)
+            laws = {"read": reduced_read}
+            if self._joints is not None:
+                laws["write"] = rigid_joints_write
+            return C.Form(rk4_rigid, P, np.array(self._state0()), laws=laws, flags=flags, fn_args=(model,))
         acc = mech.accel_form()
         self._meta_from(acc)
         n = self._nx
@@ -120,7 +130,7 @@ class ReducedPlant:
 
     def _meta_from(self, form):
         tab = form.flags.get("table")
-        self.meta = {"method": self.method, **(tab if tab else {"model": "closed"})}
+        self.meta = {"method": self.method, **(tab if tab else {"model": "closed"}), **self._joint_note}
 
     def _ivp_form(self, flags):
         plant = self
@@ -141,6 +151,8 @@ class ReducedPlant:
             for i in range(n):
                 out[b + i] = plant.x[i]
                 out[b + n + i] = plant.xd[i]
+            if plant._joints is not None:
+                table_joints(out, b + 2 * n, plant.q, plant.qd, C.python_view(plant._joints))
 
         return C.python_form(step, "reduced.method = 'solve_ivp' (scipy, in Python)",
                              laws={"read": read, "write": write}, flags=flags)
@@ -178,14 +190,15 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    plant = ReducedPlant(machine, dt, method, rtol, atol, model)
+    plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
     rec = kernel.run(plant, machine, t_end, record_dt, progress, backend="reduced", loop=loop)
     return Trajectory.from_record(rec, "reduced")
 
 
 # ============================================================================ laws
-#: the rigid reduced plant's parameters: step, drive inertia J_eq and viscous z²λ, the model's parameters
-RigidP = namedtuple("RigidP", "h Ja c model")
+#: the rigid reduced plant's parameters: step, drive inertia J_eq and viscous z²λ, the model's
+#: parameters, the joint table's (``record_joints``, :mod:`mjbench.backends.joints`; else empty)
+RigidP = namedtuple("RigidP", "h Ja c model joints")
 #: the reduced plant with internal coordinates: step, J_eq, z²λ, number n of internal coordinates,
 #: index of the compliant gear's deflection among them (−1: none), the acceleration law's parameters
 InternalP = namedtuple("InternalP", "h Ja c n idefl acc")
@@ -224,6 +237,38 @@ def rk4_rigid(MODEL, tau, t, P, S):
 @C.law
 def reduced_read(P, S):
     return S[0], S[1], 0.0, 0.0
+
+
+@C.law
+def rigid_joints_write(out, b, P, S):
+    """Every joint's coordinate and rate from the mechanism's own kinematics at the state (q, q̇)
+    (:func:`mjbench.backends.joints.table_joints`)."""
+    table_joints(out, b, S[0], S[1], P.joints)
+
+
+_JOINT_TABLES: dict = {}
+
+
+def _joint_table(machine, h):
+    """(JointsP or None, column names, info or why not) of the machine's mechanism from its q0
+    (cached by mechanism and q0)."""
+    from .joints import reduced_table
+    from .multibody import build_model
+
+    mech = machine.mechanism
+    try:
+        key = (type(mech).__name__, repr(sorted(mech.describe().items())), float(machine.q0))
+    except Exception:  # noqa: BLE001 - a description that cannot be keyed: no cache
+        key = None
+    hit = _JOINT_TABLES.get(key) if key is not None else None
+    if hit is None:
+        model = build_model(machine, {"timestep": h})[1]
+        hit = reduced_table(mech, model, float(machine.q0))
+        if key is not None:
+            if len(_JOINT_TABLES) > 16:
+                _JOINT_TABLES.clear()
+            _JOINT_TABLES[key] = hit
+    return hit
 
 
 @C.law

@@ -6,6 +6,8 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
+from . import cli_command  # noqa: E402
+
 
 def register(sub):
     from .reproduce import add_common
@@ -16,21 +18,21 @@ def register(sub):
     p.set_defaults(func=run, quick=True, gl=True)
 
 
+@cli_command
 def run(args) -> int:
+    """``mjbench demo`` = ``mjbench.reproduce_papers(out, quick=True)`` (docs/api.md)."""
     import sys
     import time
 
-    from .. import reproduce as R
-    from ..outputs import staged_dir
+    from .. import api
     from .reproduce import check_video_options, with_gl
 
     check_video_options(args)
     t0 = time.perf_counter()
     with_gl(args)
-    progress = not args.no_progress and sys.stderr.isatty()
-    with staged_dir(args.out, force=args.force) as tmp:
-        R.reproduce("all", tmp, quick=True, video=not args.no_video, progress=progress,
-                    width=args.width, height=args.height)
+    api.reproduce_papers(args.out, "all", quick=True, video=not args.no_video, width=args.width, height=args.height,
+                         force=args.force, progress=not args.no_progress and sys.stderr.isatty(), log=print,
+                         what="--out")
     out = os.path.abspath(args.out)
     print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
           f"(or read {os.path.join(out, 'report.md')})")

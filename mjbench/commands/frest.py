@@ -24,10 +24,11 @@ def register(sub):
     p.add_argument("--amplitude", type=float, default=None,
                    help="excitation peak [V] (default: 2 %% of the operating voltage, within the limiter's headroom)")
     p.add_argument("--band", default=None, metavar="LO,HI", help="frequency band [rad/s] (default: 1/period … "
-                   "min(0.25 × Nyquist, 500 Hz))")
+                   "min(0.25 × Nyquist, 500 Hz); a running linkage from a decade below its frozen-angle band)")
     p.add_argument("--lines", type=int, default=30, help="number of excited frequencies (default 30)")
     p.add_argument("--periods", type=int, default=3, help="measured periods (default 3: coherence over 3)")
-    p.add_argument("--period", type=float, default=None, help="multisine period [s] (default 0.5 s, whole turns)")
+    p.add_argument("--period", type=float, default=None, help="multisine period [s] (default 0.5 s; a running "
+                   "linkage: whole turns, ≥ 2, its lines free of each other's rotation sidebands)")
     p.add_argument("--settle", type=float, default=None, help="settling time before measuring [s] (default: from "
                    "the linear closed loop's slowest pole)")
     p.add_argument("--backend", choices=["reduced", "multibody"], default="reduced")

@@ -6,7 +6,7 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
-from ..outputs import staged_dir  # noqa: E402
+from . import cli_command  # noqa: E402
 
 
 def add_common(p, out_required=True):
@@ -36,17 +36,20 @@ def register(sub):
 
 
 def list_cases():
-    from .. import reproduce as R
+    from .. import api
 
-    for c in R.load_cases():
+    for c in api.paper_cases():
         extra = f" modes {','.join(c.modes)}" if c.modes else ""
         print(f"{c.name:<28s} {c.paper:<18s} {c.scenario:<22s} {c.kind:<12s}{extra}  {c.title}")
     return 0
 
 
+@cli_command
 def run(args) -> int:
+    """``mjbench reproduce`` = ``mjbench.reproduce_papers`` (docs/api.md)."""
     import sys
 
+    from .. import api
     from .. import reproduce as R
 
     if args.list:
@@ -57,10 +60,9 @@ def run(args) -> int:
     R.select(R.load_cases(), args.case)  # an unknown case name: an error before anything is written
     check_video_options(args)
     with_gl(args)
-    progress = not args.no_progress and sys.stderr.isatty()
-    with staged_dir(args.out, force=args.force) as tmp:
-        R.reproduce(args.case, tmp, quick=args.quick, video=not args.no_video, progress=progress,
-                    width=args.width, height=args.height)
+    api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
+                         height=args.height, force=args.force, progress=not args.no_progress and sys.stderr.isatty(),
+                         log=print, what="--out")
     print(f"results written to {args.out}")
     return 0
 

@@ -15,7 +15,7 @@ from pydantic import BeforeValidator, Field, ValidationInfo, field_validator, mo
 from pydantic_core import PydanticCustomError
 
 from .. import units as U
-from ..schema import Bool, OptQ, Q, Strict, UnitMeta
+from ..fields import Bool, OptQ, Q, Strict, UnitMeta
 
 
 def _torque_or_force(v):

@@ -43,7 +43,7 @@ class Param:
 
 
 def _unit_kind(field) -> str | None:
-    from ..schema import UnitMeta
+    from ..fields import UnitMeta
 
     for m in field.metadata:
         if isinstance(m, UnitMeta):

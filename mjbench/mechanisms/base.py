@@ -45,6 +45,27 @@ import numpy as np
 
 INPUT_JOINT = "crank"  #: default name of the driven joint in the generated MJCF models
 
+# ---------------------------------------------------------------------------- plane convention
+# The ONE declaration of the plane of every generated MJCF model.  A planar mechanism is described
+# in its plane (x, y), y up (``points``, link lengths, angles counter-clockwise from +x).  Its MJCF
+# lies in MuJoCo's x–z plane: plane (x, y) → MuJoCo (x, 0, y) (:func:`plane_to_mj`), gravity along
+# −z (plane −y), and every hinge turns about HINGE_AXIS = −y, so that a positive joint angle is
+# counter-clockwise in the plane: a body rotated by q about −y maps (1, 0, 0) to (cos q, 0, sin q).
+# ``mjbench render`` looks along +y at that plane (SIDE_CAMERA: plane x → right, plane y → up).
+HINGE_AXIS = (0.0, -1.0, 0.0)  #: hinge axis of a planar mechanism's joints in MuJoCo
+PLANE_INDEX = (0, 2)  #: MuJoCo coordinates holding the plane's x and y
+SIDE_CAMERA = {"azimuth": 90.0, "elevation": 0.0}  #: free camera looking along +y at the x–z plane
+
+
+def plane_to_mj(x, y) -> list:
+    """MuJoCo position [x, 0, y] of the plane point (x, y) [m] (the plane convention above)."""
+    return [x, 0.0, y]
+
+
+def mj_to_plane(p) -> tuple:
+    """Plane point (x, y) [m] of a MuJoCo position (its x and z; the plane convention above)."""
+    return (p[PLANE_INDEX[0]], p[PLANE_INDEX[1]])
+
 INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
 
 
@@ -88,8 +109,10 @@ def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 108
     """An MjSpec with the options every mjbench model shares.
 
     ``options``: ``timestep`` [s] (default 1e-4), ``integrator`` (default RK4), ``iterations``,
-    ``tolerance``.  Always: dense Jacobian (MuJoCo 4.0.0's sparse Cholesky is wrong on closed
-    chains, upstream issue 3767), Newton solver, contacts off, energy computed, explicit inertials.
+    ``tolerance``.  Always: Newton solver, contacts off, energy computed, explicit inertials.  The
+    constraint Jacobian is MuJoCo's default (``auto``: dense below 60 DOFs, i.e. every mjbench
+    model); the forced dense Jacobian of MuJoCo 4.0.0 (sparse-Cholesky bug on closed chains,
+    upstream issue 3767) was dropped on 4.0.1 by test (tests/test_mujoco_version.py).
     """
     import mujoco
 
@@ -101,7 +124,6 @@ def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 108
     opt = spec.option
     opt.timestep = float(o.get("timestep", 1e-4))
     opt.integrator = integrator_enum(o.get("integrator", "RK4"))
-    opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
     opt.iterations = int(o.get("iterations", 100))
     opt.tolerance = float(o.get("tolerance", 1e-12))

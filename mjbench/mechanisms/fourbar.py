@@ -24,12 +24,12 @@ from pydantic import Field, field_validator
 from .. import compiled as C
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
-from ..schema import Q, Strict
+from ..fields import Q, Strict
 from . import register
-from .base import INPUT_JOINT, Mechanism, closure_solref, new_spec
+from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
-AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo: paper angles are counter-clockwise in (x, z)
+AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
 
 
 
@@ -401,8 +401,8 @@ class FourBar(Mechanism):
         """MjSpec of the linkage: crank, coupler, rocker; loop closed by a site ``connect``.
 
         ``options``: dict with optional ``timestep`` [s], ``integrator`` (Euler|RK4|implicit|
-        implicitfast), ``solref`` (2 values), ``solimp`` (5 values).  The Jacobian is forced
-        dense (MuJoCo 4.0.0 sparse-Cholesky bug on closed chains, upstream issue 3767).
+        implicitfast), ``solref`` (2 values), ``solimp`` (5 values).  The constraint Jacobian is
+        MuJoCo's default (:func:`~mjbench.mechanisms.base.new_spec`).
         """
         import mujoco
 

@@ -133,25 +133,51 @@ class SpringSpec(Strict):
 
 
 class LoadSpec(Strict):
-    """``[[mechanism.loads]]``: a force on a point along a fixed direction (world frame).
+    """``[[mechanism.loads]]``: a force on a point along a fixed direction (world frame), or a
+    torque on a link (``link``).
 
-    Magnitude: ``force`` (constant) or a table ``s``/``F`` of the point's coordinate along the
-    direction, s = P·d [m] (piecewise linear, constant beyond the ends).  ``active``: always, or
-    only on the stroke where — with the input turning forward (q increasing) — the point moves
-    along (``stroke_along``) or against (``stroke_against``) the direction, i.e. where ds/dq > 0
-    or < 0.  The gate depends on the input angle only (a process timed by the stroke, as seed
-    004's working-stroke window), not on the momentary direction of rotation."""
+    **Point load** (``point``, ``direction``): magnitude ``force`` (constant) or a table ``s``/``F``
+    of the point's coordinate along the direction, s = P·d [m] (piecewise linear, constant beyond
+    the ends).  ``active``: always, or only on the stroke where — with the input turning forward
+    (q increasing) — the point moves along (``stroke_along``) or against (``stroke_against``) the
+    direction, i.e. where ds/dq > 0 or < 0.  The gate depends on the input angle only (a process
+    timed by the stroke, as seed 004's working-stroke window), not on the momentary direction of
+    rotation.
+
+    **Torque load** (``link``): a torque T on the link, counter-clockwise positive in the
+    description's plane, reacted by the frame (a brake, a process torque, a motor on the frame
+    driving that link).  Magnitude ``torque`` (constant) or a table ``T`` against the input angle
+    ``q`` [rad] (piecewise linear in the angle reduced into [q₀, q₀ + 2π), q₀ the first entry;
+    constant beyond the ends) or against a point's stroke ``s`` (then ``point`` and ``direction``
+    define s = P·d as for a point load).  ``active``: always, or only where the link turns along
+    (``stroke_along``: dθ_link/dq > 0) or against (``stroke_against``: dθ_link/dq < 0) the torque's
+    positive sense as the input turns forward.  Its generalised force on the input is
+    T·dθ_link/dq (virtual work)."""
 
     name: str = ""
-    point: str = Field(description='"link.point"')
-    direction: tuple[float, float] = Field(description="direction of a positive force (normalised)")
+    point: str | None = Field(None, description='"link.point": the loaded point (a torque load: the point of its stroke table)')
+    direction: tuple[float, float] | None = Field(None, description="direction of a positive force / of the stroke s (normalised)")
     force: Q("force", plausible=False) | None = None
     s: list[Length] | None = None
     F: list[Q("force", plausible=False)] | None = None
+    link: str | None = Field(None, description="torque load: the link the torque acts on (reaction on the frame)")
+    torque: Q("torque", plausible=False) | None = Field(None, description="torque load: constant torque, counter-clockwise")
+    q: list[Q("angle")] | None = Field(None, description="torque load: input angles of the table T(q)")
+    T: list[Q("torque", plausible=False)] | None = Field(None, description="torque load: torques of the table (against q or s)")
     active: Literal["always", "stroke_along", "stroke_against"] = "always"
 
     @model_validator(mode="after")
     def _law(self):
+        if self.link is not None:
+            return self._torque_law()
+        what = self.point or "?"
+        extra = [k for k in ("torque", "q", "T") if getattr(self, k) is not None]
+        if extra:
+            raise PydanticCustomError("mjbench_value", "load on {p}: {k} belong to a torque load (give link = ...)",
+                                      {"p": what, "k": ", ".join(extra)})
+        if self.point is None or self.direction is None:
+            raise PydanticCustomError("mjbench_value", "a load needs point and direction (a force on a point) or "
+                                      "link (a torque on a link)")
         if not math.hypot(*self.direction) > 0:
             raise PydanticCustomError("mjbench_value", "load on {p}: direction has zero length", {"p": self.point})
         table = self.s is not None or self.F is not None
@@ -162,9 +188,47 @@ class LoadSpec(Strict):
             if self.s is None or self.F is None or len(self.s) != len(self.F) or len(self.s) < 2:
                 raise PydanticCustomError("mjbench_value", "load on {p}: s and F need the same length >= 2",
                                           {"p": self.point})
-            if any(b <= a for a, b in zip(self.s, self.s[1:])):
-                raise PydanticCustomError("mjbench_value", "load on {p}: s must be increasing", {"p": self.point})
+            _increasing(self.s, "s", self.point)
         return self
+
+    def _torque_law(self):
+        where = f"link {self.link}"
+        if self.force is not None or self.F is not None:
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: give torque or the table T (force and F "
+                                      "are a point load's)", {"w": where})
+        if (self.torque is None) == (self.T is None):
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: give either torque or the table T with q "
+                                      "(input angles) or s (a point's stroke)", {"w": where})
+        if self.T is not None:
+            if (self.q is None) == (self.s is None):
+                raise PydanticCustomError("mjbench_value", "torque load on {w}: the table T needs exactly one of q "
+                                          "(input angles [rad]) or s (the stroke of point along direction [m])",
+                                          {"w": where})
+            x = self.q if self.q is not None else self.s
+            if len(x) != len(self.T) or len(x) < 2:
+                raise PydanticCustomError("mjbench_value", "torque load on {w}: {a} and T need the same length >= 2",
+                                          {"w": where, "a": "q" if self.q is not None else "s"})
+            _increasing(x, "q" if self.q is not None else "s", where)
+            if self.q is not None and not self.q[-1] - self.q[0] <= 2.0 * math.pi + 1e-12:
+                raise PydanticCustomError("mjbench_value", "torque load on {w}: the angles q span {d:.4g} rad, more than "
+                                          "one turn (2π)", {"w": where, "d": self.q[-1] - self.q[0]})
+        elif self.q is not None or self.s is not None:
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: q or s without a table T", {"w": where})
+        stroke = self.s is not None
+        if stroke and (self.point is None or self.direction is None):
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: a table against the stroke s needs point "
+                                      "and direction (s = P·d)", {"w": where})
+        if not stroke and (self.point is not None or self.direction is not None):
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: point and direction define the stroke of "
+                                      "a table T(s) and would be ignored here", {"w": where})
+        if stroke and not math.hypot(*self.direction) > 0:
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: direction has zero length", {"w": where})
+        return self
+
+
+def _increasing(x, name, where):
+    if any(b <= a for a, b in zip(x, x[1:])):
+        raise PydanticCustomError("mjbench_value", "load on {p}: {n} must be increasing", {"p": where, "n": name})
 
 
 class LinkageParams(Strict):
@@ -248,7 +312,11 @@ def topology_problems(p: LinkageParams) -> list:
         for ref in s.between:
             check_ref(ref, f"springs[{k}]")
     for k, ld in enumerate(p.loads):
-        check_ref(ld.point, f"loads[{k}]")
+        if ld.point is not None:
+            check_ref(ld.point, f"loads[{k}]")
+        if ld.link is not None and ld.link not in names:
+            out.append(f"loads[{k}]: link {ld.link!r} is not a moving link (links: {', '.join(sorted(names)) or 'none'}); "
+                       f"a torque on the frame does no work")
     if p.trace is not None:
         check_ref(p.trace, "trace")
     # zero-length links: every point used by a revolute joint at the same place
@@ -388,8 +456,11 @@ class _Compiled:
         for s in p.springs:
             (la, pa), (lb, pb) = _ref(s.between[0]), _ref(s.between[1])
             self.springs.append((self._body_point(la, pa), self._body_point(lb, pb), s))
-        self.loads = []
+        self.loads = []  # (body point of its stroke or None, unit direction or None, spec)
         for ld in p.loads:
+            if ld.point is None:  # a torque load with a constant or an input-angle table
+                self.loads.append((None, None, ld))
+                continue
             lk, pt = _ref(ld.point)
             d = np.array(ld.direction, float) / math.hypot(*ld.direction)
             self.loads.append((self._body_point(lk, pt), d, ld))
@@ -565,8 +636,9 @@ class _Compiled:
 
     # ------------------------------------------------------------------ dynamics channels
     def channels(self, z, v, a):
-        """Reduced-model channels (B, k): J, J', E_p', E_p, D (viscous factor Σc·rate²), then
-        s, s' of every load."""
+        """Reduced-model channels (B, k): J, J', E_p', E_p, D (viscous factor Σc·rate²), then two
+        per load: a point load's s = P·d and ds/dq; a torque load's stroke s (0 without a point)
+        and its link's dθ/dq."""
         z, v, a = np.atleast_2d(z), np.atleast_2d(v), np.atleast_2d(a)
         B = z.shape[0]
         m, I = self.mass, self.inertia
@@ -595,9 +667,12 @@ class _Compiled:
             if s.damping > 0:
                 D = D + s.damping * dell ** 2
         cols = [J, dJ, dEp, Ep, D]
-        for (b, pt), d, _ in self.loads:
-            cols.append(sysm.point(z, b, pt) @ d)
-            cols.append(sysm.point_vel(z, v, b, pt) @ d)
+        for bp, d, ld in self.loads:
+            cols.append(sysm.point(z, *bp) @ d if bp is not None else np.zeros(B))
+            if ld.link is not None:
+                cols.append(v[:, 3 * self.index[ld.link] + 2].copy())
+            else:
+                cols.append(sysm.point_vel(z, v, *bp) @ d)
         return np.stack(cols, axis=1)
 
     # ------------------------------------------------------------------ the branch over one turn
@@ -905,12 +980,17 @@ class Linkage(Mechanism):
         return C.Form(linkage_model, LinkageModelP(tf.P, self.ext_P), flags=dict(tf.flags))
 
     def load_forces(self, q, qd):
-        """[(s, ṡ, F)] of every load at (q, q̇): the point's coordinate along the load direction
-        [m], its rate [m/s] and the force [N]."""
+        """[(s, ṡ, F)] of every load at (q, q̇): a point load's coordinate along its direction [m],
+        its rate [m/s] and the force [N]; a torque load's table abscissa (its point's stroke [m] or
+        the reduced input angle [rad]; 0 for a constant torque), its link's rate θ̇ [rad/s] and the
+        torque [N·m]."""
         out = []
-        for ks, kd, law in self._loads:
+        P = self.loads_P
+        for k, (ks, kd, law) in enumerate(self._loads):
             v = self._tab(q, [ks, kd])
             s, ds = v[..., 0], v[..., 1]
+            if P.spec[k, 7] != 0.0:
+                s = C.vectorize(lambda a, k=k: load_abscissa(k, a, P, self.c.table.P), q + 0.0 * ds)
             out.append((s, ds * qd, law(s, ds)))
         return out
 
@@ -928,11 +1008,9 @@ class Linkage(Mechanism):
                 for k, (x, y) in pts.items()}
 
     def trace_point(self, q):
-        ref = self.params.trace
+        ref = self.params.trace or _first_load_point(self.params)
         if ref is None:
-            if not self.params.loads:
-                return None
-            ref = self.params.loads[0].point
+            return None
         return self.points(q)[ref]
 
     def describe(self) -> dict:
@@ -1151,8 +1229,8 @@ class Linkage(Mechanism):
             for k, v in pts.items():
                 bodies[name].add_site(name=f"{name}.{k}", pos=[v[0], 0.0, v[1]], size=[1.1 * rad, 0, 0],
                                       rgba=[0.15, 0.15, 0.15, 1])
-        if p.trace or p.loads:
-            ref = p.trace or p.loads[0].point
+        if p.trace or _first_load_point(p):
+            ref = p.trace or _first_load_point(p)
             lk, pt = _ref(ref)
             v = c.pts[lk][pt]
             bodies[lk].add_site(name="trace", pos=[v[0], 0.0, v[1]], size=[1.6 * rad, 0, 0], rgba=[1, 0.8, 0.1, 1])
@@ -1269,6 +1347,31 @@ class Linkage(Mechanism):
             qvel[model.joint(name).dofadr[0]] = r * qd0
         return qvel
 
+    def joint_states(self, model, q):
+        """(qpos (B, nq), qvel per unit input speed (B, nv)) at input angles q (array): what
+        :meth:`initial_qpos` / :meth:`initial_qvel` give, solved for every angle at once (the
+        reduced backend's joint columns, :mod:`mjbench.backends.joints`)."""
+        c = self.c
+        q = np.atleast_1d(np.asarray(q, float))
+        z, v, _ = c.exact(q)
+        _, th = c.frames(z)
+        jr = c.joint_rates(z, v)
+        sl = c.slide_positions(z)
+        qpos = np.tile(np.asarray(model.qpos0, float), (len(q), 1))
+        qvel = np.zeros((len(q), model.nv))
+        for e in c.edges:
+            jn = model.joint(e.name)
+            a, d = int(jn.qposadr[0]), int(jn.dofadr[0])
+            if e.kind == "R":
+                tp = th[:, c.index[e.parent]] if e.parent != GROUND else 0.0
+                qpos[:, a] = th[:, c.index[e.child]] - tp
+                qvel[:, d] = jr[:, e.k] if e.line_first else -jr[:, e.k]
+            else:
+                qpos[:, a] = sl[:, e.k]
+                qvel[:, d] = jr[:, e.k]
+        qpos[:, int(model.joint(self.input_joint).qposadr[0])] = q
+        return qpos, qvel
+
 
     # ------------------------------------------------------------------ multibody loads
     def has_multibody_load(self) -> bool:
@@ -1301,13 +1404,18 @@ class Linkage(Mechanism):
             h1 = {d for e, _, d in chain(l1) if e.kind == "R"} if l1 != GROUND else set()
             h2 = {d for e, _, d in chain(l2) if e.kind == "R"} if l2 != GROUND else set()
             damp.append((float(j.damping), sorted(h2 - h1), sorted(h1 - h2)))
-        raw_loads = []
+        raw_loads, raw_torques = [], []
         for k, ld in enumerate(p.loads):
+            if ld.link is not None:  # a torque on a link: T on every hinge of its chain from the ground
+                raw_torques.append((k, [da for e, _, da in chain(ld.link) if e.kind == "R"]))
+                continue
             lk, pt = _ref(ld.point)
             d = np.array(ld.direction, float) / math.hypot(*ld.direction)
             raw_loads.append((k, chain(lk) if lk != GROUND else [], c.pts[lk][pt], d))
-        dofs = sorted({dd for _, a, b in damp for dd in a + b} | {da for _, ch, _, _ in raw_loads for _, _, da in ch})
+        dofs = sorted({dd for _, a, b in damp for dd in a + b} | {da for _, ch, _, _ in raw_loads for _, _, da in ch}
+                      | {da for _, hs in raw_torques for da in hs})
         idx = {d: i for i, d in enumerate(dofs)}
+        torques = [(k, self._loads[k][1], [idx[d] for d in hs]) for k, hs in raw_torques]
         damp = [(cd, [(idx[d], d) for d in a], [(idx[d], d) for d in b]) for cd, a, b in damp]
         loads, affine = [], []
         for k, ch, pt, d in raw_loads:
@@ -1332,15 +1440,21 @@ class Linkage(Mechanism):
                 continue
             loads.append((self._loads[k][1], cc, float(pt[0]), float(pt[1]), float(d[0]), float(d[1]), k))
         jin = model.joint(self.input_joint)
-        setup = (damp, loads, affine, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep))
+        setup = (damp, loads, affine, dofs, int(jin.dofadr[0]), int(jin.qposadr[0]), 0.5 * float(model.opt.timestep),
+                 torques)
         self._mb = (model, setup)
         return setup
 
     def load_form(self, model, data):
-        """Point loads and the viscous friction of loop-closing hinges as a law (:func:`linkage_load`)."""
+        """Point and torque loads and the viscous friction of loop-closing hinges as a law (:func:`linkage_load`)."""
         if not self.has_multibody_load():
             return None
-        damp, loads, affine, dofs, ina, qina, h2 = self._mb_setup(model)
+        damp, loads, affine, dofs, ina, qina, h2, torques = self._mb_setup(model)
+        # torque loads: the hinges (f slots) of the link's chain, each gets +T
+        tptr, tslot = [0], []
+        for _, _, slots in torques:
+            tslot += slots
+            tptr.append(len(tslot))
         # damped closures: entries (f slot, dof, ±1) of each, in order (plus, then minus)
         dptr, dslot, ddof, dsign = [0], [], [], []
         for cd, plus, minus in damp:
@@ -1373,12 +1487,13 @@ class Linkage(Mechanism):
             f64([ld[5] for ld in loads]),
             i64(cols[0]), i64(cols[1]), i64(cols[2]), f64(cols[3]), f64(cols[4]), f64(cols[5]), f64(cols[6]),
             f64(cols[7]), f64(cols[8]), f64(cols[9]), f64(cols[10]),
-            np.zeros(max(len(ce), 1)), np.zeros(max(len(ce), 1)), np.zeros(max(len(dofs), 1)), i64(dofs))
+            np.zeros(max(len(ce), 1)), np.zeros(max(len(ce), 1)), np.zeros(max(len(dofs), 1)), i64(dofs),
+            i64([k for k, _, _ in torques]), i64([kd for _, kd, _ in torques]), i64(tptr), i64(tslot))
         return C.Form(linkage_load, P)
 
     def multibody_load(self, model, data, t: float) -> None:
-        """Point loads and the viscous friction of loop-closing hinges as generalised forces of the
-        MuJoCo tree (:func:`linkage_load`, evaluated once)."""
+        """Point and torque loads and the viscous friction of loop-closing hinges as generalised forces
+        of the MuJoCo tree (:func:`linkage_load`, evaluated once)."""
         f = self.load_form(model, data)
         if f is not None:
             linkage_load(float(t), C.python_view(f.P))
@@ -1433,18 +1548,29 @@ def _hull(pts):
     return [np.array(x) for x in lower[:-1] + upper[:-1]]
 
 
+def _first_load_point(p):
+    """The point of the first load that has one ("link.point"), or None."""
+    return next((ld.point for ld in p.loads if ld.point is not None), None)
+
+
 def _loads_params(specs) -> "LoadsP":
-    """The parameters of :func:`load_force` for the load descriptions ``specs`` (in order)."""
+    """The parameters of :func:`load_force` and :func:`load_abscissa` for the load descriptions
+    ``specs`` (in order; a torque load's magnitude is its torque, its abscissa s or the angle q)."""
     rows, xs, Fs = [], [], []
     for k, ld in enumerate(specs):
         gate = {"always": 0.0, "stroke_along": 1.0, "stroke_against": -1.0}[ld.active]
-        if ld.force is not None:
-            rows.append((0.0, float(ld.force), gate, float(len(xs)), 0.0, 5.0 + 2 * k, 6.0 + 2 * k))
+        const = ld.force if ld.link is None else ld.torque
+        angle = ld.link is not None and ld.q is not None
+        q0 = float(ld.q[0]) if angle else 0.0
+        if const is not None:
+            rows.append((0.0, float(const), gate, float(len(xs)), 0.0, 5.0 + 2 * k, 6.0 + 2 * k, 0.0, 0.0))
         else:
-            rows.append((1.0, 0.0, gate, float(len(xs)), float(len(ld.s)), 5.0 + 2 * k, 6.0 + 2 * k))
-            xs += [float(v) for v in ld.s]
-            Fs += [float(v) for v in ld.F]
-    return LoadsP(np.array(rows, dtype=float).reshape(-1, 7), np.array([xs, Fs], dtype=float).reshape(2, -1))
+            x = ld.q if angle else ld.s
+            y = ld.T if ld.link is not None else ld.F
+            rows.append((1.0, 0.0, gate, float(len(xs)), float(len(x)), 5.0 + 2 * k, 6.0 + 2 * k, float(angle), q0))
+            xs += [float(v) for v in x]
+            Fs += [float(v) for v in y]
+    return LoadsP(np.array(rows, dtype=float).reshape(-1, 9), np.array([xs, Fs], dtype=float).reshape(2, -1))
 
 
 def _force_law(ld: LoadSpec, k: int = 0):
@@ -1458,10 +1584,13 @@ register(Linkage)
 
 
 # ============================================================================ laws
-#: the point loads: ``spec`` one row per load — kind (0 constant F0, 1 table), F0, gate (0 always,
-#: +1 on the stroke along its direction, −1 against), the table's start t0 and length tn in ``xf``,
-#: the periodic-table channels of s and ds/dq —, ``xf`` (2, ·) the tables' s (row 0) and F (row 1)
-#: (few arrays: each array a compiled law reads costs a reference-count update)
+#: the loads: ``spec`` one row per load — kind (0 constant F0, 1 table), F0, gate (0 always, +1 on
+#: the stroke along its direction, −1 against), the table's start t0 and length tn in ``xf``, the
+#: periodic-table channels of s and of the gate's rate g (point: ds/dq; torque: dθ_link/dq), the
+#: abscissa (0: s; 1: the input angle reduced into [q₀, q₀ + 2π)) and q₀ —, ``xf`` (2, ·) the
+#: tables' abscissae (row 0) and forces or torques (row 1) (few arrays: each array a compiled law
+#: reads costs a reference-count update).  A torque load's generalised force is T·dθ_link/dq, a
+#: point load's F·ds/dq: the same product of the magnitude and the gate's rate.
 LoadsP = namedtuple("LoadsP", "spec xf")
 #: the external torque: the linkage's periodic table, the loads
 LinkageExtP = namedtuple("LinkageExtP", "tab loads")
@@ -1471,10 +1600,12 @@ LinkageModelP = namedtuple("LinkageModelP", "table ext")
 #: table, the loads; damped closures (coefficient, entries dptr[k]..dptr[k+1]: f slot, dof, sign);
 #: loads on slides only (load, s channel… terms aptr[k]..: f slot, qpos, dof, gain); loads through a
 #: chain (load, ds/dq channel, elements cptr[k]..cptr[k+1], point in its link, direction; elements:
-#: f slot, qpos, dof, hinge, p, c, u, φ); work arrays (per element a, b; f per dof) and the dofs
+#: f slot, qpos, dof, hinge, p, c, u, φ); work arrays (per element a, b; f per dof) and the dofs;
+#: torque loads (load, dθ/dq channel, the f slots of the link chain's hinges tptr[k]..tptr[k+1])
 LinkageLoadP = namedtuple("LinkageLoadP", "qpos qvel qfrc ina qina h2 tab loads dc dptr dslot ddof dsign "
                                           "aload akd as0 aptr ai aqa ada akk cload ckd cptr cpt0 cpt1 cdx cdy "
-                                          "ei eqa eda ehinge ep0 ep1 ec0 ec1 eu0 eu1 ephi wa wb f dofs")
+                                          "ei eqa eda ehinge ep0 ep1 ec0 ec1 eu0 eu1 ephi wa wb f dofs "
+                                          "tload tkd tptr tslot")
 
 
 @law
@@ -1508,15 +1639,31 @@ def load_force(k, s, sd, L):
 
 
 @law
+def load_abscissa(k, q, L, T):
+    """The abscissa of load k's table at input angle q: its point's coordinate s (periodic-table
+    channel, ``T``), or for a torque table against the input angle, q reduced into [q₀, q₀ + 2π)
+    (q₀ its first angle); NaN at a non-finite angle."""
+    sp = L.spec
+    if sp[k, 7] == 0.0:
+        return ptable_channel(q, int(sp[k, 5]), T)
+    q0 = sp[k, 8]
+    u = q - q0
+    if not abs(u) < 1e15:
+        return math.nan
+    return q0 + (u - TWO_PI * math.floor(u / TWO_PI))
+
+
+@law
 def linkage_torque(q, qd, P):
     """The external torque on the input [N·m]: −D(q)·q̇ (viscous joints and dampers, table channel
-    4) plus Σ F_k(s_k)·ds_k/dq of the point loads (:func:`load_force`)."""
+    4) plus Σ F_k(s_k)·ds_k/dq of the point loads and Σ T_k·dθ_k/dq of the torque loads
+    (:func:`load_force`, :func:`load_abscissa`)."""
     T = P.tab
     Q = -ptable_channel(q, 4, T) * qd
     L = P.loads
     sp = L.spec
     for k in range(len(sp)):
-        s = ptable_channel(q, int(sp[k, 5]), T)
+        s = load_abscissa(k, q, L, T)
         ds = ptable_channel(q, int(sp[k, 6]), T)
         Q = Q + load_force(k, s, ds, L) * ds
     return Q
@@ -1531,12 +1678,15 @@ def linkage_model(q, qd, t, P):
 
 @law
 def linkage_load(t, P):
-    """The point loads and the damping of loop-closing hinges as generalised forces of the MuJoCo
-    tree, before each step (:meth:`Linkage.load_form`): closure damping from the relative rate at
-    the step's start; a load's point from the tree's own kinematics at the predicted mid-point
-    qpos + ½·h·qvel, F(s) through the point Jacobian, its stroke gate from ds/dq at the input's
-    mid-step angle (the description's kinematics).  The input dof's force (the drive torque) is
-    added to, every other touched dof is set."""
+    """The point and torque loads and the damping of loop-closing hinges as generalised forces of
+    the MuJoCo tree, before each step (:meth:`Linkage.load_form`): closure damping from the relative
+    rate at the step's start; a load's point from the tree's own kinematics at the predicted
+    mid-point qpos + ½·h·qvel, F(s) through the point Jacobian, its stroke gate from ds/dq at the
+    input's mid-step angle (the description's kinematics); a torque T on a link: +T on every hinge
+    of the link's chain from the ground (its virtual work T·δθ_link: the link's angle is the sum of
+    those hinge angles), T at the input's mid-step angle (an angle table: MuJoCo's own input angle;
+    a stroke table's s and the gate's dθ_link/dq: the description's kinematics).  The input dof's
+    force (the drive torque) is added to, every other touched dof is set."""
     f = P.f
     for i in range(len(f)):
         f[i] = 0.0
@@ -1602,6 +1752,11 @@ def linkage_load(t, P):
                 f[P.ei[e]] = f[P.ei[e]] + F * ((P.wb[e] - y) * dx + (x - P.wa[e]) * dy)
             else:
                 f[P.ei[e]] = f[P.ei[e]] + F * (P.wa[e] * dx + P.wb[e] * dy)
+    for k in range(len(P.tload)):  # torques on links: +T on every hinge of the link's chain
+        i = P.tload[k]
+        T = load_force(i, load_abscissa(i, q_mid, P.loads, P.tab), ptable_channel(q_mid, P.tkd[k], P.tab), P.loads)
+        for e in range(P.tptr[k], P.tptr[k + 1]):
+            f[P.tslot[e]] = f[P.tslot[e]] + T
     for i in range(len(P.dofs)):
         d = P.dofs[i]
         if d == P.ina:

@@ -22,8 +22,9 @@ check of the multibody run (every output says so, see :attr:`MjcfMechanism.reduc
 A hinge input is tabulated over one turn (periodic splines, like the generic linkage); a slide
 input over its ``range`` in the file (the reduced model refuses positions outside it).
 
-Drawing: bodies and sites projected on MuJoCo's x-z plane (the camera of ``mjbench render`` looks
-along +y), the traced point is the site ``trace`` names.
+Drawing: bodies and sites projected on MuJoCo's x-z plane (:func:`~mjbench.mechanisms.base.mj_to_plane`,
+the plane convention of ``mechanisms/base.py``; the camera of ``mjbench render`` looks along +y), the
+traced point is the site ``trace`` names.
 """
 from __future__ import annotations
 
@@ -38,9 +39,9 @@ from pydantic import Field
 
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
-from ..schema import Bool, OptQ, Strict
+from ..fields import Bool, OptQ, Strict
 from . import register
-from .base import Mechanism, closure_solref, integrator_enum
+from .base import PLANE_INDEX, Mechanism, closure_solref, integrator_enum
 from .linkage_kin import TWO_PI, PeriodicTable
 
 
@@ -179,7 +180,6 @@ class _Model:
         opt = spec.option
         opt.timestep = float(o.get("timestep", 1e-4))
         opt.integrator = integrator_enum(o.get("integrator", "RK4"))
-        opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE  # MuJoCo 4.0.0 sparse bug on closed chains
         opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
         opt.iterations = int(o.get("iterations", 100))
         opt.tolerance = float(o.get("tolerance", 1e-12))
@@ -589,9 +589,9 @@ class MjcfMechanism(Mechanism):
             d.qpos[:] = g
             mujoco.mj_kinematics(m, d)
             for b in range(1, m.nbody):
-                pts.setdefault(m.body(b).name or f"body{b}", np.empty((len(qa), 2)))[k] = d.xpos[b, [0, 2]]
+                pts.setdefault(m.body(b).name or f"body{b}", np.empty((len(qa), 2)))[k] = d.xpos[b, PLANE_INDEX]
             for s in range(m.nsite):
-                pts.setdefault(m.site(s).name or f"site{s}", np.empty((len(qa), 2)))[k] = d.site_xpos[s, [0, 2]]
+                pts.setdefault(m.site(s).name or f"site{s}", np.empty((len(qa), 2)))[k] = d.site_xpos[s, PLANE_INDEX]
         shape = np.shape(q)
         return {n: (v[:, 0].reshape(shape), v[:, 1].reshape(shape)) if shape else (float(v[0, 0]), float(v[0, 1]))
                 for n, v in pts.items()}

@@ -43,7 +43,7 @@ from pydantic import Field
 from .. import compiled as C
 from ..compiled import law
 from ..errors import ParameterError
-from ..schema import Q, Strict
+from ..fields import Q, Strict
 from . import register
 from .base import Mechanism, new_spec
 

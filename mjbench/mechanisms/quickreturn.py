@@ -47,12 +47,12 @@ from .. import compiled as C
 from ..backends.table import table_model
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
-from ..schema import OptQ, Q, Strict
+from ..fields import OptQ, Q, Strict
 from . import register
-from .base import INPUT_JOINT, Mechanism, closure_solref, new_spec
+from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
 
 G = 9.81  #: gravitational acceleration [m/s²]
-AXIS = (0.0, -1.0, 0.0)  #: hinge axis in MuJoCo (paper angles counter-clockwise in (x, z))
+AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
 
 
 CUT_PROFILES = ("stroke", "window", "sine", "none")
@@ -342,8 +342,8 @@ class QuickReturn(Mechanism):
         loops closed by two site ``connect`` equalities (block–crank pin, rod end–slider).
 
         ``options``: timestep [s], integrator (Euler|RK4|implicit|implicitfast; default RK4),
-        solref (2), solimp (5), iterations, tolerance.  Dense Jacobian (MuJoCo 4.0.0 sparse
-        bug on closed chains, see pyproject.toml), contacts off, energy computed.
+        solref (2), solimp (5), iterations, tolerance.  MuJoCo's default constraint Jacobian
+        (:func:`~mjbench.mechanisms.base.new_spec`), contacts off, energy computed.
         """
         import mujoco
 

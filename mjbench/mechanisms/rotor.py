@@ -19,9 +19,9 @@ from pydantic import Field
 
 from .. import compiled as C
 from ..compiled import law
-from ..schema import Q, Strict
+from ..fields import Q, Strict
 from . import register
-from .base import INPUT_JOINT, Mechanism, new_spec
+from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, new_spec
 
 
 class RotorParams(Strict):
@@ -77,7 +77,7 @@ class Rotor(Mechanism):
         b.ipos = [0.0, 0.0, 0.0]
         b.inertia = [0.6 * self.J, self.J, 0.6 * self.J]
         b.explicitinertial = True
-        j = b.add_joint(name=INPUT_JOINT, type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0.0, -1.0, 0.0])
+        j = b.add_joint(name=INPUT_JOINT, type=mujoco.mjtJoint.mjJNT_HINGE, axis=list(HINGE_AXIS))
         j.armature = float(armature)
         j.damping = [self.damping, 0.0, 0.0]
         r = self.radius

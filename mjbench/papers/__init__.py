@@ -57,10 +57,6 @@ def module(key: str):
     return importlib.import_module(MODULES[key])
 
 
-def all_papers() -> list:
-    return [module(k) for k in MODULES]
-
-
 def cases() -> list[Case]:
     """Every case of every paper, with its paper key filled in."""
     out, seen = [], {}
@@ -72,12 +68,3 @@ def cases() -> list[Case]:
             c.paper = key
             out.append(c)
     return out
-
-
-def paper_of_scenario(name: str):
-    """The paper module a scenario reproduces (None if none)."""
-    for key in MODULES:
-        m = module(key)
-        if name in m.SCENARIOS:
-            return m
-    return None

@@ -8,8 +8,8 @@ MuJoCo-derived, cross-checked here against the Incerti 2012 closed form of the s
 Report rows: what a designer looks at, from :func:`mjbench.analyze.analyze` at the run's set-point
 speed — stroke, time ratio, swing, transmission-angle range, peak and RMS input torque, peak motor
 torque against the motor line, energy per cycle — plus the run's multibody-vs-reduced agreement.
-There is no paper value: each row's reason says what it is.  Figures: Fig.-4 layout of the run and
-the three ``mjbench analyze`` figures.
+There is no paper value: each row's reason says what it is.  Figures: the run's time series
+(``timeseries.png``, in the layout of Incerti 2012 Fig. 4) and the three ``mjbench analyze`` figures.
 """
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ def _mjcf_vs_closed_form(ctx) -> list:
 
 
 def figures(ctx) -> list:
-    """Fig.-4 layout of the run and the ``mjbench analyze`` figures."""
+    """The run's time series (``timeseries.png``) and the ``mjbench analyze`` figures."""
     from mjbench import analyze as A
     from mjbench.reproduce import default_figures
 

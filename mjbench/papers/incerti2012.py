@@ -15,6 +15,10 @@ run itself (:func:`mjbench.runner.paper_rows`); this module adds the figures the
   |S|, bandwidth and the frozen-angle validity number with K_p·t frozen at a few times, and the
   time at which the sampled K_p·t loop loses stability.
 
+The realistic-drive case (``incerti2012-realdrive``): χ, speed error and chattering next to the ideal
+drive (:mod:`mjbench.papers.drivetrain_study`) and the frequency response of the running machine on
+the ideal and the realistic drive (:mod:`mjbench.papers.frest_study`: rows, a table, a Bode figure).
+
 Figures: Fig. 4's layout (both columns, both backends) and the frozen-angle Bode family of the
 loop.  The calibration of the illegible Table I values is
 :mod:`mjbench.papers.incerti2012_calibration`.
@@ -25,6 +29,7 @@ import math
 
 from mjbench.papers import Case
 from mjbench.papers import drivetrain_study as DT
+from mjbench.papers import frest_study as FR
 
 KEY = "incerti2012"
 CITATION = "Incerti 2012"
@@ -82,8 +87,9 @@ def rows(ctx) -> list:
     """χ rows (the other last-cycle reading, the limiter what-ifs, time at the limit), then the
     linear loop rows; the realistic-drive case: χ, speed error and chattering next to the ideal
     drive (:mod:`mjbench.papers.drivetrain_study`)."""
-    if ctx.case.name.endswith("-realdrive"):
-        return DT.report_rows(ctx, "incerti2012")
+    if ctx.case.name.endswith("-realdrive"):  # + the frequency response on the ideal and the realistic drive
+        ctx.tables.append(FR.report_table(ctx, "incerti2012"))
+        return DT.report_rows(ctx, "incerti2012") + FR.report_rows(ctx, "incerti2012")
     return _chi_rows(ctx) + linear_rows(ctx)
 
 
@@ -213,9 +219,9 @@ def figures(ctx) -> list:
     from mjbench import linear_plots
     from mjbench.reproduce import default_figures
 
-    figs = default_figures(ctx)
+    figs = default_figures(ctx, "fig4.png")  # the paper's own figure name
     if ctx.case.name.endswith("-realdrive"):
-        return figs + DT.report_figures(ctx, "incerti2012")
+        return figs + DT.report_figures(ctx, "incerti2012") + [FR.report_figure(ctx, "incerti2012")]
     lin = _families(ctx)
     if lin is not None:
         t = 0.5

@@ -20,7 +20,9 @@ from mjbench.vibration import ode_response  # noqa: E402
 
 def save(fig, path):
     buf = io.BytesIO()
-    fig.savefig(buf, format=str(path).rsplit(".", 1)[-1], dpi=130, bbox_inches="tight")
+    # a figure laid out by its layout engine (mjbench.plotstyle) fits its canvas: drawn once, not cropped
+    tight = fig.get_layout_engine() is None
+    fig.savefig(buf, format=str(path).rsplit(".", 1)[-1], dpi=130, bbox_inches="tight" if tight else None)
     plt.close(fig)
     atomic_write(path, lambda f: f.write(buf.getvalue()), mode="wb")
     return path

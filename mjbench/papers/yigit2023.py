@@ -1,6 +1,6 @@
 """Yiğit & Şen 2023: quick-return mechanism, optimum design, sliding-mode control.
 
-Two report cases:
+Three report cases:
 
 * ``yigit2023-fig6-7`` (Figs 6-7): the open loop at 48 V judged against the paper's 6.1-6.4 rad/s
   band (steady min, mean, max) next to the no-load speed of the stated motor (Table II, Eqs
@@ -10,6 +10,9 @@ Two report cases:
 * ``yigit2023-design`` (Eqs 1-2, Table I): our optimum next to Table I, for the two readings of
   constraint c4 and two lower bounds of the (unstated) design bounds, and what the margin on the
   strict inequalities costs (:mod:`mjbench.papers.yigit2023_design`).
+* ``yigit2023-realdrive``: the SMC on a realistic drive next to the ideal one
+  (:mod:`mjbench.papers.drivetrain_study`), and the frequency response of the running machine — the
+  SMC and the scenario's PID mode on both drives (:mod:`mjbench.papers.frest_study`).
 
 Metrics: :mod:`mjbench.papers.yigit2023_metrics`, plots: :mod:`mjbench.papers.yigit2023_plots`.
 """
@@ -22,6 +25,7 @@ import numpy as np
 from mjbench import scenario as S
 from mjbench.papers import Case
 from mjbench.papers import drivetrain_study as DT
+from mjbench.papers import frest_study as FR
 
 KEY = "yigit2023"
 CITATION = "Yiğit & Şen 2023"
@@ -116,7 +120,7 @@ def _fig6_rows(ctx) -> list:
         match = (f"the Ts study gives the paper's figure at Ts ≈ {1e3 * st['matched']:.2g} ms"
                  if st["matched"] is not None else "no period of the Ts study gives the paper's figure")
         out.append({"name": f"SMC steady crank-speed error |mean e|/ω_d (§4), scenario Ts = {1e3 * Ts0:g} ms",
-                    "unit": "%", "paper": st["paper_pct"], "ours": errs,
+                    "unit": "%", "paper": st["paper_pct"], "ours": errs, "headline": True,
                     "reason": f"bang-bang switching (K ≫ the 48 V bound): the residual error is set by the control "
                               f"period Ts, which the paper does not give; {match}"})
         for Ts, e_mean, _ in st["rows"]:
@@ -216,8 +220,9 @@ def _design_rows(ctx) -> list:
 def rows(ctx) -> list:
     if ctx.case.kind == "study":
         return _design_rows(ctx)
-    if ctx.case.name.endswith("-realdrive"):  # the SMC on a realistic drive, next to the ideal one
-        return DT.report_rows(ctx, "yigit2023")
+    if ctx.case.name.endswith("-realdrive"):  # the SMC on a realistic drive, next to the ideal one; frequency response
+        ctx.tables.append(FR.report_table(ctx, "yigit2023"))
+        return DT.report_rows(ctx, "yigit2023") + FR.report_rows(ctx, "yigit2023")
     return _fig6_rows(ctx)
 
 
@@ -238,7 +243,7 @@ def figures(ctx) -> list:
                                      title=f"{ctx.case.name}: Table I and our optimum designs at one scale "
                                            "(swing ends solid, mid-swing dotted)")]
     if ctx.case.name.endswith("-realdrive"):
-        return DT.report_figures(ctx, "yigit2023")
+        return DT.report_figures(ctx, "yigit2023") + [FR.report_figure(ctx, "yigit2023")]
     pap = ctx.scn.paper
     runs = {f"{mode} ({b})": tr for mode, trs in ctx.runs.items() for b, tr in trs.items()}
     band = (pap["open_speed_min"], pap["open_speed_max"]) if "open_speed_min" in pap else None

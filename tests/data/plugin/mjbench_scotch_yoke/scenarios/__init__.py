@@ -1,0 +1,1 @@
+"""Scenario files of the plugin (entry point ``mjbench.scenarios``): every ``*.toml`` here."""
