@@ -58,7 +58,9 @@ def replay(ctrl, tr, z, v_max):
     t, q, qd, qdd, I, V = (tr.data[:, k] for k in range(7) if k != 4)
     n = 0
     for k in range(0, tr.n, every):
-        u = ctrl(float(t[k]), y.set(float(t[k]), float(q[k]), float(qd[k]), float(qdd[k]), float(I[k])))
+        a = 0.0 if k == 0 else float(qdd[k])  # the controller's first sample has no previous speed (the record's
+        # row 0 holds the forward difference of the first step instead, trajectory.COLUMNS)
+        u = ctrl(float(t[k]), y.set(float(t[k]), float(q[k]), float(qd[k]), a, float(I[k])))
         assert min(max(u, -v_max), v_max) == V[k], (k, u, V[k])
         n += 1
     return n
