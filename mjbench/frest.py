@@ -189,6 +189,7 @@ def inertia_rate(mechanism, J_eq, qd) -> float:
 
 
 def periodic_note(turns: int, orders: int) -> str:
+    """The note of a running linkage's excitation design (frest.json ``notes``)."""
     return (f"angle-periodic machine: {turns} turns per period; a line at ω also drives ω ± m·Ω (Ω the turn "
             f"frequency, harmonic transfer functions; 1/J_tot has harmonics up to m = {orders} above {ORDER_TOL:g} of its mean), "
             f"so the lines are chosen with no line's sidebands k ± m·{turns} (m ≤ {orders + 1}) on another line or its "
@@ -197,7 +198,7 @@ def periodic_note(turns: int, orders: int) -> str:
             f"sidebands ω ± Ω")
 
 
-def periodic_explanation(js, turns) -> str:
+def periodic_explanation(js) -> str:
     """How a running linkage's measured response departs from the frozen-angle picture, and why
     (frest.json ``periodic.explanation``; numbers from ``js``'s comparisons over the frozen band)."""
     c, ff = js["comparison"], js.get("frozen_family") or {}
@@ -256,8 +257,8 @@ def _lagged(x, N, P, ks, lag):
 def design_lines(T, qd, orders, rate, settle, n_lines, band=None, period=None, running=False):
     """The excitation's period (N samples of the control period T) and lines: (N, lines, turns, note).
 
-    A machine that does not turn (the platforms, a held point) or has constant inertia: ``n_lines``
-    log-spaced harmonics of a 0.5 s period (:func:`harmonic_lines`).  A running linkage (``running``):
+    A machine that does not turn (the platforms, a held point): ``n_lines`` log-spaced harmonics of
+    a 0.5 s period (:func:`harmonic_lines`).  A running linkage (``running``):
     a whole number of turns per period (``turns``) and lines free of each other's rotation sidebands
     (:func:`free_lines`); the default band starts a decade below the frozen-angle band (10 × ``rate``),
     and of 2 … 4× the shortest period (≥ 2 turns, ≥ 0.5 s), not longer than ``settle``, the first that
@@ -668,7 +669,7 @@ def _compare_linear(js, Pm, Lm, P_lin, L_lin, fam, in_band, lin, closed, omega, 
     js["comparison"] = cmp
     if ex is not None and ex.running:
         js["periodic"] = {"turns_per_period": ex.turns, "rotation_orders": ex.orders,
-                          "explanation": periodic_explanation(js, ex.turns)}
+                          "explanation": periodic_explanation(js)}
     vals = [c["max_rel_diff"] for k, c in cmp.items() if k in ("plant", "loop") and c["max_rel_diff"] is not None]
     js["max_rel_diff_vs_linear"] = max(vals) if vals else None
 

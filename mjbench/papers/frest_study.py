@@ -55,10 +55,12 @@ def _finite(x):
     return x is not None and isinstance(x, (int, float)) and math.isfinite(x)
 
 
-def _pick(res, fn) -> dict:
-    """{label: fn(json)} over the variants, finite values only."""
+def _pick(res, fn, coherent_only=False) -> dict:
+    """{label: fn(json)} over the variants (``coherent_only``: the linear ones), finite values only."""
     out = {}
     for label, r in res.items():
+        if coherent_only and not _coherent(r["json"]):
+            continue
         v = fn(r["json"])
         if _finite(v):
             out[label] = float(v)
@@ -94,14 +96,30 @@ def _linear_margins(js) -> str:
             f"{_fmt(mo.get('gain_margin_dB'))} dB, {_fmt(mo.get('peak_sensitivity'))})")
 
 
+COHERENT = 0.9  #: min γ² of a response read as linear
+
+
+def _coherent(js) -> bool:
+    return js["limiter_active_fraction"] <= 0.05 and min(js["plant"]["coherence"]) >= COHERENT
+
+
 def reading(js) -> str:
     """One sentence on what a variant's measurement shows, from its numbers."""
     lim, coh = js["limiter_active_fraction"], min(js["plant"]["coherence"])
+    lp = js.get("loop") or {}
+    coh_loop = min(lp["coherence"]) if lp.get("coherence") else None
     c = js["comparison"]
     if lim > 0.05:
-        return (f"saturated: at the ±{js.get('voltage_limit_V', 48):g} V limit {100 * lim:.0f} % of the time, γ² ≥ {coh:.2f} — "
+        return (f"saturated: at the ±{js['voltage_limit_V']:g} V limit {100 * lim:.0f} % of the time, γ² ≥ {coh:.2f} — "
                 "no linear response (a describing function)")
-    if coh < 0.9:
+    m, mo = lp.get("margins") or {}, lp.get("margins_linear_on_lines") or {}
+    loop_txt = (f"measured loop GM {_fmt(m.get('gain_margin_dB'))} dB, PM {_fmt(m.get('phase_margin_deg'))}° (linearisation "
+                f"read on the same lines: {_fmt(mo.get('gain_margin_dB'))} dB, {_fmt(mo.get('phase_margin_deg'))}°)" if m else "")
+    if coh < COHERENT:
+        if coh_loop is not None and coh_loop >= COHERENT:
+            return (f"the loop is linear (γ² of ΔV ≥ {coh_loop:.2f}; {loop_txt}, {100 * c['loop']['max_rel_diff']:.3g} % "
+                    f"from the linearisation), the crank speed is not (γ² ≥ {coh:.2f}, distortion "
+                    f"{js['distortion_ratio']:.2g}): behind the gear it is not driven by the excitation alone")
         return (f"not coherent (γ² ≥ {coh:.2f}, distortion {js['distortion_ratio']:.2g}): part of the response is not "
                 "driven by the excitation (switching, quantisation, backlash impacts)")
     txt = f"linear (γ² ≥ {coh:.3f})"
@@ -110,7 +128,7 @@ def reading(js) -> str:
                 f"turn, {100 * c['plant']['max_rel_diff']:.3g} % from the linearisation at q*")
     elif c.get("plant"):
         txt += f": plant {100 * c['plant']['max_rel_diff']:.2g} % from the linearisation"
-    return txt
+    return txt + (f"; {loop_txt}" if loop_txt else "")
 
 
 def report_rows(ctx, name) -> list:
@@ -125,7 +143,7 @@ def report_rows(ctx, name) -> list:
     band = {lab: r["json"]["band_rad_s"] for lab, r in res.items()}
     band_txt = "; ".join(sorted({f"{b[0]:.3g}–{b[1]:.3g} rad/s" for b in band.values()}))
     side_pred = _pick(res, lambda js: 100 * ((js.get("frozen_family") or {}).get("sidebands") or {}).get(
-        "speed_frozen_max_rel", math.nan))
+        "speed_frozen_max_rel", math.nan), coherent_only=True)
     pre = "[FRF] "
     rows = [
         (pre + "time on the ±48 V limit while measured", "%", _pick(res, lambda js: 100 * js["limiter_active_fraction"]),
@@ -141,20 +159,22 @@ def report_rows(ctx, name) -> list:
          "variation rate); a running linkage is periodically time-varying, so its response is the frozen-angle family "
          "averaged along the turn, not the operating angle's"),
         (pre + "plant q̇/V: max |measured − frozen-angle family along the turn| / |…| over the frozen band", "%",
-         _pick(res, _cmp("plant_vs_family_along_turn")),
+         _pick(res, _cmp("plant_vs_family_along_turn"), coherent_only=True),
          "the frozen-angle loops followed along the machine's own turn, ⟨P·S⟩/⟨S⟩ over one period: what a coherent "
-         "measurement of the running linkage equals where the frozen picture holds (no linear family for the SMC)"),
+         f"measurement of the running linkage equals where the frozen picture holds (variants with γ² ≥ {COHERENT:g} "
+         "and off the limit; no linear family for the SMC)"),
         (pre + "loop L at the plant input: max |measured − linearisation| / |linearisation| over the frozen band", "%",
          _pick(res, _cmp("loop")), "L = 1/S − 1 with S = ΔV/d measured (d added to the controller output)"),
         (pre + "speed response at ω ± Ω (Ω the turn frequency), relative to the line's own, max over the band", "%",
          _pick(res, lambda js: 100 * ((js.get("frozen_family") or {}).get("sidebands") or {}).get(
-             "speed_measured_max_rel", math.nan)),
+             "speed_measured_max_rel", math.nan), coherent_only=True),
          "the rotation sidebands that make the running linkage periodically time-varying; the frozen family along the "
          "turn predicts " + ("; ".join(f"{k}: {v:.3g} %" for k, v in side_pred.items()) or "—")),
         (pre + "measured loop: phase margin", "deg", _pick(res, _margin("phase_margin_deg")),
          f"read from the measured loop (crossings interpolated between lines); linearisation: {lin_txt or '—'}"),
         (pre + "measured loop: gain margin", "dB", _pick(res, _margin("gain_margin_dB")),
-         "read from the measured loop; a variant without a −180° crossing inside the band has none (∞, not shown)"),
+         "read from the measured loop; a variant without a −180° crossing inside the band has none (∞, not shown); "
+         "what each element of the realistic drive does alone: docs/bridges.md §3"),
         (pre + "measured loop: peak |S| on the lines", "1", _pick(res, _margin("peak_sensitivity")),
          "max |ΔV/d| over the excited lines (a lower bound of the true peak)"),
     ]
@@ -205,21 +225,20 @@ def report_figure(ctx, name):
         if fam is not None:
             ax[0].loglog(w, np.abs(fam["along_turn"]["P"]), "--", lw=1, color=col)
             ax[1].loglog(w, np.abs(fam["along_turn"]["L"]), "--", lw=1, color=col)
-    drawn = set()
-    for r in res.values():  # the linearisation (the ideal drive's: the same for the variants of one mode)
-        key = r["json"]["mode"]
-        if key in drawn:
-            continue
-        drawn.add(key)
-        if r["P_lin"] is not None:
-            ax[0].loglog(r["omega"], np.abs(r["P_lin"]), "-", lw=1, color="k", alpha=0.6,
-                         label=f"linearisation at q* ({key})")
-        if r["L_lin"] is not None:
-            ax[1].loglog(r["omega"], np.abs(r["L_lin"]), "-", lw=1, color="k", alpha=0.6)
+    plant_drawn, loops_drawn = False, set()
+    for r in res.values():  # the linearisation of the ideal drive: one plant, one loop per mode
+        if r["P_lin"] is not None and not plant_drawn:
+            ax[0].loglog(r["omega"], np.abs(r["P_lin"]), "-", lw=1, color="k", alpha=0.6, label="linearisation at q*")
+            plant_drawn = True
+        mode = r["json"]["mode"]
+        if r["L_lin"] is not None and mode not in loops_drawn:
+            ax[1].loglog(r["omega"], np.abs(r["L_lin"]), "-", lw=1, color="k", alpha=0.6, label=f"linearisation ({mode})")
+            loops_drawn.add(mode)
     ax[0].set_title("plant q̇/V: measured (dots), frozen family along the turn (dashed)", fontsize=9)
     ax[1].set_title("loop |L| at the plant input", fontsize=9)
     for a in ax:
         a.set_xlabel(ps.label("ω", "rad/s"))
     ax[0].legend(fontsize=7)
+    ax[1].legend(fontsize=7)
     ps.finish(fig, f"{name}: frequency response of the running machine, ideal vs realistic drive (mjbench frest)")
     return save(fig, ctx.out / "frest_bode.png")

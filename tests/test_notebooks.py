@@ -1,0 +1,100 @@
+"""The notebooks of docs/notebooks/ run top to bottom in a fresh kernel (nbclient), in an empty
+folder, and their checks hold.
+
+Each notebook asserts its numbers in its own cells (against the closed forms and independent
+recomputations it writes out) and prints them as JSON in its last cell; the tests here read that
+line and check the headline numbers again, so that a notebook whose checks were edited away still
+fails.  Notebooks are stored without outputs (clean diffs)."""
+import json
+import sys
+import time
+from pathlib import Path
+
+import nbformat
+import numpy as np
+import pytest
+from jupyter_client.kernelspec import KernelSpec, KernelSpecManager
+from jupyter_client.manager import KernelManager
+from nbclient import NotebookClient
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = ROOT / "docs" / "notebooks"
+NAMES = ["01_quickstart.ipynb", "02_own_linkage.ipynb", "03_controller_design.ipynb"]
+
+
+class _ThisPython(KernelSpecManager):
+    """The kernel is this interpreter (the project's venv), whatever kernels Jupyter has installed."""
+
+    def get_kernel_spec(self, kernel_name):
+        from ipykernel.kernelspec import get_kernel_dict
+
+        return KernelSpec(resource_dir="", **get_kernel_dict())
+
+
+def execute(name: str, cwd: Path) -> tuple[dict, float]:
+    """Run the notebook in ``cwd``; its summary (the last cell's JSON line) and the wall time [s]."""
+    nb = nbformat.read(NOTEBOOKS / name, as_version=4)
+    km = KernelManager(kernel_name="python3", kernel_spec_manager=_ThisPython())
+    client = NotebookClient(nb, km=km, timeout=240, resources={"metadata": {"path": str(cwd)}})
+    t0 = time.perf_counter()
+    try:
+        client.execute()  # a failing check raises CellExecutionError with the cell and its traceback
+    finally:
+        if km.has_kernel:  # a kernel manager given to nbclient is ours to shut down
+            km.shutdown_kernel(now=True)
+    wall = time.perf_counter() - t0
+    last = [c for c in nb.cells if c.cell_type == "code"][-1]
+    text = "".join(o.get("text", "") for o in last.outputs if o.output_type == "stream" and o.name == "stdout")
+    return json.loads(text.strip().splitlines()[-1]), wall
+
+
+def test_notebooks_are_stored_clean_and_listed():
+    """No outputs or execution counts in the repository, valid nbformat, the kernel named
+    python3; every notebook listed in docs/api.md and README.md."""
+    assert sorted(p.name for p in NOTEBOOKS.glob("*.ipynb")) == NAMES
+    api, readme = (ROOT / "docs" / "api.md").read_text(), (ROOT / "README.md").read_text()
+    for name in NAMES:
+        nb = nbformat.read(NOTEBOOKS / name, as_version=4)
+        nbformat.validate(nb)
+        assert nb.metadata["kernelspec"]["name"] == "python3"
+        for cell in nb.cells:
+            if cell.cell_type == "code":
+                assert cell.outputs == [] and cell.execution_count is None, (name, cell.source[:60])
+        assert f"docs/notebooks/{name}" in api and f"docs/notebooks/{name}" in readme, name
+
+
+def test_quickstart(tmp_path):
+    s, wall = execute("01_quickstart.ipynb", tmp_path)
+    print(f"01_quickstart: {wall:.1f} s", file=sys.stderr)
+    assert s["mb_vs_red"] < 1e-5 and s["pid_mb_vs_red"] < 1e-5            # 2.2e-6 (open, 1 s), 1.2e-6 (PID, 0.5 s)
+    assert s["energy_imbalance"] < 1e-4                                    # 1.1e-5 of the supplied energy
+    assert s["chi_recomputed"] == pytest.approx(s["chi_last_cycle"], rel=1e-3)
+    assert 0.9 < s["chi_last_cycle"] < 1.05                                 # 0.969 (docs/validation.md: 96.3 % over 2 s)
+    assert 25.0 < s["pid_mean_speed"] < 30.0                                # 27.14 rad/s
+
+
+def test_own_linkage(tmp_path):
+    s, wall = execute("02_own_linkage.ipynb", tmp_path)
+    print(f"02_own_linkage: {wall:.1f} s", file=sys.stderr)
+    r, l, e, F = 0.050, 0.200, 0.020, 150.0                                  # the notebook's slider-crank
+    stroke = np.sqrt((l + r) ** 2 - e**2) - np.sqrt((l - r) ** 2 - e**2)
+    assert abs(s["stroke_m"] - stroke) < 1e-9 and abs(s["stroke_closed_form_m"] - stroke) < 1e-12
+    assert s["work_per_turn_J"] == pytest.approx(F * stroke, rel=1e-5)
+    assert s["J_err"] < 1e-9                                                # 3e-12
+    assert s["mb_vs_red"] < 1e-5 and s["closure_m"] < 1e-6                  # 1.9e-7, 1.9e-9 m
+    assert s["piston_pos_err_m"] < 1e-6 and s["piston_vel_err"] < 1e-4      # 1.6e-9 m, 1.7e-6
+    assert s["crank_speed_late_rad_s"] == pytest.approx(4 * np.pi, rel=1e-3)  # 120 rpm
+
+
+def test_controller_design(tmp_path):
+    s, wall = execute("03_controller_design.ipynb", tmp_path)
+    print(f"03_controller_design: {wall:.1f} s", file=sys.stderr)
+    assert s["plant_mb_vs_red"] < 1e-3                                      # 4.4e-5
+    assert s["kp_limit"] == pytest.approx(s["kp_limit_mjbench"], rel=1e-3)  # 1118.5 V·s/rad both
+    assert 1000 < s["kp_limit"] < 1250
+    assert 25.0 < s["worst_pm_deg"] < 40.0 and abs(s["worst_pm_q_rad"] - 5.50) < 0.01
+    assert 40.0 < s["pm_deg"] < 100.0 and s["gm_dB"] > 20.0                 # 70.7°, 57.0 dB
+    for factor, predicted in (("0.9x", 0.2767), ("1.1x", 3.602)):
+        assert s["growth_predicted"][factor] == pytest.approx(predicted, rel=0.01)
+        for b in ("reduced", "multibody"):
+            assert s["growth"][f"{factor} {b}"] == pytest.approx(s["growth_predicted"][factor], rel=0.05)
