@@ -84,7 +84,7 @@ NCORE = len(NAMES)
 #: against ≈ 4.8 µs → 45 000 steps; MuJoCo ≈ 0.39 s against ≈ 2.2 µs → 180 000 steps
 MIN_STEPS = 150_000
 #: wall time a chunk of a compiled run aims at (progress, signals)
-CHUNK_S = 0.1
+CHUNK_S = 0.05
 
 # kernel state of one run between chunks (float64 array)
 KS_Q, KS_QD, KS_QDP, KS_I, KS_U, KS_K, KS_DM, KS_DMD, KS_VB, KS_IBAR, KS_ILO, KS_IHI, KS_QM, KS_QDM, KS_QDDM, \
