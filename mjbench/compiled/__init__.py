@@ -179,6 +179,28 @@ def isfinite(x):
     return not (math.isnan(x) or math.isinf(x))
 
 
+class _ArrayMath:
+    """``math`` for :func:`array_twin`: the same functions, elementwise over NumPy arrays."""
+
+    sin, cos, tan, sqrt, exp, log = np.sin, np.cos, np.tan, np.sqrt, np.exp, np.log
+    atan2, atan, asin, acos, hypot, fabs = np.arctan2, np.arctan, np.arcsin, np.arccos, np.hypot, np.abs
+    floor, isnan, isinf, copysign, tanh = np.floor, np.isnan, np.isinf, np.copysign, np.tanh
+    nan, inf, pi = math.nan, math.inf, math.pi
+
+
+def array_twin(fn: Callable) -> Callable:
+    """The law ``fn`` evaluated elementwise over NumPy arrays: its own code object, with ``math``
+    bound to NumPy's functions — the same formula, not a copy, for analysis and tables over many
+    angles.  Only for laws without branches on their values and without calls to other laws (the
+    elementwise results may differ from the scalar law in the last bit where NumPy's vectorised
+    sin/cos/exp round differently)."""
+    import types
+
+    g = dict(fn.__globals__)
+    g["math"] = _ArrayMath
+    return types.FunctionType(fn.__code__, g, fn.__name__ + "_array", fn.__defaults__, fn.__closure__)
+
+
 def vectorize(fn: Callable, *args):
     """``fn`` of scalar arguments applied elementwise when any argument is an array (Python loop;
     for post-processing, never on the hot path) → float or ndarray of the broadcast shape."""
@@ -194,4 +216,4 @@ def vectorize(fn: Callable, *args):
 
 
 __all__ = ["law", "bridge", "Form", "python_form", "NoParams", "NO_PARAMS", "NO_STATE", "sgn", "clip",
-           "isfinite", "vectorize", "python_view", "LAWS"]
+           "isfinite", "vectorize", "array_twin", "python_view", "LAWS"]

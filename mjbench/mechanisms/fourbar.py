@@ -22,7 +22,7 @@ from typing import Literal
 from pydantic import Field, field_validator
 
 from .. import compiled as C
-from ..compiled import law
+from ..compiled import array_twin, law
 from ..errors import GeometryError, ParameterError
 from ..fields import Q, Strict
 from . import register
@@ -142,58 +142,43 @@ class FourBar(Mechanism):
                 f"A crank-rocker needs the crank to be the shortest link (Grashof).")
 
     # ================================================================ position analysis (App. A)
+    # one formula: the laws fourbar_abcd2 / fourbar_solve / fourbar_velocity, evaluated
+    # elementwise (array_twin) for arrays and as they are for floats
+    def _geometry(self) -> "FourBarKinP":
+        """The link lengths, frame and assembly mode as the kinematic laws' parameters."""
+        return FourBarKinP(float(self.a), float(self.b), float(self.c), float(self.h_x), float(self.h_y),
+                           float(self.k), 0.0, 0.0)
+
     def _abcd2(self, alpha):
-        xp = _xp(alpha)
-        a, b, c, hx, hy = self.a, self.b, self.c, self.h_x, self.h_y
-        sa, ca = xp.sin(alpha), xp.cos(alpha)
-        A = 2 * c * (hy - a * sa)
-        B = 2 * c * (hx - a * ca)
-        C = a * a - b * b + c * c + hx * hx + hy * hy - 2 * a * (hx * ca + hy * sa)
-        return A, B, C, A * A + B * B - C * C
+        P = self._geometry()
+        return (_ABCD2 if _is_array(alpha) else fourbar_abcd2)(alpha, P)
 
     def angles(self, alpha):
-        """(β, γ) [rad] of coupler and rocker for crank angle α (Appendix A)."""
-        xp = _xp(alpha)
-        A, B, C, D2 = self._abcd2(alpha)
-        if xp is math:
-            if D2 < 0:
+        """(β, γ) [rad] of coupler and rocker for crank angle α (Appendix A: laws
+        :func:`fourbar_abcd2`, :func:`fourbar_solve`)."""
+        P = self.kinematic_params()
+        if not _is_array(alpha):
+            beta, gamma = fourbar_angles(alpha, P)
+            if math.isnan(beta) and math.isfinite(alpha):
+                D2 = fourbar_abcd2(alpha, P)[3]
                 raise GeometryError(f"four-bar cannot be assembled at α = {alpha:.6g} rad (A²+B²−C² = {D2:.3g} < 0)")
-            D = math.sqrt(D2)
-        else:
-            if np.any(D2 < 0):
-                raise GeometryError("four-bar cannot be assembled at some of the requested crank angles")
-            D = np.sqrt(D2)
-        k = self.k
-        AB = A * A + B * B
-        sg = -(A * C + k * B * D) / AB
-        cg = -(B * C - k * A * D) / AB
-        gamma = xp.arctan2(sg, cg) if xp is np else math.atan2(sg, cg)
-        sb = (self.h_y + self.c * sg - self.a * xp.sin(alpha)) / self.b
-        cb = (self.h_x + self.c * cg - self.a * xp.cos(alpha)) / self.b
-        beta = xp.arctan2(sb, cb) if xp is np else math.atan2(sb, cb)
-        return beta, gamma
+            return beta, gamma
+        alpha = np.asarray(alpha, dtype=float)
+        A, B, Cc, D2 = _ABCD2(alpha, P)
+        if np.any(D2 < 0):
+            raise GeometryError("four-bar cannot be assembled at some of the requested crank angles")
+        return _SOLVE(alpha, A, B, Cc, np.sqrt(D2), P)
 
     # ================================================================ velocity analysis (App. B)
     def ratios(self, alpha):
         """(β, γ, Q, R): link angles and velocity ratios Q = β̇/α̇, R = γ̇/α̇ (Appendix B)."""
-        xp = _xp(alpha)
-        beta, gamma = self.angles(alpha)
-        s_gb = xp.sin(gamma - beta)
-        R = self.a * xp.sin(alpha - beta) / (self.c * s_gb)
-        Q = self.a * xp.sin(alpha - gamma) / (self.b * s_gb)
-        return beta, gamma, Q, R
+        return self.ratio_derivatives(alpha)[:4]
 
     def ratio_derivatives(self, alpha):
-        """(β, γ, Q, R, dQ/dα, dR/dα), analytic."""
-        xp = _xp(alpha)
-        beta, gamma, Q, R = self.ratios(alpha)
-        s_gb, c_gb = xp.sin(gamma - beta), xp.cos(gamma - beta)
-        d_gb = R - Q  # d(γ−β)/dα
-        s_ab, c_ab = xp.sin(alpha - beta), xp.cos(alpha - beta)
-        s_ag, c_ag = xp.sin(alpha - gamma), xp.cos(alpha - gamma)
-        dR = self.a / self.c * (c_ab * (1 - Q) * s_gb - s_ab * c_gb * d_gb) / (s_gb * s_gb)
-        dQ = self.a / self.b * (c_ag * (1 - R) * s_gb - s_ag * c_gb * d_gb) / (s_gb * s_gb)
-        return beta, gamma, Q, R, dQ, dR
+        """(β, γ, Q, R, dQ/dα, dR/dα), analytic (law :func:`fourbar_velocity`)."""
+        beta, gamma = self.angles(alpha)
+        P = self._geometry()
+        return (beta, gamma, *(_VELOCITY if _is_array(alpha) else fourbar_velocity)(alpha, beta, gamma, P))
 
     def transmission_angle(self, alpha):
         """Transmission angle μ = |γ − β| folded to [0, π/2] [rad]."""
@@ -550,38 +535,44 @@ FourBarKinP = namedtuple("FourBarKinP", "a b c hx hy k f theta")
 
 
 @law
-def fourbar_angles(alpha, P):
-    """(β, γ) [rad] of coupler and rocker at crank angle α (Appendix A); NaN where the linkage
-    cannot be assembled (A² + B² − C² < 0)."""
+def fourbar_abcd2(alpha, P):
+    """A, B, C of the loop-closure equation A·sin γ + B·cos γ = C (Appendix A) and its
+    discriminant A² + B² − C² (< 0: the linkage cannot be assembled at α)."""
     a = P.a
-    b = P.b
     c = P.c
-    hx = P.hx
-    hy = P.hy
     sa = math.sin(alpha)
     ca = math.cos(alpha)
-    A = 2 * c * (hy - a * sa)
-    B = 2 * c * (hx - a * ca)
-    Cc = a * a - b * b + c * c + hx * hx + hy * hy - 2 * a * (hx * ca + hy * sa)
-    D2 = A * A + B * B - Cc * Cc
-    if not D2 >= 0.0:
-        return math.nan, math.nan
-    D = math.sqrt(D2)
-    k = P.k
-    AB = A * A + B * B
-    sg = -(A * Cc + k * B * D) / AB
-    cg = -(B * Cc - k * A * D) / AB
-    gamma = math.atan2(sg, cg)
-    sb = (hy + c * sg - a * sa) / b
-    cb = (hx + c * cg - a * ca) / b
-    return math.atan2(sb, cb), gamma
+    A = 2 * c * (P.hy - a * sa)
+    B = 2 * c * (P.hx - a * ca)
+    Cc = a * a - P.b * P.b + c * c + P.hx * P.hx + P.hy * P.hy - 2 * a * (P.hx * ca + P.hy * sa)
+    return A, B, Cc, A * A + B * B - Cc * Cc
 
 
 @law
-def fourbar_ratio_derivatives(alpha, P):
-    """(β, γ, Q, R, dQ/dα, dR/dα): velocity ratios Q = β̇/α̇, R = γ̇/α̇ (Appendix B) and their
-    analytic derivatives."""
-    beta, gamma = fourbar_angles(alpha, P)
+def fourbar_solve(alpha, A, B, Cc, D, P):
+    """(β, γ) [rad] from the closure coefficients and D = √(A² + B² − C²), assembly mode k."""
+    AB = A * A + B * B
+    sg = -(A * Cc + P.k * B * D) / AB
+    cg = -(B * Cc - P.k * A * D) / AB
+    sb = (P.hy + P.c * sg - P.a * math.sin(alpha)) / P.b
+    cb = (P.hx + P.c * cg - P.a * math.cos(alpha)) / P.b
+    return math.atan2(sb, cb), math.atan2(sg, cg)
+
+
+@law
+def fourbar_angles(alpha, P):
+    """(β, γ) [rad] of coupler and rocker at crank angle α (Appendix A); NaN where the linkage
+    cannot be assembled (A² + B² − C² < 0)."""
+    A, B, Cc, D2 = fourbar_abcd2(alpha, P)
+    if not D2 >= 0.0:
+        return math.nan, math.nan
+    return fourbar_solve(alpha, A, B, Cc, math.sqrt(D2), P)
+
+
+@law
+def fourbar_velocity(alpha, beta, gamma, P):
+    """(Q, R, dQ/dα, dR/dα): velocity ratios Q = β̇/α̇, R = γ̇/α̇ (Appendix B) and their analytic
+    derivatives, at the link angles β, γ of crank angle α."""
     a = P.a
     s_gb = math.sin(gamma - beta)
     c_gb = math.cos(gamma - beta)
@@ -594,7 +585,25 @@ def fourbar_ratio_derivatives(alpha, P):
     d_gb = R - Q  # d(γ−β)/dα
     dR = a / P.c * (c_ab * (1 - Q) * s_gb - s_ab * c_gb * d_gb) / (s_gb * s_gb)
     dQ = a / P.b * (c_ag * (1 - R) * s_gb - s_ag * c_gb * d_gb) / (s_gb * s_gb)
+    return Q, R, dQ, dR
+
+
+@law
+def fourbar_ratio_derivatives(alpha, P):
+    """(β, γ, Q, R, dQ/dα, dR/dα) at crank angle α (Appendices A and B)."""
+    beta, gamma = fourbar_angles(alpha, P)
+    Q, R, dQ, dR = fourbar_velocity(alpha, beta, gamma, P)
     return beta, gamma, Q, R, dQ, dR
+
+
+#: the branch-free kinematic laws evaluated over arrays (the same code, NumPy's functions)
+_ABCD2 = array_twin(fourbar_abcd2)
+_SOLVE = array_twin(fourbar_solve)
+_VELOCITY = array_twin(fourbar_velocity)
+
+
+def _is_array(x) -> bool:
+    return isinstance(x, (np.ndarray, list, tuple)) and np.ndim(x) > 0
 
 
 @law
