@@ -65,7 +65,7 @@ def register(fn):
         return
     from numba.extending import register_jitable
 
-    register_jitable(fn)
+    register_jitable(_nrt=False)(fn)
     _REGISTERED.add(id(fn))
 
 
@@ -188,7 +188,7 @@ def _specialise(name, fn, argn, mods):
 
     Rename().visit(fdef)
     mods.add(fn.__module__)
-    return imports + ["", "", "@register_jitable", ast.unparse(fdef), ""]
+    return imports + ["", "", "@register_jitable(_nrt=False)", ast.unparse(fdef), ""]
 
 
 def _build(program, loop_source: str):
@@ -202,7 +202,7 @@ def _build(program, loop_source: str):
     for s in sorted(program.slots):
         _bind_text(s, program.slots[s], header, mods, inmemory)
     src = "\n".join(header) + "\n\n\n" + loop_source + \
-        "\n\nrun = numba.njit(cache=True, nogil=True)(_loop)\n"
+        "\n\nrun = numba.njit(cache=True, nogil=True, _nrt=False)(_loop)\n"
     if inmemory:  # a law numba cannot import by name: compile in memory (no disk cache)
         env = {"__name__": "mjbench_kernel_inmemory", **inmemory}
         src = src.replace("cache=True", "cache=False")
