@@ -449,9 +449,12 @@ class Program:
     @property
     def key(self) -> tuple:
         """The composition: slot laws (names and function objects) and flags (runs with the same
-        key share one loop)."""
-        return (tuple((s, self.slots[s].key, self.slots[s].ident) for s in SLOTS),
-                tuple((f, self.flags[f]) for f in FLAGS))
+        key share one loop; computed once, the slots do not change after :meth:`build`)."""
+        k = self.__dict__.get("_key")
+        if k is None:
+            k = self._key = (tuple((s, self.slots[s].key, self.slots[s].ident) for s in SLOTS),
+                             tuple((f, self.flags[f]) for f in FLAGS))
+        return k
 
     def env(self) -> dict:
         """Globals of the CPython loop for this composition (flags and slot functions)."""
@@ -669,6 +672,10 @@ def input_inertia(machine, n: int = 16) -> tuple[float, float]:
     return Jeq + min(J), Jeq + max(J)
 
 
+#: machines already checked in this process (by :func:`_machine_key`)
+_CHECKED: set = set()
+
+
 def _machine_key(mc):
     """What :func:`check_machine` depends on: the mechanism's parameters and the drive's inertia."""
     try:
@@ -746,27 +753,10 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     decim = max(1, int(round(record_dt / h)))
     nrec = nsteps // decim + 1
     N = len(machines)
-    progs = []
-    checked = set()
-    for pl, mc in zip(plants, machines):
-        key = _machine_key(mc)
-        if key not in checked:  # (a sweep's rows share their mechanism and drive inertias: check once)
-            check_machine(mc)
-            checked.add(key)
-        if abs(float(pl.h) - h) > 1e-15 * h:
-            raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
-        pl.start()
-        progs.append(Program.build(pl, mc, h, control_every(mc.controller, h)))
+    progs = _programs(plants, machines, h)
     cols = progs[0].columns
-    if any(p.columns != cols for p in progs):
-        raise ParameterError("the runs of one batch must record the same columns (same drive-train elements and "
-                             "mechanism family)")
     ncol = len(cols)
-    mode, why = "python", ""
-    for p in progs:  # one mode for the whole job (the same numbers either way)
-        mode, why = choose_loop(p, N * nsteps, loop)
-        if mode == "python":
-            break
+    mode, why = _job_loop(progs, N * nsteps, loop)
     nthreads = min(N, threads or os.cpu_count() or 1) if mode == "compiled" else 1
     check_record(nsteps, decim, ncol, nthreads if consume is not None else N, h, record_dt)
     data = None if consume is not None else np.full((N, nrec * ncol), np.nan)
@@ -774,11 +764,7 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     for pr in progs:
         if pr.key not in fns:
             fns[pr.key] = python_loop(pr) if mode == "python" else _compiled(pr)
-    meta = {"dt": h, "record_dt": decim * h, "control_period": control_every(machines[0].controller, h) * h,
-            **plants[0].meta, "loop": mode, "loop_reason": why}
-    train = getattr(machines[0].drive, "train", None)
-    if train is not None:
-        meta["drivetrain"] = train.describe()
+    meta = _job_meta(plants[0], machines[0], h, decim, mode, why)
     nrows = np.zeros(N, dtype=int)
     diverged = np.zeros(N, dtype=bool)
     t_div = np.full(N, np.nan)
@@ -812,6 +798,48 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     rec = Record(None if data is None else data.reshape(N, nrec, ncol), cols, nrows, diverged, t_div, messages, meta)
     rec.results = results if consume is not None else None
     return rec
+
+
+def _programs(plants, machines, h: float) -> list:
+    """Each run's :class:`Program` (its plant started), after the checks of a job: every machine
+    (once per mechanism and drive inertias), one step for all, the same recorded columns."""
+    progs = []
+    checked = set()
+    for pl, mc in zip(plants, machines):
+        key = _machine_key(mc)
+        if key not in checked:  # (a sweep's rows share their mechanism and drive inertias: check once)
+            check_machine(mc)
+            checked.add(key)
+        if abs(float(pl.h) - h) > 1e-15 * h:
+            raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
+        pl.start()
+        progs.append(Program.build(pl, mc, h, control_every(mc.controller, h)))
+    cols = progs[0].columns
+    if any(p.columns != cols for p in progs):
+        raise ParameterError("the runs of one batch must record the same columns (same drive-train elements and "
+                             "mechanism family)")
+    return progs
+
+
+def _job_loop(progs, steps: int, loop: str | None) -> tuple:
+    """(mode, reason): one loop for the whole job — CPython as soon as one run needs it (the same
+    numbers either way)."""
+    mode, why = "python", ""
+    for p in progs:
+        mode, why = choose_loop(p, steps, loop)
+        if mode == "python":
+            break
+    return mode, why
+
+
+def _job_meta(plant, machine, h: float, decim: int, mode: str, why: str) -> dict:
+    """The job's meta: steps, control period, the plant's meta, the loop and the drive train."""
+    meta = {"dt": h, "record_dt": decim * h, "control_period": control_every(machine.controller, h) * h,
+            **plant.meta, "loop": mode, "loop_reason": why}
+    train = getattr(machine.drive, "train", None)
+    if train is not None:
+        meta["drivetrain"] = train.describe()
+    return meta
 
 
 def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
