@@ -83,6 +83,14 @@ class Controller(abc.ABC):
     period: float = 0.0
     #: the motor-side reference this controller tracks (None: none)
     reference = None
+    #: the gains ``mjbench tune`` may search: {Params field: (lo, hi)}, the field's admissible
+    #: interval (0 <= lo < hi, hi may be inf).  The search is log-scaled, within ×/÷ ``--span`` of
+    #: the scenario's value (or ``--bounds``) clipped to (lo, hi); a finite interval is the search
+    #: box when the scenario's value is 0.  Empty: ``tune`` cannot tune this controller.
+    TUNABLE: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: named variants for ``tune --controller NAME``: {NAME: Params fields held fixed while tuning}
+    #: (PID: ``pid`` constant K_p, ``pid-tv`` K_p·t).  Empty: the type name, nothing held.
+    TUNE_VARIANTS: ClassVar[dict[str, dict]] = {}
 
     @classmethod
     @abc.abstractmethod

@@ -108,6 +108,8 @@ class PID(Controller):
     Params = PIDParams
     STATE = ("offset", "epos_prev", "started")
     law = pid_law
+    TUNABLE = {"kp": (0.0, math.inf), "ki": (0.0, math.inf), "kd": (0.0, math.inf)}
+    TUNE_VARIANTS = {"pid": {"kp_ramp": False}, "pid-tv": {"kp_ramp": True}}  # constant K_p; K_p·t (Eq 15)
 
     def __init__(self, kp, ki, kd, reference=None, omega0=None, kp_ramp=False,
                  t_ramp_max=math.inf, v_limit=None, period=0.0):

@@ -80,6 +80,7 @@ class CascadeServo(Controller):
     Params = ServoParams
     STATE = ("integ", "t_prev")
     law = servo_law
+    TUNABLE = {"kpp": (0.0, math.inf), "kvp": (0.0, math.inf), "kvi": (0.0, math.inf)}  # feed-forward kept
 
     def __init__(self, reference, kpp, kvp, kvi, kffv=0.0, kffa=0.0, v_limit=None, period=0.0):
         self.reference = reference

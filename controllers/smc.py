@@ -123,6 +123,7 @@ class SlidingMode(Controller):
     Params = SMCParams
     STATE = ("switches", "sgn_prev", "s_last", "i_prev", "t_prev")
     law = smc_law
+    TUNABLE = {"lam": (0.0, math.inf), "K": (0.0, math.inf)}
 
     def __init__(self, omega_d, lam=50.0, K=1000.0, boundary=0.0, Ts=1e-3, v_limit=48.0,
                  drive=None, mechanism=None, model=True, didt="zero", T_f=0.0, omega_dot_d=0.0):

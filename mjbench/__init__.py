@@ -20,20 +20,23 @@ from typing import TYPE_CHECKING, Any
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:
-    from .api import (Analysis, FrequencyResponse, GeometryError, LawOptimization, LinearResult, Machine,
-                      MjbenchError, MjbenchWarning, MotorFit, OutputError, ParameterError, Result, Run, Scenario,
-                      ScenarioError, SimulationDiverged, SweepResult, TuneResult, analyze_mechanism, export_fmu,
-                      frequency_response, identify_motor, linearize, list_scenarios, load, make_controller,
-                      make_drive, make_mechanism, optimize_motion_law, paper_cases, parameter_sweep, render_video,
-                      reproduce_papers, simulate, simulate_many, tune_gains)
+    from .api import (Analysis, ComponentType, FrequencyResponse, FrozenAngleFamily, GeometryError, HoldPoint,
+                      LawOptimization, LinearResult, Machine, MjbenchError, MjbenchWarning, MotorFit, OutputError,
+                      ParameterError, Result, Run, Scenario, ScenarioError, SimulationDiverged, StepCheck,
+                      SweepResult, TransmissionAngle, TuneResult, analyze_mechanism, export_fmu,
+                      frequency_response, hold_point, identify_motor, linearize, list_components, list_scenarios,
+                      load, make_controller, make_drive, make_mechanism, optimize_motion_law, paper_cases,
+                      parameter_sweep, render_video, reproduce_papers, simulate, simulate_many, step_check,
+                      tune_gains)
 
-__all__ = ["Analysis", "FrequencyResponse", "GeometryError", "LawOptimization", "LinearResult", "Machine",
-           "MjbenchError", "MjbenchWarning", "MotorFit", "OutputError", "ParameterError", "Result", "Run",
-           "Scenario", "ScenarioError", "SimulationDiverged", "SweepResult", "TuneResult", "__version__",
-           "analyze_mechanism", "export_fmu", "frequency_response", "identify_motor", "linearize",
+__all__ = ["Analysis", "ComponentType", "FrequencyResponse", "FrozenAngleFamily", "GeometryError", "HoldPoint",
+           "LawOptimization", "LinearResult", "Machine", "MjbenchError", "MjbenchWarning", "MotorFit",
+           "OutputError", "ParameterError", "Result", "Run", "Scenario", "ScenarioError", "SimulationDiverged",
+           "StepCheck", "SweepResult", "TransmissionAngle", "TuneResult", "__version__", "analyze_mechanism",
+           "export_fmu", "frequency_response", "hold_point", "identify_motor", "linearize", "list_components",
            "list_scenarios", "load", "make_controller", "make_drive", "make_mechanism", "optimize_motion_law",
            "paper_cases", "parameter_sweep", "render_video", "reproduce_papers", "simulate", "simulate_many",
-           "tune_gains"]
+           "step_check", "tune_gains"]
 
 
 def __getattr__(name: str) -> Any:

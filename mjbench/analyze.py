@@ -63,24 +63,35 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
     t_cpu, t_wall = time.process_time(), time.perf_counter()
     mech = S.make_mechanism(scn)
     drive = S.make_drive(scn)
-    res = {"scenario": scn.name, "mechanism": scn.mechanism.type,
+    return analyze_parts(mech, drive, scn.name, speeds or (lambda: default_speeds(scn)), n, mu_min_deg,
+                         mech_type=scn.mechanism.type, started=(t_cpu, t_wall))
+
+
+def analyze_parts(mech, drive, name: str, speeds, n: int = 720, mu_min_deg: float = MU_MIN_DEG,
+                  mech_type: str | None = None, started=None) -> dict:
+    """The analysis of a mechanism and (optionally) its drive, built in code or from a scenario.
+    ``speeds``: input speeds [rad/s], or a callable giving the defaults; ``drive=None``: the input
+    torque only (no motor rows); ``name``: what the outputs call it."""
+    t_cpu, t_wall = started or (time.process_time(), time.perf_counter())
+    mech_type = mech_type or getattr(mech, "type_name", type(mech).__name__)
+    res = {"scenario": name, "mechanism": mech_type,
            "reduced_model": getattr(mech, "reduced_source", "")}
     if mech.internal or mech.render_view().kind == "top":
         res.update(applicable=False, reason=(
-            f"mechanism type {scn.mechanism.type!r} has internal elastic coordinates "
+            f"mechanism type {mech_type!r} has internal elastic coordinates "
             f"({', '.join(mech.internal) or 'rotary table'}): a constant-speed revolution analysis does not "
             f"apply; use `mjbench optimize-law` for its motion law"))
         res["timing"] = {"cpu_s": time.process_time() - t_cpu, "wall_s": time.perf_counter() - t_wall}
         return res
     if n < 16:
         raise ParameterError(f"--points = {n}: need at least 16 samples over the revolution")
-    speeds = list(default_speeds(scn) if not speeds else speeds)
+    speeds = list(speeds() if callable(speeds) else speeds)
     for w in speeds:
         if not (math.isfinite(w) and w > 0):
             raise ParameterError(f"--speed = {w!r}: an input speed must be finite and > 0 [rad/s]")
     q, qunit = _grid(mech, n)
-    J, dJ, dEp = (np.asarray(x, float) for x in mech.reduced(q))
-    Ep = np.asarray(mech.potential_energy(q), float)
+    J, dJ, dEp = (np.asarray(x, float) * np.ones_like(q) for x in mech.reduced(q))
+    Ep = np.asarray(mech.potential_energy(q), float) * np.ones_like(q)
     res["applicable"] = True
     res["input_unit"] = qunit
     res["points"] = int(n)
@@ -90,7 +101,7 @@ def analyze(scn, speeds=None, n: int = 720, mu_min_deg: float = MU_MIN_DEG) -> d
                       "dEp_absmax": float(np.abs(dEp).max()), "Ep_range_J": float(np.ptp(Ep))}
     flags = []
     _kinematic_rows(res, curves, flags, mech, q, mu_min_deg)
-    res["drive"] = _drive_row(drive)
+    res["drive"] = None if drive is None else _drive_row(drive)
     res["speeds"] = [_speed_row(w, mech, res["drive"], q, qunit, dJ, dEp, curves, flags) for w in speeds]
     res["flags"] = flags
     res["curves"] = {k: np.asarray(v, float).tolist() for k, v in curves.items()}
@@ -112,12 +123,18 @@ def _kinematic_rows(res, curves, flags, mech, q, mu_min_deg) -> None:
                                   "max": float(np.nanmax(v))} for k, v in ratios.items()}
     res["strokes_m"] = kin.get("strokes_m", {})
     res["transmission_angles_deg"] = {}
+    res["transmission"] = {}
+    keys = transmission_keys(list(trans), _joint_names(mech))
     for name, mu in trans.items():
         mu_d = np.degrees(mu)
         imin = int(np.nanargmin(mu_d))
+        key = keys[name]
         res["transmission_angles_deg"][name] = {"min": float(np.nanmin(mu_d)), "max": float(np.nanmax(mu_d)),
-                                                "q_at_min": float(q[imin])}
-        flags += _transmission_flags(name, q, mu_d, mu_min_deg)
+                                                "q_at_min": float(q[imin]), "key": key}
+        res["transmission"][key] = {"label": name, "min_deg": float(np.nanmin(mu_d)),
+                                    "max_deg": float(np.nanmax(mu_d)), "q_at_min_rad": float(q[imin]),
+                                    "curve": f"mu:{name}"}
+        flags += [dict(f, key=key) for f in _transmission_flags(name, q, mu_d, mu_min_deg)]
     for jn, lst in kin.get("toggles", {}).items():
         for tg in lst:
             flags.append({"kind": "toggle", "where": jn, "q": tg["q"],
@@ -132,6 +149,31 @@ def _kinematic_rows(res, curves, flags, mech, q, mu_min_deg) -> None:
     res["limit_positions"] = kin.get("limit_positions", {})
     res["swings_deg"] = kin.get("swings_deg", {})
     res["stroke_arcs_deg"] = kin.get("stroke_arcs_deg", {})
+
+
+def _joint_names(mech) -> list:
+    """The joint names of the mechanism's generic-linkage view (empty without one)."""
+    try:
+        lk = mech.linkage_view()
+    except Exception:  # noqa: BLE001 - a mechanism without a usable view has no joint names to offer
+        return []
+    params = getattr(lk, "params", None)
+    return [str(j.name) for j in getattr(params, "joints", ())]
+
+
+def transmission_keys(labels, joints) -> dict:
+    """{display label: stable key}.  A transmission angle is measured at a joint; its label names
+    the joint and the two links ("C (coupler on rocker)"), its key is the joint's name ("C") — it
+    does not change when a link is renamed.  A label that names no known joint (or a joint that
+    would get two angles) keeps the label as its key."""
+    out = {}
+    for lab in labels:
+        cands = [j for j in joints if lab == j or lab.startswith(j + " (")]
+        out[lab] = max(cands, key=len) if cands else lab
+    seen = {}
+    for lab, key in out.items():
+        seen.setdefault(key, []).append(lab)
+    return {lab: (key if len(seen[key]) == 1 else lab) for lab, key in out.items()}
 
 
 def _transmission_flags(name, q, mu_d, mu_min_deg) -> list:
@@ -164,11 +206,21 @@ def _drive_row(drive) -> dict:
 def _speed_row(w, mech, drv, q, qunit, dJ, dEp, curves, flags) -> dict:
     """The torque at constant input speed w through the gearbox against the motor (module doc):
     the row of ``speeds``, its curves and its voltage/current flags."""
+    Qext = np.asarray(mech.external_torque(q, w + 0.0 * q, 0.0), float) * np.ones_like(q)
+    T_in = 0.5 * dJ * w * w + dEp - Qext
+    if drv is None:  # a mechanism without a drive: the input torque only
+        curves[f"T_in@{w:g}"] = T_in
+        return {"input_speed_rad_s": float(w), "input_speed_rpm": float(w * 30 / math.pi),
+                "input_torque_Nm": {"min": float(T_in.min()), "max": float(T_in.max()),
+                                    "rms": float(np.sqrt(np.mean(T_in ** 2))), "mean": float(T_in.mean())},
+                "parts_absmax_Nm": {"inertial": float(np.abs(0.5 * dJ * w * w).max()),
+                                    "gravity_springs": float(np.abs(dEp).max()),
+                                    "loads_friction": float(np.abs(Qext).max())},
+                "mean_power_W": float(np.mean(T_in) * w),
+                "energy_per_rev_J": float(np.mean(T_in) * 2 * math.pi) if qunit == "rad" else None}
     z, km, R, L = drv["z"], drv["k_m"], drv["R"], drv["L"]
     lam, T0, vmax, imax = drv["lam"], drv["T_0"], drv["v_max"], drv["i_max"]
     dq = (q[1] - q[0]) if len(q) > 1 else 1.0
-    Qext = np.asarray(mech.external_torque(q, w + 0.0 * q, 0.0), float)
-    T_in = 0.5 * dJ * w * w + dEp - Qext
     wm = z * w
     Tm = T_in / z + lam * wm + T0 * math.copysign(1.0, wm)
     I = Tm / km
@@ -288,6 +340,13 @@ def figures(res: dict, out: Path) -> list:
         ax[0].set_ylabel(ps.label("input torque at constant speed", "N·m"))
         ax[0].legend(loc="upper right", fontsize=7)
         d = res["drive"]
+        if d is None:  # a mechanism without a drive: no motor panel
+            ax[1].text(0.5, 0.5, "no drive given: input torque only", ha="center", va="center",
+                       transform=ax[1].transAxes, fontsize=8)
+            ax[1].set_axis_off()
+            ps.finish(fig, f"{res['scenario']}: torque at constant speed")
+            paths.append(save(fig, out / "torque_speed.png"))
+            return paths
         wms = [r["motor_speed_rad_s"] for r in res["speeds"]]
         if d["no_load_motor_speed_rad_s"]:
             wmax = max(d["no_load_motor_speed_rad_s"], max(wms) * 1.1)
@@ -311,7 +370,8 @@ def summary_text(res: dict) -> str:
     """Plain-text summary printed by ``mjbench analyze``."""
     if not res.get("applicable"):
         return f"mjbench analyze: not applicable to {res['scenario']}: {res['reason']}"
-    lines = [f"scenario {res['scenario']} ({res['mechanism']}): reduced model {res['reduced_model']}"]
+    what = res["scenario"] if res.get("built_in_code") else f"scenario {res['scenario']}"
+    lines = [f"{what} ({res['mechanism']}): reduced model {res['reduced_model']}"]
     r = res["reduced"]
     lines.append(f"  J(q) {r['J_min']:.4g} … {r['J_max']:.4g} kg·m²   |J'| ≤ {r['dJ_absmax']:.4g} kg·m²/rad   "
                  f"|E_p'| ≤ {r['dEp_absmax']:.4g} N·m")
@@ -323,6 +383,10 @@ def summary_text(res: dict) -> str:
         lines.append(f"  no {row.replace('_', ' ')}: {why}")
     for row in res["speeds"]:
         t = row["input_torque_Nm"]
+        if "motor_torque_Nm" not in row:  # no drive
+            lines.append(f"  at {row['input_speed_rad_s']:.4g} rad/s: input torque {t['min']:.3g} … {t['max']:.3g} N·m "
+                         f"(RMS {t['rms']:.3g}), mean power {row['mean_power_W']:.3g} W (no drive given)")
+            continue
         lines.append(f"  at {row['input_speed_rad_s']:.4g} rad/s: input torque {t['min']:.3g} … {t['max']:.3g} N·m "
                      f"(RMS {t['rms']:.3g}), motor {row['motor_torque_Nm']['max']:.3g} N·m peak, "
                      f"{row['current_A']['max']:.3g} A, {row['voltage_V']['max']:.3g} V"

@@ -39,12 +39,11 @@ from .drivetrain.params import (CurrentLoopParams, EncoderParams, FrictionParams
 from . import compiled as C
 from .compiled import clip, sgn
 from .drivetrain.amplifier import current_limited_voltage
-from .drives import register
+from .drives import Drive, register
 from .errors import ParameterError
-from .schema import Q, Strict
+from .fields import Q, Strict
 
 
-@register
 class DriveParams(Strict):
     """``[drive]``: permanent-magnet DC motor + gear reducer (seed 000 Eqs 6-9), SI units.
 
@@ -96,8 +95,9 @@ class DriveParams(Strict):
         return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 
 
+@register
 @dataclass
-class DCMotorDrive:
+class DCMotorDrive(Drive):
     """Permanent-magnet DC motor with a gear reducer (seed 000 notation, SI units).
 
     R [Ω], L [H], k_m [N·m/A = V·s/rad] (torque = back-EMF constant), J_m, J_a, J_b [kg·m²]
@@ -120,8 +120,9 @@ class DCMotorDrive:
     i_max: float = math.inf
     #: optional drive-train elements (:class:`mjbench.drivetrain.DriveTrain`), None = ideal
     train: object = field(default=None, compare=False, repr=False)
-    #: ``[drive] type`` of this class (mjbench.drives)
+    #: ``[drive] type`` of this class (mjbench.drives) and its table
     type_name = "dcmotor"
+    Params = DriveParams
 
     def __post_init__(self):
         self.validate()

@@ -1,4 +1,4 @@
-"""One registry class for every kind of named component: mechanisms and controllers.
+"""One registry class for every kind of named component: mechanisms, controllers and drive types.
 
 A scenario names a component by its type (``[mechanism] type = "fourbar"``, ``[modes.pid] type =
 "pid"``); the kind's :class:`Registry` maps the name to the class, found in this order:
@@ -32,8 +32,8 @@ from .fields import format_errors
 
 __all__ = ["Registry", "entry_points", "PluginWarning", "GROUPS"]
 
-#: the entry-point groups of plugins: mechanisms, controllers, scenario folders
-GROUPS = ("mjbench.mechanisms", "mjbench.controllers", "mjbench.scenarios")
+#: the entry-point groups of plugins: mechanisms, controllers, scenario folders, drive types
+GROUPS = ("mjbench.mechanisms", "mjbench.controllers", "mjbench.scenarios", "mjbench.drives")
 
 _EP_CACHE: dict = {}
 
@@ -62,7 +62,7 @@ def _origin(ep) -> str:
 
 
 class Registry:
-    """Component classes of one ``kind`` ("mechanism", "controller"), keyed by ``type_name``.
+    """Component classes of one ``kind`` ("mechanism", "controller", "drive"), keyed by ``type_name``.
 
     ``base``: the class every registered class must subclass; ``builtin``: {name: module} of the
     shipped ones; ``group``: the entry-point group of plugins; ``prefix``, ``unknown``, ``invalid``:

@@ -25,7 +25,11 @@ and peak |current| over their limits (``--limit voltage=V,current=A``; default: 
 scenario's own gains on the search backend, so a tuned controller may not draw more than the
 paper's); a diverged run scores 1e3.  Metrics: ``chi`` (χ, Eq 22, on the scenario's
 ``metrics.chi_window``), ``chi_cycle`` (χ of the last complete crank cycle), ``ise``/``iae``/``itae``
-(∫e², ∫|e|, ∫t|e| of the crank-speed error to the set-point over the run, [rad²/s], [rad], [rad·s]).
+(∫e², ∫|e|, ∫t|e| of the crank-speed error to the set-point over the run, [rad²/s], [rad], [rad·s]),
+``tracking_rms``/``tracking_peak`` (RMS / peak of the crank-angle error q_ref − q to the
+controller's motion-law reference [rad] — a law repeated per cycle included, the reference's own
+law evaluated at the record's times — over ``metrics.chi_window`` when the scenario sets one,
+else over the whole run).
 
 Margin constraints (``--margin pm>=45 --margin ms<=2``; keys pm [deg], gm [dB], ms = peak |S|,
 bw [rad/s]): evaluated on the linear model (:mod:`mjbench.linear`) — the candidate's controller
@@ -35,9 +39,13 @@ gain).  ``margin_mode = "penalty"`` (default): the objective gets PENALTY × Σ 
 (each capped at 1), like the peak limits; ``"constraint"``: a violating candidate is not simulated
 and scores DIVERGED × (1 + violation) — a hard constraint that also saves its simulation.
 
-Controllers: ``pid`` (constant K_p), ``pid-tv`` (K_p·t, Eq 15; the paper's), ``smc`` (sliding mode,
-controllers/smc.py, seed 004: λ and K).  Run length: the end of the χ window (0.5 s for seed 000),
-else the scenario's ``simulation.t_end``.
+Controllers: every controller type whose class declares its tunable gains
+(``Controller.TUNABLE`` = {gain: admissible interval}, optional ``TUNE_VARIANTS``;
+:func:`tunable_controllers`), plugins included.  Built in: ``pid`` (constant K_p), ``pid-tv``
+(K_p·t, Eq 15; the paper's), ``smc`` (sliding mode, controllers/smc.py, seed 004: λ and K),
+``servo`` (the cascade servo tracking a motion law, controllers/servo.py: K_pp, K_vp, K_vi; its
+feed-forward gains are kept).  Run length: the end of the χ window (0.5 s for seed 000), else the
+scenario's ``simulation.t_end``.
 """
 from __future__ import annotations
 
@@ -51,13 +59,67 @@ from . import metrics as M
 from . import scenario as S
 from .errors import MjbenchError, ParameterError, ScenarioError
 
-#: controller → (controller type in the scenario, tuned parameters, fixed settings)
-CONTROLLERS = {
-    "pid": ("pid", ("kp", "ki", "kd"), {"kp_ramp": False}),
-    "pid-tv": ("pid", ("kp", "ki", "kd"), {"kp_ramp": True}),
-    "smc": ("smc", ("lam", "K"), {}),
-}
-OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae")
+
+@dataclass(frozen=True)
+class TuneSpec:
+    """What ``tune --controller NAME`` tunes, from the controller class's declaration
+    (:attr:`controllers.base.Controller.TUNABLE`, ``TUNE_VARIANTS``): the controller type of the
+    scenario's mode, the gains (declaration order), the settings held fixed, and each gain's
+    admissible interval (lo, hi)."""
+
+    name: str
+    ctype: str
+    params: tuple
+    fixed: dict
+    intervals: dict
+
+
+def declared_specs(cls) -> dict:
+    """{tune name: TuneSpec} declared by one controller class (none without ``TUNABLE``); a
+    ParameterError when the declaration names no field of its Params or a bad interval."""
+    gains = {k: (float(lo), float(hi)) for k, (lo, hi) in dict(getattr(cls, "TUNABLE", None) or {}).items()}
+    if not gains:
+        return {}
+    for k, (lo, hi) in gains.items():
+        if k not in cls.Params.model_fields or not (0.0 <= lo < hi):
+            raise ParameterError(f"{cls.__module__}.{cls.__qualname__}.TUNABLE[{k!r}] = ({lo:g}, {hi:g}): needs a field "
+                                 f"of its Params and 0 <= lo < hi")
+    variants = dict(getattr(cls, "TUNE_VARIANTS", None) or {cls.type_name: {}})
+    return {name: TuneSpec(name, cls.type_name, tuple(gains), dict(fixed), gains) for name, fixed in variants.items()}
+
+
+def tunable_controllers() -> dict:
+    """{``tune --controller`` name: :class:`TuneSpec`} of every controller type that declares
+    tunable gains: the built-in ones (pid, pid-tv, smc, servo) and the plugins' (every
+    controller type is imported)."""
+    import controllers
+
+    out = {}
+    for typ in controllers.names():
+        out.update(declared_specs(controllers.get(typ)))
+    return out
+
+
+def tune_spec(name: str) -> TuneSpec:
+    """The :class:`TuneSpec` of ``tune --controller NAME`` (a type name, or a declared variant such
+    as ``pid-tv``); a ParameterError naming the choices otherwise."""
+    import controllers
+
+    cls = controllers.get(name)
+    specs = declared_specs(cls) if cls is not None else {}
+    if name in specs:
+        return specs[name]
+    specs = tunable_controllers()
+    if name in specs:
+        return specs[name]
+    why = ("its class declares no tunable gains (Controller.TUNABLE)" if cls is not None
+           else "no controller type or tuning variant of that name")
+    raise ParameterError(f"controller {name!r}: {why}; the tunable ones: {', '.join(specs)}")
+
+
+OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak")
+#: objectives measured against the controller's reference angle (a motion law, repeated or not)
+TRACKING = ("tracking_rms", "tracking_peak")
 PENALTY = 10.0
 DIVERGED = 1e3
 
@@ -102,11 +164,10 @@ class Problem:
 
         if backend not in SEARCH_BACKENDS:
             raise ParameterError(f"--backend {backend!r}: choose one of {list(SEARCH_BACKENDS)}")
-        if controller not in CONTROLLERS:
-            raise ParameterError(f"--controller {controller!r}: choose one of {sorted(CONTROLLERS)}")
+        spec = tune_spec(controller)
         if objective not in OBJECTIVES:
             raise ParameterError(f"--objective {objective!r}: choose one of {list(OBJECTIVES)}")
-        ctype, self.params, fixed = CONTROLLERS[controller]
+        ctype, self.params, fixed, self.intervals = spec.ctype, spec.params, spec.fixed, spec.intervals
         self.scn = scn
         self.mode = find_mode(scn, ctype)
         self.base_params = scn.modes[self.mode]  # the scenario's own controller (baseline)
@@ -139,6 +200,13 @@ class Problem:
         self.limits = dict(limits or {})
         self.nfev = 0
         self._plant = None
+        self._ref_angle = None
+        if objective in TRACKING:
+            ref = getattr(self.machine(self.x0).controller, "reference", None)
+            if getattr(ref, "reference_angle", None) is None:
+                raise ParameterError(f"--objective {objective} needs a controller that tracks a motion law (a [law] "
+                                     f"reference); mode {self.mode!r} has {type(ref).__name__ if ref else 'none'}")
+            self._ref_angle = ref.reference_angle
         if margin_mode not in ("penalty", "constraint"):
             raise ParameterError(f"--margin-mode {margin_mode!r}: choose penalty or constraint")
         self.margins = [c if isinstance(c, tuple) else _parse_margin(c) for c in margins]
@@ -161,8 +229,9 @@ class Problem:
         if params is None:
             params = self.tuned_params.model_copy(update={p: float(v) for p, v in zip(self.params, x)})
             for p, v in zip(self.params, x):
-                if not (math.isfinite(float(v)) and float(v) >= 0):
-                    raise ParameterError(f"tune: {p} = {v!r} is not a valid gain")
+                lo, hi = self.intervals[p]
+                if not (math.isfinite(float(v)) and lo <= float(v) <= hi):
+                    raise ParameterError(f"tune: {p} = {v!r} is not a valid gain (admissible: {lo:g} ... {hi:g})")
         scn = self.scn
         if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
             self._plant = S.make_mechanism(scn), S.make_drive(scn)
@@ -179,6 +248,11 @@ class Problem:
         _, vals = M.chi_per_cycle(t, tr.q, om, self.average)
         if len(vals):
             out["chi_cycle"] = float(vals[-1])
+        if self._ref_angle is not None:  # crank-angle error to the motion-law reference
+            sel = (t >= self.window[0] - 1e-12) & (t <= self.window[1] + 1e-12) if self.window else slice(None)
+            e = self._ref_angle(t[sel]) / float(self._plant[1].z) - tr.q[sel]
+            out["tracking_rms"] = float(np.sqrt(np.mean(e * e))) if e.size else float("nan")
+            out["tracking_peak"] = float(np.max(np.abs(e))) if e.size else float("nan")
         if self.setpoint is not None:
             e = self.setpoint - tr.qd
             out["ise"] = float(np.trapezoid(e * e, t))
@@ -312,7 +386,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     t0 = time.perf_counter()
     prob = Problem(scn, controller, objective, limits, t_end, nthread, batch_size, backend=backend, margins=margins,
                    margin_mode=margin_mode, margin_angles=margin_angles)
-    search_box(prob.params, prob.x0, span, bounds)  # bad bounds: one message before any simulation
+    search_box(prob.params, prob.x0, span, bounds, prob.intervals)  # bad bounds: one message before any simulation
     if backend == "reduced":  # the compiled co-step (numba, same bits) when the planned work pays for loading it
         from . import kernel
         h = float(prob.options.get("timestep", scn.simulation.dt))
@@ -323,7 +397,7 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     lim.setdefault("current", base_m["peak_current_A"])
     prob.limits = lim
     base_m["score"] = prob.score(base_m)
-    lo, hi = search_box(prob.params, prob.x0, span, bounds)
+    lo, hi = search_box(prob.params, prob.x0, span, bounds, prob.intervals)
     X, scores, order = _global_stage(prob, lo, hi, n_global, seed, log, t0)
     hist = {"global_X": X.tolist(), "global_scores": scores.tolist(), "local": []}
     best_x, best_s = X[order[0]].copy(), float(scores[order[0]])
@@ -443,9 +517,12 @@ def _search_metrics(prob, backend, best_x, tuned_m, base_m):
     return search, base_mb
 
 
-def search_box(params, x0, span, bounds):
+def search_box(params, x0, span, bounds, intervals=None):
     """(lo, hi) log-bounds of the search: ``bounds`` {gain: (lo, hi)} where given, else the
-    scenario's gain ×/÷ ``span``.  Bad values are ONE error naming the option."""
+    scenario's gain ×/÷ ``span``, within each gain's admissible interval ``intervals`` {gain: (lo,
+    hi)} (the controller's ``TUNABLE`` declaration: the span is clipped to it, ``bounds`` must lie
+    in it, and a scenario value of 0 searches the whole interval when it is finite).  Bad values
+    are ONE error naming the option."""
     if not (math.isfinite(span) and span > 1.0):
         raise ParameterError(f"--span {span:g}: must be a factor > 1 (each gain is searched within ×/÷ span of the "
                              f"scenario's)")
@@ -454,17 +531,33 @@ def search_box(params, x0, span, bounds):
         raise ParameterError(f"--bounds {unknown[0]}: not a gain of this controller; its gains are {', '.join(params)}")
     lo, hi = np.empty(len(params)), np.empty(len(params))
     for k, p in enumerate(params):
+        a_lo, a_hi = (intervals or {}).get(p, (0.0, math.inf))
         b = (bounds or {}).get(p)
         if b is None:
-            if not x0[k] > 0:
-                raise ParameterError(f"tune: {p} = {x0[k]:g} in the scenario, so ×/÷ --span gives no interval; give "
-                                     f"--bounds {p}=LO:HI (0 < LO < HI)")
-            b = (x0[k] / span, x0[k] * span)
+            b = _default_interval(p, x0[k], span, a_lo, a_hi)
         elif not (math.isfinite(b[0]) and math.isfinite(b[1]) and 0 < b[0] < b[1]):
             raise ParameterError(f"--bounds {p}={b[0]:g}:{b[1]:g}: need finite 0 < LO < HI (gains are searched in log "
                                  f"scale)")
+        elif b[0] < a_lo or b[1] > a_hi:
+            raise ParameterError(f"--bounds {p}={b[0]:g}:{b[1]:g}: outside the interval {a_lo:g} ... {a_hi:g} the "
+                                 f"controller admits for {p} (its TUNABLE declaration)")
         lo[k], hi[k] = math.log(b[0]), math.log(b[1])
     return lo, hi
+
+
+def _default_interval(p, x0, span, a_lo, a_hi):
+    """The search interval of gain p without ``--bounds``: its scenario value x0 ×/÷ span clipped to
+    the admissible (a_lo, a_hi), or that whole interval when x0 is 0 and the interval finite."""
+    if x0 > 0:
+        b = (max(x0 / span, a_lo), min(x0 * span, a_hi))
+        if not b[0] < b[1]:
+            raise ParameterError(f"tune: {p} = {x0:g} in the scenario, and ×/÷ --span {span:g} of it lies outside the "
+                                 f"interval {a_lo:g} ... {a_hi:g} the controller admits; give --bounds {p}=LO:HI")
+        return b
+    if a_lo > 0 and math.isfinite(a_hi):
+        return a_lo, a_hi
+    raise ParameterError(f"tune: {p} = {x0:g} in the scenario, so ×/÷ --span gives no interval; give "
+                         f"--bounds {p}=LO:HI (0 < LO < HI)")
 
 
 def constraint_status(res: "TuneResult") -> tuple:

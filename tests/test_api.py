@@ -135,6 +135,12 @@ def test_machine_in_code_equals_its_scenario(tmp_path):
     for b in ("multibody", "reduced"):
         assert np.array_equal(res[b].data, ref[b].data), b
     assert res.mode is None and res.metrics["multibody_vs_reduced"]["max_rel_diff"] < 1e-3
+    # its summary names what it is made of, not a scenario and a mode it does not have
+    first = res.summary().splitlines()[0]
+    assert first == ("machine built in code: fourbar mechanism, DC motor (z = 1, v_max 48 V), pid controller "
+                     "(multibody, reduced, 0.05 s)")
+    assert "mode None" not in res.summary() and "pid controller" in repr(res)
+    assert ref.summary().startswith("scenario incerti2012, mode pid")
     res.save(tmp_path / "machine")  # no scenario, no manifest: the trajectories and metrics
     assert sorted(os.listdir(tmp_path / "machine")) == ["metrics.json", "trajectory_multibody.csv",
                                                         "trajectory_reduced.csv"]
@@ -246,6 +252,133 @@ def test_linearize_cli_equals_api_and_gives_python_control_objects(tmp_path):
     assert isinstance(res.plant, control.StateSpace) and isinstance(res.loop.L, control.StateSpace)
     assert res.controller is res.loop.controller and res.margins.stable and res.operating_point.q == 0.5
     assert res.plant_multibody is None and "loop: GM" in res.summary()
+
+
+def test_linear_result_has_a_typed_frozen_angle_family():
+    import control
+
+    lin = mjb.linearize("incerti2012", "pid", t=0.5, angles=4, multibody=False)
+    fam = lin.family
+    assert isinstance(fam, mjb.FrozenAngleFamily) and len(fam) == 4 and fam is lin.family
+    assert np.allclose(fam.angles, np.arange(4) * np.pi / 2) and np.allclose(fam.speeds, 30.0)
+    assert all(isinstance(L, control.StateSpace) and L.dt == 1e-4 for L in fam.L)
+    assert fam[1].L is fam.L[1] and [a for a, _ in fam] == list(fam.angles)
+    fa = lin.data["frozen_angle"]  # the typed family is what linear.json holds
+    assert list(fam.phase_margins_deg) == fa["phase_margin_deg"] and list(fam.gain_margins_dB) == fa["gain_margin_dB"]
+    assert fam.worst == fa["worst"] and fam.validity["verdict"] == fa["validity"]["verdict"]
+    assert fam.nearest(-0.1) == 0 and fam.nearest(3.2) == 2
+    assert mjb.linearize("incerti2012", "pid", angles=0, multibody=False).family is None
+
+
+def _hold_scenario():
+    return mjb.load("incerti2012", **{"modes.pid.kp_ramp": False, "modes.pid.kp": 40.0, "modes.pid.omega0": 0.0,
+                                      "modes.pid.v_limit": "none", "drive.v_max": float("inf")})
+
+
+def test_hold_point_and_step_check():
+    from scipy.optimize import brentq
+
+    scn = _hold_scenario()
+    mach = scn.machine()
+    mech, d = mach.mechanism, mach.drive
+    ki, z = scn.get("modes.pid.ki"), d.z
+    hp = mjb.hold_point(scn)  # the reference angle 0: K_i·(0 − z·q) = R·E_p'(q)/(z·k_m)
+    q_e = brentq(lambda q: -ki * z * q - d.R * mech.reduced(q)[2] / (z * d.k_m), -1.0, 1.0, xtol=1e-15)
+    assert hp.q == pytest.approx(q_e, abs=1e-12) and hp.q_ref == 0.0 and hp.offset == pytest.approx(-q_e)
+    assert hp.I == pytest.approx(mech.reduced(q_e)[2] / (z * d.k_m), rel=1e-12) and hp.V == pytest.approx(d.R * hp.I)
+    run = mjb.simulate(hp.machine, backend="reduced", t_end=0.2)  # the machine started there stays there
+    assert np.max(np.abs(run["reduced"]["crank_angle_rad"] - hp.q)) < 1e-9
+    at3 = mjb.hold_point(scn, q=3.0)  # any angle: the reference that holds it
+    assert at3.q == 3.0 and at3.q_ref == pytest.approx(3.0 + at3.V / (ki * z))
+    run = mjb.simulate(at3.machine, backend="reduced", t_end=0.2)
+    assert np.max(np.abs(run["reduced"]["crank_angle_rad"] - 3.0)) < 1e-9
+    sc = mjb.step_check(scn, q=3.0, dq=0.03, t_end=0.5, backend="reduced")
+    assert sc.q_rel_error < 2e-3 and sc.qd_rel_error < 2e-3  # docs/linear.md §6: 1 % step, 0.10 % on MuJoCo
+    assert sc.t.shape == sc.q_sim.shape == sc.q_lin.shape and 0.005 < sc.q_lin[-1] < 0.03  # (slow integral)
+    assert sc.to_pandas().shape == (len(sc.t), 5) and "step check at q* = 3" in sc.summary()
+    # a machine built in code works the same, and its run equals the scenario's
+    on_mach = mjb.step_check(mach, q=3.0, dq=0.03, t_end=0.5, backend="reduced")
+    assert np.array_equal(on_mach.q_sim, sc.q_sim)
+    with pytest.raises(mjb.ParameterError, match="hold_offset"):
+        mjb.hold_point("incerti2012", "open")
+    with pytest.raises(mjb.ParameterError, match="not both"):
+        mjb.hold_point(scn, q=1.0, q_ref=0.0)
+    with pytest.raises(mjb.ParameterError, match="give a step"):
+        mjb.step_check(scn, q=3.0)
+
+
+def test_analyze_a_mechanism_or_machine_built_in_code(tmp_path):
+    kw = _fourbar()
+    mech = mjb.make_mechanism("fourbar", **kw)
+    drive = mjb.make_drive(R=2.0, L=9e-3, k_m=0.48, J_m=13e-4, J_a=9.8e-5, J_b=9.8e-5, z=1, lam=0.08, v_max=48)
+    pid = mjb.make_controller("pid", drive=drive, mechanism=mech, kp=80, ki=32, kd=0.015, omega0=30)
+    ref = mjb.analyze_mechanism("incerti2012", points=90)
+    an = mjb.analyze_mechanism(mjb.Machine(mech, drive, pid), points=90)  # speed: the PID's set-point
+    for key in ("speeds", "transmission", "transmission_angles_deg", "reduced", "flags", "curves", "drive"):
+        assert an.data[key] == ref.data[key], key
+    assert an.scenario is None and an.summary().startswith("machine built in code (fourbar)")
+    alone = mjb.analyze_mechanism(mech, ["30 rad/s"], points=90)  # no drive: the input torque only
+    assert alone.data["drive"] is None and "motor_torque_Nm" not in alone.data["speeds"][0]
+    assert alone.data["speeds"][0]["input_torque_Nm"] == ref.data["speeds"][0]["input_torque_Nm"]
+    assert "no drive given" in alone.summary()
+    alone.save(tmp_path / "an")
+    assert sorted(os.listdir(tmp_path / "an")) == ["analysis.json", "kinematics.png", "reduced_model.png",
+                                                   "torque_speed.png"]
+    # transmission angles: a stable key (the joint) and the display label (the links' names)
+    mu = an.transmission["C"]
+    assert mu.key == "C" and mu.label == "C (coupler on rocker)" and an.data["transmission"]["C"]["label"] == mu.label
+    assert np.array_equal(mu.mu, an.curves["mu:C (coupler on rocker)"]) and mu.min_deg == pytest.approx(39.8, abs=0.05)  # 90 points
+    assert ref.data["transmission_angles_deg"][mu.label]["key"] == "C"
+    raw = mjb.load("press-slidercrank").spec.raw
+    renamed = {**raw, "mechanism": {**raw["mechanism"], "links": {("con_rod" if k == "rod" else k): v
+                                                                  for k, v in raw["mechanism"]["links"].items()}}}
+    renamed["mechanism"]["joints"] = [{**j, "at": [a.replace("rod.", "con_rod.") for a in j["at"]]}
+                                      for j in raw["mechanism"]["joints"]]
+    a, b = mjb.analyze_mechanism(raw, points=64), mjb.analyze_mechanism(renamed, points=64)
+    assert list(a.transmission) == list(b.transmission) and a.transmission.keys() == {"C"}
+    assert a.transmission["C"].label != b.transmission["C"].label
+    assert a.transmission["C"].min_deg == pytest.approx(b.transmission["C"].min_deg, abs=1e-12)
+
+
+def test_to_toml_round_trips_every_shipped_scenario(tmp_path):
+    import tomllib
+
+    for name in mjb.list_scenarios():
+        scn = mjb.load(name)
+        path = tmp_path / f"{name}.toml"
+        text = scn.to_toml(path)
+        assert path.read_text() == text and tomllib.loads(text) == scn.spec.raw, name
+        again = mjb.load(path)
+        assert again.resolved() == scn.resolved() and again.name == scn.name, name
+    # overrides are written as values; a run of the file equals the scenario's, bit for bit
+    scn = mjb.load("mjcf-fourbar", **{"drive.R": "2.2 ohm", "simulation.record_dt": "1 ms"})
+    scn.to_toml(tmp_path / "x.toml")
+    again = mjb.load(tmp_path / "x.toml")
+    assert again.get("drive.R") == pytest.approx(2.2) and again.overrides == []
+    a, b = (s.simulate("open", "both", 0.02) for s in (scn, again))
+    for bk in ("multibody", "reduced"):
+        assert np.array_equal(a[bk].data, b[bk].data)
+    with pytest.raises(mjb.OutputError, match="force=True"):
+        scn.to_toml(tmp_path / "x.toml")
+    scn.to_toml(tmp_path / "x.toml", force=True)
+
+
+def test_sweep_of_a_scenario_made_from_a_dict(tmp_path):
+    raw = mjb.load("incerti2012").spec.raw
+    kw = dict(t_end=0.05, verify=0)
+    by_name = mjb.parameter_sweep("incerti2012", {"drive.R": [1.8, 2.2]}, **kw)
+    res = mjb.parameter_sweep(raw, {"drive.R": [1.8, 2.2]}, out=tmp_path / "sw", **kw)
+    assert [r["peak_current_A"] for r in res.rows] == [r["peak_current_A"] for r in by_name.rows]
+    assert (tmp_path / "sw" / "scenario.toml").is_file()  # the file the rows re-load
+    assert mjb.load(tmp_path / "sw" / "scenario.toml").resolved() == mjb.load(raw).resolved()
+    again = mjb.parameter_sweep(mjb.load(raw), {"drive.R": [1.8, 2.2]}, out=tmp_path / "sw", **kw)  # resumed
+    assert again.ran == 0 and again.rows == res.rows
+    other = mjb.load(raw, **{"drive.L": "10 mH"})
+    with pytest.raises(mjb.ParameterError, match="another scenario"):
+        mjb.parameter_sweep(mjb.load(other.spec.raw), {"drive.R": [1.8, 2.2]}, out=tmp_path / "sw", **kw)
+    with pytest.raises(mjb.ScenarioError):  # a bad key: no folder left behind
+        mjb.parameter_sweep(raw, {"drive.Rx": [1.0]}, out=tmp_path / "bad", **kw)
+    assert not (tmp_path / "bad").exists()
 
 
 def test_analyze_cli_equals_api(tmp_path):

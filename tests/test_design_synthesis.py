@@ -1,8 +1,8 @@
-"""Kinematic synthesis of mjbench design (mjbench/design/synthesis.py): every routine against closed
+"""Kinematic synthesis of mjbench design (mjbench/design/synthesis/): every routine against closed
 forms (and round trips through known linkages) and against mjbench's own position solver
 (mjbench.mechanisms.linkage, Newton on the loop-closure equations) to ≤ 1e-9.
 
-Closed forms used (derived in the cited textbooks, re-derived in synthesis.py's docstring):
+Closed forms used (derived in the cited textbooks, re-derived in the synthesis package's docstring):
 * time ratio Q = (180° + α)/(180° − α) — Norton, *Design of Machinery*, ch. 3 (quick return);
 * offset slider-crank dead centres u = √((l ± r)² − e²), α = asin(e/(l − r)) − asin(e/(l + r)),
   μ_min = 90° − asin((r + e)/l) — Hartenberg & Denavit, *Kinematic Synthesis of Linkages* (1964);

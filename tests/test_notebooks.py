@@ -94,6 +94,11 @@ def test_controller_design(tmp_path):
     assert 1000 < s["kp_limit"] < 1250
     assert 25.0 < s["worst_pm_deg"] < 40.0 and abs(s["worst_pm_q_rad"] - 5.50) < 0.01
     assert 40.0 < s["pm_deg"] < 100.0 and s["gm_dB"] > 20.0                 # 70.7°, 57.0 dB
+    # mjb.hold_point: the PID (reference angle 0, K_i = 32) holds the crank at −0.1797 rad against
+    # gravity (equal to the notebook's root of K_i·(0 − z·q) = R·E_p'(q)/(z·k_m)); mjb.step_check:
+    # a 0.01 rad step there on MuJoCo against the linear closed loop
+    assert s["hold_q_rad"] == pytest.approx(-0.1797, abs=1e-4)
+    assert s["step_q_rel_error"] < 1e-3 and s["step_qd_rel_error"] < 1e-3   # 7.0e-5, 1.0e-4
     for factor, predicted in (("0.9x", 0.2767), ("1.1x", 3.602)):
         assert s["growth_predicted"][factor] == pytest.approx(predicted, rel=0.01)
         for b in ("reduced", "multibody"):

@@ -4,8 +4,11 @@ The package ``tests/data/plugin`` (mjbench-scotch-yoke: a Scotch yoke, a lead-la
 a scenario using both) declares three entry points in a standard ``pyproject.toml``.  It is built
 into a wheel here (offline: zip + dist-info, no build backend needed), installed by pip into a
 temporary folder, and used from a fresh interpreter with that folder on PYTHONPATH: ``mjbench
-list`` shows its scenario, and ``run`` (both backends, compiled), ``analyze``, ``sweep`` (batched),
-``linearize``, ``tune``, ``frest`` and ``render`` run it.  Nothing in mjbench names the plugin.
+list`` shows its scenario and its component types, and ``run`` (both backends, compiled),
+``analyze``, ``sweep`` (batched), ``linearize``, ``tune`` (the scenario's PID, and the plugin's
+lead-lag through the gains its class declares, ``LeadLag.TUNABLE``), ``frest`` and ``render`` run
+it.  Nothing in mjbench names the plugin.  A drive type from an entry point (group
+``mjbench.drives``) is found by the same registry class.
 
 Independent checks: the yoke's closed-form reduced model against MuJoCo (the two backends of one
 run agree); the lead-lag's recorded voltages against scipy's ``lfilter`` of its Tustin
@@ -79,6 +82,10 @@ res["linearize"] = cmd("linearize", "scotch-yoke", "--at", "q=0.3", "--angles", 
 res["tune"] = cmd("tune", "scotch-yoke", "--controller", "pid", "--objective", "ise", "--t-end", "0.2",
                   "--global", "4", "--maxfev", "4", "--verify", "1", "--bounds", "kd=1e-5:1e-3",
                   "--out", f"{out}/tune")
+res["tune_leadlag"] = cmd("tune", "scotch-yoke", "--controller", "lead-lag", "--objective", "ise", "--t-end", "0.2",
+                          "--global", "4", "--maxfev", "4", "--verify", "1", "--span", "1000", "--out", f"{out}/tune-ll")
+res["tune_leadlag_bounds"] = cmd("tune", "scotch-yoke", "--controller", "lead-lag", "--objective", "ise",
+                                 "--bounds", "wp=10:1e5", "--t-end", "0.2")
 res["frest"] = cmd("frest", "scotch-yoke", "--mode", "leadlag", "--periods", "2", "--lines", "6",
                    "--out", f"{out}/frest")
 res["render"] = cmd("render", "scotch-yoke", "--t-end", "0.2", "--fps", "10", "--width", "160", "--height", "96",
@@ -90,6 +97,9 @@ from mjbench import scenario as S
 from mjbench.backends import simulate, simulate_many
 res["types"] = [mechanisms.get("scotch-yoke").__module__, controllers.get("lead-lag").__module__,
                 "scotch-yoke" in mechanisms.names(), "lead-lag" in controllers.names()]
+import mjbench
+res["components"] = [[c.kind, c.name, c.origin, c.source, {k: list(v) for k, v in c.tunable.items()}]
+                     for c in mjbench.list_components() if c.origin != "built-in"]
 scn = S.load("scotch-yoke")
 Ks = (0.5, 2.0)
 machines = [S.make_machine(S.with_values(scn, {"modes.leadlag.K": k}), "leadlag") for k in Ks]
@@ -154,6 +164,91 @@ def test_every_command_runs_it(plugin_run):
     assert (out / "frest" / "frest.json").exists() and (out / "tune" / "tune.json").exists()
     rows = (out / "sweep" / "results.csv").read_text().splitlines()
     assert len(rows) == 4 and all(",ok," in r for r in rows[1:])
+
+
+def test_list_shows_the_plugin_types(plugin_run):
+    _, res, _ = plugin_run
+    assert res["components"] == [
+        ["mechanism", "scotch-yoke", "plugin", "mjbench_scotch_yoke.yoke.ScotchYoke (distribution mjbench-scotch-yoke)",
+         {}],
+        ["controller", "lead-lag", "plugin", "mjbench_scotch_yoke.leadlag.LeadLag (distribution mjbench-scotch-yoke)",
+         {"lead-lag": ["K", "wz", "wp"]}]]
+    lines = res["list"][1].splitlines()
+    kinds = [line for line in lines if line.endswith(" types:")]
+    assert kinds == ["mechanism types:", "controller types:", "drive types:"]
+    assert any(line.split()[:2] == ["lead-lag", "plugin"] and "tune --controller lead-lag (K, wz, wp)" in line
+               for line in lines)
+    assert any(line.split()[:3] == ["pid", "built-in", "controllers.pid.PID"]
+               and "pid (kp, ki, kd); pid-tv (kp, ki, kd)" in line for line in lines)
+    assert any(line.split()[:2] == ["torque", "built-in"] for line in lines)
+
+
+def test_tune_a_plugin_controller_by_its_declared_gains(plugin_run):
+    """``tune --controller lead-lag``: the gains LeadLag.TUNABLE declares, in its order; the box
+    ×/÷ --span 1000 around the scenario's K = 1, ω_z = 300, ω_p = 3000 clipped to the declared
+    intervals (ω_z, ω_p within 1 ... 3e4 rad/s); a --bounds outside them refused before any run."""
+    out, res, _ = plugin_run
+    rc, text, err = res["tune_leadlag"]
+    assert rc == 0, err[-2000:]
+    assert "improvement of ise" in text
+    tj = json.loads((out / "tune-ll" / "tune.json").read_text())
+    assert tj["controller"] == "lead-lag" and list(tj["tuned"]) == ["K", "wz", "wp"]
+    box = tj["history"]["bounds"]
+    assert box["K"] == pytest.approx([1e-3, 1e3], rel=1e-12)
+    assert box["wz"] == pytest.approx([1.0, 3e4], rel=1e-12) and box["wp"] == pytest.approx([3.0, 3e4], rel=1e-12)
+    for p, (lo, hi) in box.items():
+        assert lo * (1 - 1e-9) <= tj["tuned"][p] <= hi * (1 + 1e-9), (p, tj["tuned"][p])
+    rc, _, err = res["tune_leadlag_bounds"]
+    assert rc == 2 and "--bounds wp=10:100000: outside the interval 1 ... 30000" in err, err
+
+
+def test_a_drive_type_from_an_entry_point(tmp_path):
+    """A drive type of an installed package (entry-point group ``mjbench.drives``) is found by the
+    drive registry, listed, and runs a scenario (a distribution folder on sys.path)."""
+    import importlib
+    import warnings
+
+    import mjbench
+    from mjbench import drives
+    from mjbench import scenario as S
+    from mjbench.backends import simulate
+
+    (tmp_path / "geared_torque_plugin.py").write_text(
+        "from dataclasses import dataclass\nfrom typing import Literal\n"
+        "from mjbench.drives.ideal import TorqueDrive, TorqueDriveParams\n\n"
+        "class GearedTorqueParams(TorqueDriveParams):\n"
+        "    type: Literal['geared-torque'] = 'geared-torque'\n\n"
+        "    def build(self):\n"
+        "        return GearedTorque(J=float(self.J), damping=float(self.damping), T_max=float(self.T_max))\n\n"
+        "@dataclass\nclass GearedTorque(TorqueDrive):\n"
+        "    type_name = 'geared-torque'\n    Params = GearedTorqueParams\n")
+    info = tmp_path / "geared_torque_plugin-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: geared-torque-plugin\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[mjbench.drives]\ngeared-torque = geared_torque_plugin:GearedTorque\n")
+    sys.path.insert(0, str(tmp_path))
+    try:
+        importlib.invalidate_caches()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # (no plugin may fail to load)
+            assert "geared-torque" in drives.names()
+            comp = [c for c in mjbench.list_components("drive") if c.name == "geared-torque"]
+        assert comp and comp[0].origin == "plugin" and "geared-torque-plugin" in comp[0].source
+        scn = S.from_raw({"scenario": {"name": "plugin-drive"}, "mechanism": {"type": "rotor", "J": 0.01},
+                          "drive": {"type": "geared-torque", "damping": 0.05},
+                          "simulation": {"t_end": 0.3, "dt": 1e-3, "record_dt": 1e-2},
+                          "modes": {"m": {"type": "pid", "kp": 0.5, "ki": 0.0, "kd": 0.0, "omega0": 2.0}}})
+        drive = S.make_drive(scn)
+        assert type(drive).__name__ == "GearedTorque" and drives.get("geared-torque") is type(drive)
+        tr = simulate(S.make_machine(scn, "m"), "reduced", 0.3, record_dt=1e-2)
+        # J·ω̇ = k_p·(ω₀ − ω) − c·ω: settles (time constant J/(k_p + c) = 18 ms) at k_p·ω₀/(k_p + c)
+        assert tr.qd[-1] == pytest.approx(0.5 * 2.0 / 0.55, rel=1e-6)
+        power = tr.data[-1, tr.columns.index("power_mech_W")]  # the source's T·ω = c·ω² at steady state
+        assert power == pytest.approx(0.05 * tr.qd[-1] ** 2, rel=1e-5)
+    finally:
+        sys.path.remove(str(tmp_path))
+        drives.REGISTRY._classes.pop("geared-torque", None)
+        sys.modules.pop("geared_torque_plugin", None)
 
 
 def test_run_both_backends_compiled_and_agreeing(plugin_run):

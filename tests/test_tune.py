@@ -76,3 +76,56 @@ def test_tune_with_margin_constraints(tmp_path, capsys):
     assert "lower bound" in capsys.readouterr().err
     assert cli.main(["tune", "yigit2023", "--controller", "smc", "--objective", "ise", "--margin", "pm>=45"]) == 2
     assert "boundary" in capsys.readouterr().err
+
+
+# ============================================================================ what a controller declares
+def test_tunable_gains_are_the_controller_classes_declarations():
+    """``tune --controller`` reads Controller.TUNABLE / TUNE_VARIANTS: the shipped families as they
+    were hard-coded before (pid, pid-tv, smc, servo), any other class by its own declaration."""
+    from mjbench.tune import tunable_controllers, tune_spec
+
+    got = {k: (s.ctype, s.params, s.fixed) for k, s in tunable_controllers().items()}
+    assert got == {"pid": ("pid", ("kp", "ki", "kd"), {"kp_ramp": False}),
+                   "pid-tv": ("pid", ("kp", "ki", "kd"), {"kp_ramp": True}),
+                   "smc": ("smc", ("lam", "K"), {}), "servo": ("servo", ("kpp", "kvp", "kvi"), {})}
+    assert tune_spec("pid-tv").fixed == {"kp_ramp": True}
+    with pytest.raises(ParameterError, match="'open': its class declares no tunable gains.*pid, pid-tv"):
+        tune_spec("open")
+    with pytest.raises(ParameterError, match="'nope': no controller type or tuning variant"):
+        tune_spec("nope")
+
+
+def test_a_bad_declaration_is_refused():
+    from controllers.pid import PID
+
+    from mjbench.tune import declared_specs
+
+    class Typo(PID):
+        TUNABLE = {"kpp": (0.0, 1.0)}  # not a field of PIDParams
+
+    class Empty(PID):
+        TUNABLE = {"kp": (2.0, 1.0)}  # lo >= hi
+
+    for cls in (Typo, Empty):
+        with pytest.raises(ParameterError, match="TUNABLE"):
+            declared_specs(cls)
+
+
+def test_search_box_within_the_declared_intervals():
+    """The box ×/÷ span around the scenario's gains, clipped to each gain's admissible interval;
+    a zero gain with a finite interval searches that interval; --bounds outside it are refused."""
+    from mjbench.tune import search_box
+
+    iv = {"a": (0.0, np.inf), "b": (1.0, 30.0), "c": (0.5, 8.0)}
+    lo, hi = search_box(("a", "b", "c"), np.array([2.0, 10.0, 0.0]), 10.0, None, iv)
+    np.testing.assert_allclose(np.exp(lo), [0.2, 1.0, 0.5], rtol=1e-15)
+    np.testing.assert_allclose(np.exp(hi), [20.0, 30.0, 8.0], rtol=1e-15)
+    # without a declaration (intervals None: 0 ... inf) the box is x0 ×/÷ span, as before
+    lo, hi = search_box(("a",), np.array([2.0]), 10.0, None)
+    assert (lo[0], hi[0]) == (np.log(0.2), np.log(20.0))
+    with pytest.raises(ParameterError, match="--bounds b=0.5:20: outside the interval 1 ... 30"):
+        search_box(("a", "b", "c"), np.array([2.0, 10.0, 1.0]), 10.0, {"b": (0.5, 20.0)}, iv)
+    with pytest.raises(ParameterError, match="c = 100 in the scenario.*outside the interval 0.5 ... 8"):
+        search_box(("c",), np.array([100.0]), 10.0, None, iv)
+    with pytest.raises(ParameterError, match="a = 0 in the scenario, so ×/÷ --span gives no interval"):
+        search_box(("a",), np.array([0.0]), 10.0, None, iv)

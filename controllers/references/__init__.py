@@ -6,7 +6,9 @@ MOTOR shaft [rad, rad/s, rad/s²], run by the kernel (compiled or not) and by th
 
 * ``coupler_speed`` — :mod:`controllers.references.coupler_speed`, seed 002 Eq 17: crank-speed
   reference for a prescribed coupler-point speed V_C (constant, piecewise-constant or tabulated).
-* ``law`` — :mod:`controllers.references.law`: the scenario's ``[law]`` motion law (seeds 001/003).
+* ``law`` — :mod:`controllers.references.law`: the scenario's ``[law]`` motion law (seeds 001/003);
+  with ``period``, the law repeated every period, +Φ per cycle
+  (:mod:`controllers.references.periodic`: a crank turning continuously under a motion law).
 """
 from __future__ import annotations
 

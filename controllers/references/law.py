@@ -1,8 +1,9 @@
 """The scenario's motion law as a motor-shaft reference (seeds 001/003: the servo tracks φ(t)).
 
 ``[modes.NAME.reference] type = "law"`` uses the scenario's ``[law]`` table; ``t0`` [s] delays the
-start of the move.  The law gives φ, φ̇, φ̈ of the motor; the reference is exactly that (motor
-side), so a servo's feed-forward sees the law's own derivatives.
+start of the move; ``period`` [s] repeats it, +Φ per cycle (a crank turning continuously:
+:mod:`controllers.references.periodic`).  The law gives φ, φ̇, φ̈ of the motor; the reference is
+exactly that (motor side), so a servo's feed-forward sees the law's own derivatives.
 
 The reference is the law :func:`law_reference`, which takes the motion law's own scalar law
 (``MOTION(t, order, P)``: :func:`mjbench.motionlaws.pseudopoly_motion`,
@@ -14,11 +15,12 @@ from __future__ import annotations
 from collections import namedtuple
 from typing import Literal
 
+import numpy as np
 from pydantic import Field
 
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
-from mjbench.fields import Q, Strict
+from mjbench.fields import OptQ, Q, Strict
 
 from ..reference import Reference
 
@@ -26,12 +28,18 @@ from ..reference import Reference
 class LawReferenceParams(Strict):
     type: Literal["law"] = "law"
     t0: Q("time", ge=0.0, plausible=False) = Field(0.0, description="start of the move [s]")
+    period: OptQ("time", gt=0.0, plausible=False) = Field(
+        None, description="repeat the move every period [s] (≥ law.T), +Φ per cycle (none: one move)")
 
 
 def from_params(p, drive=None, mechanism=None, scenario=None):
     motion = getattr(scenario, "law", None)
     if motion is None:
         raise ParameterError("reference type 'law' needs a [law] table in the scenario")
+    if p.period is not None:
+        from .periodic import PeriodicLawReference
+
+        return PeriodicLawReference(motion.build(), p.period, t0=p.t0)
     return motion.build().as_reference(t0=p.t0)
 
 
@@ -70,3 +78,12 @@ class LawReference(Reference):
     def crank_speed_at(self, machine, q):
         """The law's mean input speed Φ/(T·z) [rad/s]."""
         return float(self.motion.Phi) / float(self.motion.T) / float(machine.drive.z)
+
+    def reference_angle(self, t):
+        """φ_ref [rad, motor side] at times t [s] (array): the reference's own law, called once per
+        time (what a run's tracking error is measured against)."""
+        f = self.form(0.0, 1.0)
+        fn, P, S = f.bound(), f.P, f.state()
+        ta = np.asarray(t, dtype=float)
+        out = np.array([fn(x, 0.0, 0.0, 0.0, 0.0, P, S)[0] for x in ta.ravel().tolist()], dtype=float)
+        return out.reshape(ta.shape)

@@ -12,10 +12,12 @@ if TYPE_CHECKING:
     from ..errors import GeometryError, MjbenchError, ParameterError, ScenarioError, SimulationDiverged
     from ..machine import Machine
     from ..outputs import OutputError
-    from .analysis import Analysis, LinearResult, analyze_mechanism, linearize
+    from .analysis import Analysis, FrozenAngleFamily, LinearResult, TransmissionAngle, analyze_mechanism, linearize
     from .bridges import FrequencyResponse, export_fmu, frequency_response
     from .build import make_controller, make_drive, make_mechanism
+    from .components import ComponentType, list_components
     from .design_loops import SweepResult, TuneResult, parameter_sweep, tune_gains
+    from .holding import HoldPoint, StepCheck, hold_point, step_check
     from .motion_law import LawOptimization, optimize_motion_law
     from .motor import MotorFit, identify_motor
     from .papers import paper_cases, reproduce_papers
@@ -29,6 +31,8 @@ PUBLIC = {
     # scenarios
     "load": ".api.scenarios", "list_scenarios": ".api.scenarios", "Scenario": ".api.scenarios",
     "MjbenchWarning": ".api.scenarios",
+    # component types (mechanisms, controllers, drives; plugins included)
+    "list_components": ".api.components", "ComponentType": ".api.components",
     # a machine in code
     "make_mechanism": ".api.build", "make_drive": ".api.build", "make_controller": ".api.build",
     "Machine": ".machine",
@@ -38,8 +42,10 @@ PUBLIC = {
     # studies
     "parameter_sweep": ".api.design_loops", "SweepResult": ".api.design_loops",
     "tune_gains": ".api.design_loops", "TuneResult": ".api.design_loops",
-    "linearize": ".api.analysis", "LinearResult": ".api.analysis",
-    "analyze_mechanism": ".api.analysis", "Analysis": ".api.analysis",
+    "linearize": ".api.analysis", "LinearResult": ".api.analysis", "FrozenAngleFamily": ".api.analysis",
+    "hold_point": ".api.holding", "HoldPoint": ".api.holding", "step_check": ".api.holding",
+    "StepCheck": ".api.holding",
+    "analyze_mechanism": ".api.analysis", "Analysis": ".api.analysis", "TransmissionAngle": ".api.analysis",
     "render_video": ".api.video", "identify_motor": ".api.motor", "MotorFit": ".api.motor",
     "reproduce_papers": ".api.papers", "paper_cases": ".api.papers",
     "optimize_motion_law": ".api.motion_law", "LawOptimization": ".api.motion_law",

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,11 +18,114 @@ from .scenarios import Scenario, as_scenario, warn
 if TYPE_CHECKING:
     import pandas
 
+    from ..machine import Machine
+    from ..mechanisms.base import Mechanism
+
 #: bytes of one analysis sample per speed (measured ≈ 1.3 kB per point, press-slidercrank; ×3 margin)
 POINT_BYTES = 4096
 
 
 # ====================================================================== linearize
+class FrozenAngleFamily:
+    """The loop at frozen input angles over one turn (python-control objects, one per angle).
+
+    A linkage's inertia J(q) changes as it turns, so its loop does too: at each of ``n`` angles
+    ``angles[k]`` [rad] over [0, 2π) the machine is linearised at the running speed ``speeds[k]``
+    [rad/s] with the angle frozen (docs/linear.md §5).  Indexing gives one angle's
+    :class:`mjbench.linear.Loop` (``family[k].L``); iterating gives ``(angle, loop)`` pairs.
+
+    Attributes
+    ----------
+    angles, speeds : numpy.ndarray, shape (n,)
+        Frozen input angles [rad] and the input speed at each [rad/s].
+    loops : tuple of mjbench.linear.Loop
+        ``plant``, ``controller``, ``L``, ``S``, ``T``, ``closed``, ``feedback`` at each angle
+        (``control.StateSpace``, discrete time at the controller period).
+    margins : tuple of mjbench.linear.Margins
+        Gain/phase margins, peak |S|, bandwidth, closed-loop poles at each angle.
+    worst : dict
+        The worst figure over the angles and where it occurs: ``worst["phase_margin_deg"]`` =
+        ``{"value": deg, "at_q_rad": rad}``, also ``gain_margin_dB``, ``peak_sensitivity``,
+        ``bandwidth_rad_s``, ``spectral_radius``, ``all_stable``.
+    validity : dict
+        The frozen-angle validity number ν (``ratio``) and its ``verdict`` (valid / marginal /
+        fails).
+    """
+
+    def __init__(self, angles: np.ndarray, speeds: np.ndarray, loops: Iterable[Any], margins: Iterable[Any],
+                 worst: Mapping[str, Any], validity: Mapping[str, Any]) -> None:
+        self.angles = np.asarray(angles, dtype=float)
+        self.speeds = np.asarray(speeds, dtype=float)
+        self.loops: tuple[Any, ...] = tuple(loops)
+        self.margins: tuple[Any, ...] = tuple(margins)
+        self.worst: dict[str, Any] = dict(worst)
+        self.validity: dict[str, Any] = dict(validity)
+        if not (len(self.angles) == len(self.speeds) == len(self.loops) == len(self.margins)):
+            raise ParameterError("FrozenAngleFamily: angles, speeds, loops and margins must have one entry per angle")
+
+    @classmethod
+    def from_family(cls, fam: Any) -> FrozenAngleFamily:
+        """From a :class:`mjbench.linear.Family` (:func:`mjbench.linear.frozen_angle_family`)."""
+        if any(lp is None for lp in fam.loops):
+            raise ParameterError("FrozenAngleFamily: the family was computed without its loops (keep_loops=False)")
+        return cls(fam.angles, fam.speeds, fam.loops, fam.margins, fam.worst, fam.validity)
+
+    def __len__(self) -> int:
+        return len(self.angles)
+
+    def __getitem__(self, k: int) -> Any:
+        """The :class:`mjbench.linear.Loop` at ``angles[k]``."""
+        return self.loops[k]
+
+    def __iter__(self) -> Iterator[tuple[float, Any]]:
+        """``(angle [rad], Loop)`` for every frozen angle."""
+        return iter(zip((float(a) for a in self.angles), self.loops))
+
+    def __repr__(self) -> str:
+        return f"<mjbench.FrozenAngleFamily {len(self)} angles, worst PM {self.worst['phase_margin_deg']['value']:.4g}°>"
+
+    @property
+    def L(self) -> list[Any]:
+        """The loop at the plant input at each angle (``control.StateSpace``, SISO V → V)."""
+        return [lp.L for lp in self.loops]
+
+    @property
+    def plants(self) -> list[Any]:
+        """The sampled plant at each angle (``control.StateSpace``: V → q, qd, I, ..., qd_prev)."""
+        return [lp.plant for lp in self.loops]
+
+    @property
+    def controllers(self) -> list[Any]:
+        """The controller's counterpart at each angle (``control.StateSpace``; the same system
+        unless the controller reads the angle)."""
+        return [lp.controller for lp in self.loops]
+
+    @property
+    def phase_margins_deg(self) -> np.ndarray:
+        """Phase margin at each angle [deg], shape (n,)."""
+        return np.array([m.phase_margin_deg for m in self.margins], dtype=float)
+
+    @property
+    def gain_margins_dB(self) -> np.ndarray:
+        """Gain margin at each angle [dB] (inf: none), shape (n,)."""
+        return np.array([m.gain_margin_dB for m in self.margins], dtype=float)
+
+    @property
+    def peak_sensitivities(self) -> np.ndarray:
+        """Peak |S| at each angle, shape (n,)."""
+        return np.array([m.Ms for m in self.margins], dtype=float)
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Whether each frozen loop is stable, shape (n,) bool."""
+        return np.array([bool(m.stable) for m in self.margins], dtype=bool)
+
+    def nearest(self, q: float) -> int:
+        """Index of the frozen angle nearest to the input angle ``q`` [rad] (modulo 2π)."""
+        d = np.abs((self.angles - float(q) + math.pi) % (2.0 * math.pi) - math.pi)
+        return int(np.argmin(d))
+
+
 class LinearResult:
     """The machine's linear model at an operating point, its loop, margins and the frozen-angle
     family (python-control objects).
@@ -32,13 +136,14 @@ class LinearResult:
         What ``linear.json`` holds: operating point, matrices, modes, agreement of the reduced and
         multibody linearisations, loop margins, frozen-angle margins and validity, K_p·t limit.
     objects : dict
-        Every python-control object computed (``plant_reduced``, ``plant_multibody``, ``loop``,
-        ``margins``, ``family``, ``op`` ...).
+        Every object computed (``plant_reduced``, ``plant_multibody``, ``loop``, ``margins``,
+        ``family``, ``op`` ...); the typed attributes below read them.
     scenario : Scenario
     """
 
     def __init__(self, scenario: Scenario, data: dict[str, Any], objects: dict[str, Any]) -> None:
         self.scenario, self.data, self.objects = scenario, data, objects
+        self._family: FrozenAngleFamily | None = None
 
     @property
     def plant(self) -> Any:
@@ -73,6 +178,18 @@ class LinearResult:
     def operating_point(self) -> Any:
         """Where it was linearised: q [rad], qd [rad/s], I [A], V [V], t [s]."""
         return self.objects["op"]
+
+    @property
+    def family(self) -> FrozenAngleFamily | None:
+        """The loop at ``angles`` frozen input angles over one turn (:class:`FrozenAngleFamily`:
+        ``angles`` [rad], ``L``, ``plants``, ``loops``, ``margins``, ``worst``, ``validity``), or
+        None (``angles=0``, or a controller without a linear counterpart)."""
+        fam = self.objects.get("family")
+        if fam is None:
+            return None
+        if self._family is None:
+            self._family = FrozenAngleFamily.from_family(fam)
+        return self._family
 
     def summary(self) -> str:
         """The text ``mjbench linearize`` prints."""
@@ -190,19 +307,52 @@ def linear_summary(js: dict[str, Any]) -> str:
 
 
 # ====================================================================== analyze
+@dataclass(frozen=True)
+class TransmissionAngle:
+    """One transmission angle of a mechanism over the revolution.
+
+    Attributes
+    ----------
+    key : str
+        Stable key: the name of the joint where it is measured (``"C"``); it does not change when
+        a link is renamed.
+    label : str
+        Display label: the joint and the two links (``"C (coupler on rocker)"``).
+    q : numpy.ndarray, shape (points,)
+        Input angles [rad].
+    mu : numpy.ndarray, shape (points,)
+        The transmission angle [rad] at each.
+    min_deg, max_deg : float
+        Its range [deg].
+    q_at_min : float
+        Input angle of the minimum [rad].
+    """
+
+    key: str
+    label: str
+    q: np.ndarray
+    mu: np.ndarray
+    min_deg: float
+    max_deg: float
+    q_at_min: float
+
+
 class Analysis:
     """The revolution analysis of a mechanism and its drive (no simulation).
 
     Attributes
     ----------
     data : dict
-        What ``analysis.json`` holds: reduced-model ranges, velocity ratios, transmission angles,
-        toggles and limit positions (``flags``), per speed the input torque, motor torque,
-        current and voltage; ``plausibility["model"]``: the reduced model against MuJoCo's.
-    scenario : Scenario
+        What ``analysis.json`` holds: reduced-model ranges, velocity ratios, transmission angles
+        (``transmission``: by stable key, the joint's name; ``transmission_angles_deg``: by
+        display label), toggles and limit positions (``flags``), per speed the input torque,
+        motor torque, current and voltage (without a drive: the input torque only);
+        ``plausibility["model"]``: the reduced model against MuJoCo's.
+    scenario : Scenario or None
+        The scenario analysed (None for a mechanism or machine built in code).
     """
 
-    def __init__(self, scenario: Scenario, data: dict[str, Any]) -> None:
+    def __init__(self, scenario: Scenario | None, data: dict[str, Any]) -> None:
         self.scenario, self.data = scenario, data
 
     @property
@@ -216,6 +366,17 @@ class Analysis:
         ``dEp``, ``Ep``, ``ratio:JOINT``, ``mu:JOINT`` [rad], per speed ``T_in@W``, ``T_m@W`` [N·m],
         ``I@W`` [A], ``V@W`` [V]."""
         return {k: np.asarray(v, float) for k, v in (self.data.get("curves") or {}).items()}
+
+    @property
+    def transmission(self) -> dict[str, TransmissionAngle]:
+        """The transmission angles by stable key (the joint's name, e.g. ``an.transmission["C"]``);
+        each has its display ``label``, the curve ``mu`` [rad] over ``q`` and its range [deg]."""
+        c = self.curves
+        out: dict[str, TransmissionAngle] = {}
+        for key, v in (self.data.get("transmission") or {}).items():
+            out[key] = TransmissionAngle(key, str(v["label"]), c["q"], c[v["curve"]], float(v["min_deg"]),
+                                         float(v["max_deg"]), float(v["q_at_min_rad"]))
+        return out
 
     @property
     def warnings(self) -> list[str]:
@@ -283,31 +444,44 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def analyze_mechanism(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any],
+def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, Any] | Mechanism | Machine,
                       speeds: Iterable[float | str] | None = None, *, points: int = 720, mu_min_deg: float = 40.0,
-                      check_model: bool = True) -> Analysis:
-    """Analyse a scenario's mechanism over one input revolution (no simulation).
+                      check_model: bool = True, name: str | None = None,
+                      options: Mapping[str, Any] | None = None) -> Analysis:
+    """Analyse a mechanism over one input revolution (no simulation).
 
     Parameters
     ----------
-    scenario : Scenario, str, path or dict
+    target : Scenario, str, path, dict, Mechanism or Machine
+        A scenario (its mechanism and drive), a :class:`~mjbench.Machine` built in code (its
+        mechanism and drive), or a mechanism alone (:func:`mjbench.make_mechanism`: the input
+        torque only, no motor rows).
     speeds : iterable of float or str, optional
         Constant input speeds [rad/s] (``"60 rpm"`` accepted); default: the set-points of the
-        scenario's modes.
+        scenario's modes (a machine: its controller's running speed; a mechanism: one turn per
+        second).
     points : int
         Samples over the revolution (16 to 1 000 000).
     mu_min_deg : float
         Transmission angle [deg] flagged as poor.
     check_model : bool
         Compare the reduced model's J, J', E_p' with MuJoCo's at 24 angles.
+    name : str, optional
+        What the outputs call a mechanism or machine built in code (default: its type).
+    options : mapping, optional
+        A mechanism's or machine's ``[multibody]`` options for that comparison (a scenario has its
+        own table).
 
     Returns
     -------
     Analysis
-        ``data`` (analysis.json), ``curves`` (arrays), ``summary()``, ``to_pandas()``, ``save(dir)``.
+        ``data`` (analysis.json), ``curves`` (arrays), ``transmission`` (by stable key),
+        ``summary()``, ``to_pandas()``, ``save(dir)``.
     """
     from .. import analyze as A
     from .. import scenario as S
+    from ..machine import Machine
+    from ..mechanisms.base import Mechanism
 
     if not 16 <= int(points) <= 1_000_000:
         raise ParameterError(f"points = {points}: must be 16 to 1,000,000")
@@ -315,13 +489,45 @@ def analyze_mechanism(scenario: Scenario | str | os.PathLike[str] | Mapping[str,
         raise ParameterError(f"mu_min_deg = {mu_min_deg}: must be 0 to 90 [deg]")
     ws = [input_speed(v) for v in (speeds or ())]
     analysis_size(int(points), len(ws))
-    scn = as_scenario(scenario)
-    res = A.analyze(scn.spec, ws or None, n=int(points), mu_min_deg=float(mu_min_deg))
+    if isinstance(target, (Mechanism, Machine)):
+        from .simulation import MACHINE_DT, machine_options
+
+        mech = target.mechanism if isinstance(target, Machine) else target
+        drive = target.drive if isinstance(target, Machine) else None
+        label = name or ("machine built in code" if isinstance(target, Machine) else "mechanism built in code")
+        res = A.analyze_parts(mech, drive, label, ws or (lambda: _default_speeds(target)), n=int(points),
+                              mu_min_deg=float(mu_min_deg))
+        res["built_in_code"] = True
+        opts = machine_options(MACHINE_DT, {"multibody": options or {}})["multibody"]
+        scn: Scenario | None = None
+    else:
+        if options is not None:
+            raise ParameterError("analyze_mechanism: options are a mechanism's or machine's; a scenario has its "
+                                 "[multibody] table")
+        scn = as_scenario(target)
+        mech = S.make_mechanism(scn.spec)
+        res = A.analyze(scn.spec, ws or None, n=int(points), mu_min_deg=float(mu_min_deg))
+        if name:
+            res["scenario"] = name
+        opts = scn.spec.multibody_options()
     if res.get("applicable") and check_model:
         from ..plausibility import reduced_vs_mujoco
 
         # the reduced model against MuJoCo's mass matrix and bias forces (analysis.json "plausibility")
-        res["plausibility"] = {"model": reduced_vs_mujoco(S.make_mechanism(scn.spec), scn.spec.multibody_options())}
+        res["plausibility"] = {"model": reduced_vs_mujoco(mech, opts)}
     out = Analysis(scn, res)
     warn(out.warnings)
     return out
+
+
+def _default_speeds(target: Any) -> list[float]:
+    """A machine's running speed (its controller's set-point), else one turn per second."""
+    from ..machine import Machine
+
+    if isinstance(target, Machine):
+        from ..linear import running_speed
+
+        w = abs(float(running_speed(target, float(target.q0))))
+        if math.isfinite(w) and w > 0:
+            return [w]
+    return [2.0 * math.pi]

@@ -62,7 +62,7 @@ class SweepResult:
         return require_pandas().DataFrame(self.rows)
 
 
-def parameter_sweep(scenario: Scenario | str | os.PathLike[str], grid: Mapping[str, Any] | None = None, *,
+def parameter_sweep(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], grid: Mapping[str, Any] | None = None, *,
                     samples: int = 0, perturb: Mapping[str, float | str] | None = None, seed: int = 0,
                     mode: str | None = None, t_end: float | str | None = None, overrides: Iterable[str] = (),
                     backend: str = "reduced", verify: int = 3, metric: str | None = None,
@@ -72,9 +72,11 @@ def parameter_sweep(scenario: Scenario | str | os.PathLike[str], grid: Mapping[s
 
     Parameters
     ----------
-    scenario : Scenario, str or path
-        A built-in name, a TOML file, or a :class:`Scenario` loaded from one (its overrides are
-        applied to every row).
+    scenario : Scenario, str, path or dict
+        A built-in name, a TOML file, or a :class:`Scenario` (its overrides are applied to every
+        row).  A scenario with no file behind it (made from a dict) is written into the sweep's
+        folder as ``scenario.toml`` (:meth:`Scenario.to_toml`), the file the rows re-load (and a
+        Dask cluster is sent).
     grid : mapping of str to sequence or str
         Dotted key (or alias) → values (``{"drive.R": [1.5, 2.0, 2.5]}``; units allowed as
         strings), or the CLI's text (``"1.5,2,2.5"``, ``"1:3:5"`` = 5 values from 1 to 3).
@@ -107,8 +109,13 @@ def parameter_sweep(scenario: Scenario | str | os.PathLike[str], grid: Mapping[s
     """
     from .. import sweep as SW
 
+    if isinstance(scenario, Mapping):
+        scenario = as_scenario(scenario)
+    written: Scenario | None = None
     if isinstance(scenario, Scenario):
         name, base = source_name(scenario), scenario.overrides
+        if name is None:  # a scenario with no file behind it (a dict): the sweep writes its TOML
+            written, base = scenario, []
     else:
         name, base = os.fspath(scenario), []
     if scheduler:
@@ -117,18 +124,54 @@ def parameter_sweep(scenario: Scenario | str | os.PathLike[str], grid: Mapping[s
         except ImportError:
             raise ParameterError("scheduler: a Dask scheduler needs Dask: pip install 'mjbench[dask]'") from None
         SW.check_scheduler(scheduler)
-    spec = SW.SweepSpec(scenario=name, grid=_grid(grid or {}), samples=int(samples), perturb=_perturb(perturb or {}),
-                        seed=int(seed), mode=mode, t_end=None if t_end is None else seconds(t_end, "t_end"),
-                        overrides=[*base, *([overrides] if isinstance(overrides, str) else overrides)],
-                        chunk_size=chunk, backend=backend, verify=int(verify))
+    def make_spec(name: str) -> Any:
+        return SW.SweepSpec(scenario=name, grid=_grid(grid or {}), samples=int(samples),
+                            perturb=_perturb(perturb or {}), seed=int(seed), mode=mode,
+                            t_end=None if t_end is None else seconds(t_end, "t_end"),
+                            overrides=[*base, *([overrides] if isinstance(overrides, str) else overrides)],
+                            chunk_size=chunk, backend=backend, verify=int(verify))
+
+    spec = make_spec(name or "")
     if not spec.grid and not spec.samples:
         raise ParameterError("parameter_sweep: give a grid {key: values} or samples with perturb {key: r}")
     with _folder(out) as folder:
-        res = SW.run_sweep(spec, folder, scheduler=scheduler, nthread=threads, progress=progress,
-                           plots=out is not None, metric=metric)
+        made = None
+        if written is not None:
+            made, path = _scenario_file(written, folder)
+            spec = make_spec(path)
+        try:
+            res = SW.run_sweep(spec, folder, scheduler=scheduler, nthread=threads, progress=progress,
+                               plots=out is not None, metric=metric)
+        except BaseException:
+            if made and not os.path.exists(os.path.join(folder, SW.RESULTS)):  # nothing saved: no folder left
+                with contextlib.suppress(OSError):
+                    os.unlink(os.path.join(folder, SCENARIO_FILE))
+                    os.rmdir(folder)
+            raise
         rows = SW.read_table(res["table"])
     return SweepResult(rows, spec.keys(), int(res["ran"]), list(res.get("verified") or []), list(res.get("notes") or []),
                        None if out is None else Path(os.path.abspath(os.fspath(out))), list(res.get("plots") or []))
+
+
+#: the file a sweep of a scenario without a file (a dict) writes into its folder and re-reads
+SCENARIO_FILE = "scenario.toml"
+
+
+def _scenario_file(scn: Scenario, folder: str) -> tuple[bool, str]:
+    """Write ``scn`` as ``folder/scenario.toml`` (:meth:`Scenario.to_toml`), the file the sweep's
+    rows re-load; a folder that holds another scenario's file is refused.  → (folder made, path)."""
+    made = not os.path.isdir(folder)
+    path = os.path.abspath(os.path.join(folder, SCENARIO_FILE))
+    text = scn.to_toml()
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as f:
+            if f.read() != text:
+                raise ParameterError(f"{folder} holds a sweep of another scenario ({SCENARIO_FILE} differs); use another "
+                                     f"out folder or delete it")
+        return made, path
+    os.makedirs(folder, exist_ok=True)
+    scn.to_toml(path)
+    return made, path
 
 
 @contextlib.contextmanager
@@ -269,10 +312,15 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
     Parameters
     ----------
     scenario : Scenario, str, path or dict
-    controller : {"pid", "pid-tv", "smc"}
-        ``pid``: constant K_p; ``pid-tv``: K_p·t (Incerti 2012 Eq 15); ``smc``: λ, K.
-    objective : {"chi", "chi_cycle", "ise", "iae", "itae"}
-        χ on ``metrics.chi_window`` or the last crank cycle, or a speed-error integral.
+    controller : str
+        A controller type whose class declares its tunable gains (``Controller.TUNABLE``; plugins
+        too, :func:`mjbench.tune.tunable_controllers`).  Built in: ``pid``: constant K_p;
+        ``pid-tv``: K_p·t (Incerti 2012 Eq 15); ``smc``: λ, K; ``servo``: the cascade servo tracking
+        a motion law (K_pp, K_vp, K_vi; its feed-forward kept).
+    objective : {"chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak"}
+        χ on ``metrics.chi_window`` or the last crank cycle, a speed-error integral, or the RMS /
+        peak crank-angle error [rad] to a motion-law reference (a law repeated per cycle too) over
+        ``metrics.chi_window`` (else the whole run).
     limits : mapping, optional
         ``{"voltage": V, "current": A}`` allowed peaks (default: those of the scenario's gains);
         an excess is penalised.
@@ -314,8 +362,7 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
 def _check_tune_args(T: Any, controller: str, objective: str, limits: Mapping[str, float] | None,
                      bounds: Mapping[str, Sequence[float]] | None, margin_mode: str) -> None:
     """Names and values :func:`tune_gains` takes (one ParameterError naming the argument)."""
-    if controller not in T.CONTROLLERS:
-        raise ParameterError(f"controller = {controller!r}: choose one of {', '.join(T.CONTROLLERS)}")
+    gains = T.tune_spec(controller).params  # (an unknown or untunable controller: one message)
     if objective not in T.OBJECTIVES:
         raise ParameterError(f"objective = {objective!r}: choose one of {', '.join(T.OBJECTIVES)}")
     if margin_mode not in ("penalty", "constraint"):
@@ -323,7 +370,6 @@ def _check_tune_args(T: Any, controller: str, objective: str, limits: Mapping[st
     for k, v in (limits or {}).items():
         if k not in ("voltage", "current") or not float(v) > 0:
             raise ParameterError(f"limits[{k!r}] = {v!r}: give voltage [V] and/or current [A], each > 0")
-    gains = T.CONTROLLERS[controller][1]
     for k in bounds or {}:
         if k not in gains:
             raise ParameterError(f"bounds[{k!r}]: not a gain of the {controller} controller; its gains are "

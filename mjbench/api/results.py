@@ -171,15 +171,29 @@ class Result:
         return list(warnings_of(self.metrics))
 
     def summary(self) -> str:
-        """The text ``mjbench run`` prints: mean speed, χ, peaks, backend difference, verdicts."""
+        """The text ``mjbench run`` prints: mean speed, χ, peaks, backend difference, verdicts.
+        A machine built in code is named by what it is made of (its first line)."""
         from ..runner import summary_text
 
-        return str(summary_text({"scenario": self.scenario.name if self.scenario else "(machine)",
+        text = str(summary_text({"scenario": self.scenario.name if self.scenario else "(machine)",
                                  "mode": self.mode, **self.metrics}))
+        if self.scenario is not None:
+            return text
+        first, _, rest = text.partition("\n")
+        return self.describe() + ("\n" + rest if rest else "")
+
+    def describe(self) -> str:
+        """One line: the scenario and mode that ran, or a machine's parts; the backends and the
+        simulated time."""
+        t_end = float(self.primary.time[-1]) if len(self.primary) else 0.0
+        runs = f"{', '.join(self.runs)}, {t_end:.6g} s"
+        if self.scenario is not None:
+            return f"scenario {self.scenario.name}, mode {self.mode} ({runs})"
+        return f"{machine_label(self.machine)} ({runs})"
 
     def __repr__(self) -> str:
-        name = self.scenario.name if self.scenario else "machine"
-        return f"<mjbench.Result {name} mode={self.mode} backends={list(self.runs)} samples={len(self.primary)}>"
+        name = f"{self.scenario.name} mode={self.mode}" if self.scenario else machine_label(self.machine)
+        return f"<mjbench.Result {name} backends={list(self.runs)} samples={len(self.primary)}>"
 
     def to_pandas(self) -> pandas.DataFrame:
         """Every backend's samples in one DataFrame: a ``backend`` column, then the SI columns;
@@ -196,7 +210,7 @@ class Result:
         """One panel per column against time, every backend drawn (multibody solid, reduced
         dashed); returns the matplotlib Figure."""
         return plot_runs(list(self.runs.values()), columns,
-                         title=f"{self.scenario.name} — {self.mode}" if self.scenario else "")
+                         title=f"{self.scenario.name} — {self.mode}" if self.scenario else machine_label(self.machine))
 
     def save(self, path: str | os.PathLike[str], *, force: bool = False, figure: bool = True,
              argv: Sequence[str] | None = None, what: str = "save") -> Path:
@@ -234,6 +248,27 @@ class Result:
                                                         else f"trajectory_{b}.csv"))
                 write_json(Path(tmp) / "metrics.json", self.metrics)
         return Path(os.path.abspath(os.fspath(path)))
+
+
+#: how :func:`machine_label` names the drive types
+DRIVE_NAMES = {"dcmotor": "DC motor", "torque": "ideal torque source", "speed": "ideal speed source"}
+
+
+def machine_label(machine: Machine | None) -> str:
+    """What a machine built in code is: "machine built in code: fourbar mechanism, DC motor
+    (z = 1, v_max 48 V), pid controller"."""
+    if machine is None:
+        return "machine built in code"
+    mech = getattr(machine.mechanism, "type_name", type(machine.mechanism).__name__)
+    d = machine.drive
+    parts = [f"z = {float(getattr(d, 'z', 1.0)):g}"]
+    vmax = float(getattr(d, "v_max", float("inf")))
+    if np.isfinite(vmax):
+        parts.append(f"v_max {vmax:g} V")
+    kind = str(getattr(d, "type_name", "") or "dcmotor")
+    drive = f"{DRIVE_NAMES.get(kind, kind + ' drive')} ({', '.join(parts)})"
+    ctrl = getattr(machine.controller, "type_name", None) or type(machine.controller).__name__
+    return f"machine built in code: {mech} mechanism, {drive}, {ctrl} controller"
 
 
 def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> Figure:

@@ -2,9 +2,11 @@
 dict, with overrides that take units) and the :class:`Scenario` it returns."""
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import re
 import warnings
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any, Union
@@ -101,6 +103,22 @@ class Scenario:
     def resolved(self) -> dict[str, Any]:
         """Every value, SI, defaults filled in (what ``manifest.json`` holds under ``scenario``)."""
         return dict(self.spec.resolved())
+
+    def to_toml(self, path: str | os.PathLike[str] | None = None, *, force: bool = False) -> str:
+        """The scenario as a TOML file that :func:`load` reads back as the same scenario.
+
+        The tables as given (units kept as written) with every override applied, file paths
+        (an MJCF model) absolute.  ``path`` (optional): write it there, whole or not at all; an
+        existing file is replaced only with ``force=True``.  Returns the TOML text.
+
+        The loaded file gives the same validated values (``resolved()``) and the same runs; it
+        records no overrides (they are in its values) and the file as its source.
+        """
+        text = toml_text(self.spec.raw, header=f"scenario {self.name!r} written by mjbench (Scenario.to_toml)"
+                         + (f"; overrides applied: {', '.join(self.overrides)}" if self.overrides else ""))
+        if path is not None:
+            write_text(path, text, force=force)
+        return text
 
     def __repr__(self) -> str:
         extra = f", overrides={self.overrides!r}" if self.overrides else ""
@@ -244,15 +262,99 @@ def as_scenario(target: Any) -> Scenario:
     return target if isinstance(target, Scenario) else load(target)
 
 
-def source_name(scn: Scenario) -> str:
-    """What ``mjbench sweep`` would be given for this scenario: its built-in name or its file."""
+def source_name(scn: Scenario) -> str | None:
+    """What ``mjbench sweep`` would be given for this scenario: its built-in name or its file;
+    None for a scenario with no file behind it (a dict: :meth:`Scenario.to_toml` writes one)."""
     src = scn.source
     if src.startswith("builtin:"):
         return src[len("builtin:"):]
     if src and os.path.isfile(src):
         return src
-    raise ParameterError(f"scenario {scn.name!r} was not loaded from a file or a built-in name: a sweep records and "
-                         f"re-reads its scenario by name; save it as TOML and load that file")
+    return None
+
+
+# ====================================================================== TOML out
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def _toml_key(k: Any) -> str:
+    k = str(k)
+    return k if _BARE_KEY.fullmatch(k) else json.dumps(k, ensure_ascii=False)
+
+
+def _toml_value(v: Any) -> str:
+    """A TOML value: scalars, arrays, and tables inline (inside arrays and deep nests)."""
+    v = _plain(v)
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # JSON string escapes are TOML basic-string escapes
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    if v is None:
+        raise ParameterError("to_toml: TOML has no null value (a key set to None)")
+    raise ParameterError(f"to_toml: {v!r} ({type(v).__name__}) is not a TOML value")
+
+
+def toml_text(doc: Mapping[str, Any], header: str = "") -> str:
+    """``doc`` (nested dicts as TOML would give them) as TOML text: top-level and nested dicts as
+    [tables], lists of dicts as [[arrays of tables]], anything inside those inline.  Read back by
+    ``tomllib`` it is equal to ``doc``."""
+    lines = [f"# {x}" for x in header.splitlines()] if header else []
+
+    def table(path: list[str], d: Mapping[str, Any]) -> None:
+        scal = [(k, v) for k, v in d.items() if not isinstance(v, Mapping) and not _table_list(v)]
+        subs = [(k, v) for k, v in d.items() if isinstance(v, Mapping)]
+        arrs = [(k, v) for k, v in d.items() if _table_list(v)]
+        if path and (scal or not (subs or arrs)):
+            lines.extend(["", f"[{'.'.join(_toml_key(p) for p in path)}]"])
+        lines.extend(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in scal)
+        for k, v in subs:
+            table(path + [str(k)], v)
+        for k, v in arrs:
+            for item in v:
+                lines.extend(["", f"[[{'.'.join(_toml_key(p) for p in path + [str(k)])}]]"])
+                lines.extend(f"{_toml_key(kk)} = {_toml_value(vv)}" for kk, vv in item.items())
+
+    scal = [k for k, v in doc.items() if not isinstance(v, Mapping) and not _table_list(v)]
+    if scal:
+        raise ParameterError(f"to_toml: a scenario is made of tables; {', '.join(scal)} are not")
+    table([], doc)
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _table_list(v: Any) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(x, Mapping) for x in v)
+
+
+def write_text(path: str | os.PathLike[str], text: str, force: bool = False) -> None:
+    """Write a text file whole (a temporary file renamed over it); refuse to replace one unless
+    ``force``."""
+    from ..outputs import OutputError
+
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        raise OutputError(f"{p} is a folder; give a file name (e.g. scenario.toml)")
+    if os.path.exists(p) and not force:
+        raise OutputError(f"{p} exists; pass force=True to replace it")
+    d = os.path.dirname(os.path.abspath(p))
+    if not os.path.isdir(d):
+        raise OutputError(f"{p}: the folder {d} does not exist")
+    tmp = f"{p}.tmp-{os.getpid()}"
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, p)
+    except OSError as e:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise OutputError(f"{p}: cannot write ({e.strerror or e})") from None
 
 
 # ====================================================================== values as --set text

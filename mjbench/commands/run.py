@@ -26,7 +26,8 @@ def register(sub):
     add_fast_multibody(p)
     p.set_defaults(func=cmd_run)
 
-    q = sub.add_parser("list", help="list the built-in scenarios and their modes")
+    q = sub.add_parser("list", help="list the scenarios (built-in and plugins) with their modes, and the mechanism, "
+                                    "controller and drive types (plugins included)")
     q.set_defaults(func=cmd_list)
 
 
@@ -58,7 +59,7 @@ def cmd_run(args):
 
 @cli_command
 def cmd_list(args):
-    """``mjbench list`` = ``mjbench.list_scenarios`` + ``mjbench.load``."""
+    """``mjbench list`` = ``mjbench.list_scenarios`` + ``mjbench.load``, then ``mjbench.list_components``."""
     from .. import api
 
     for name in api.list_scenarios():
@@ -69,4 +70,10 @@ def cmd_list(args):
             continue
         modes = ", ".join(scn.modes) + (" + optimize-law" if scn.spec.law is not None else "")
         print(f"{name:<22s} modes: {modes:<18s} {scn.title}")
+    comps = api.list_components()
+    for kind in ("mechanism", "controller", "drive"):
+        print(f"\n{kind} types:")
+        for c in (c for c in comps if c.kind == kind):
+            tune = "; ".join(f"{t} ({', '.join(g)})" for t, g in c.tunable.items())
+            print(f"  {c.name:<14s} {c.origin:<10s} {c.source}" + (f"  tune --controller {tune}" if tune else ""))
     return 0

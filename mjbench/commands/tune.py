@@ -15,11 +15,15 @@ def register(sub):
                     "backends' figures. Peaks of |voltage| and |current| above --limit are penalised "
                     "(default limits: the peaks of the scenario's gains).")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
-    p.add_argument("--controller", required=True, choices=["pid", "pid-tv", "smc"],
-                   help="pid: constant K_p; pid-tv: K_p·t (Incerti 2012 Eq 15); smc: sliding mode (λ, K)")
-    p.add_argument("--objective", default="chi", choices=["chi", "chi_cycle", "ise", "iae", "itae"],
+    p.add_argument("--controller", required=True, metavar="NAME",
+                   help="a controller type that declares its tunable gains (Controller.TUNABLE; `mjbench list` "
+                        "shows them, plugins included): pid: constant K_p; pid-tv: K_p·t (Incerti 2012 Eq 15); "
+                        "smc: sliding mode (λ, K); servo: cascade servo tracking a motion law (K_pp, K_vp, K_vi)")
+    p.add_argument("--objective", default="chi",
+                   choices=["chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak"],
                    help="chi: χ on the scenario's metrics.chi_window (default); chi_cycle: last crank cycle; "
-                        "ise/iae/itae: crank-speed error to the set-point")
+                        "ise/iae/itae: crank-speed error to the set-point; tracking_rms/tracking_peak: crank-angle "
+                        "error to a motion-law reference (over metrics.chi_window, else the run)")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
     p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
@@ -99,9 +103,9 @@ def cmd_tune(args):
 
     from .. import api
     from ..linear import parse_margin
-    from ..tune import CONTROLLERS
+    from ..tune import tune_spec
 
-    gains = CONTROLLERS[args.controller][1]
+    gains = tune_spec(args.controller).params
     limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds, gains)
     for m in args.margin:
         parse_margin(m)  # a malformed --margin: one message before anything runs

@@ -12,7 +12,8 @@ Freudenstein function generation, three-position motion generation; constraints)
 :mod:`.build` (the linkage table, machine.toml), :mod:`.model` (the sizing model),
 :mod:`.periodic` (periodic steady state by harmonic balance), :mod:`.sizing` (inverse dynamics,
 gear ratio, flywheel, selection), :mod:`.catalogue`, :mod:`.thermal`, :mod:`.control`
-(design rule, tuning), :mod:`.pipeline` (the command), :mod:`.report` (outputs).
+(design rule, tuning), :mod:`.pipeline` (the command), :mod:`.law_duty` (a motion law per cycle:
+sizing, the tracking servo, its harmonic balance, verification), :mod:`.report` (outputs).
 """
 from __future__ import annotations
 

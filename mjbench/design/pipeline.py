@@ -6,7 +6,7 @@ Stages (each timed; docs/design.md):
 2. **synthesis** (:mod:`synthesis`): the linkage from the task, its constraints, then the
    ``[mechanism] type = "linkage"`` table (:mod:`build`) solved by mjbench's own position solver
    (:func:`mjbench.mechanisms.linkage.compiled`) and compared with the synthesis at its
-   precision positions (:func:`solver_check`);
+   precision positions (:mod:`solver_check`);
 3. **sizing** (:mod:`sizing`): inverse dynamics at the duty, energy swing, flywheel, every
    catalogue motor × gearbox through the periodic steady state of the speed loop, ratings,
    thermal model, gear-ratio study; the cheapest feasible candidate;
@@ -37,6 +37,7 @@ from . import sizing as SZ
 from . import synthesis as S
 from . import thermal as TH
 from .requirements import Requirements, compile_function
+from .solver_check import solver_check
 from .synthesis import constraint
 
 TWO_PI = 2.0 * math.pi
@@ -98,89 +99,6 @@ def synthesize(req: Requirements):
         table = B.fourbar_table(geom, m.mass, name=req.name, gravity=m.gravity, loads=loads,
                                 tool_at="coupler.P" if t == "motion-generator" else "rocker.C")
     return syn, table, geom
-
-
-def solver_check(syn, table) -> dict:
-    """The synthesised positions re-solved by mjbench's own position solver (Newton on the
-    loop-closure equations, mjbench.mechanisms.linkage): residuals at the synthesis's precision
-    positions and, over 72 crank angles, the largest distance between the closed-form and the
-    solver's joint positions (the branch)."""
-    from ..mechanisms import linkage as LK
-
-    params = LK.LinkageParams.model_validate(table)
-    c = LK.compiled(params)
-    g = syn.geometry
-    links = list(params.links)
-    out = {}
-
-    def solve(q):
-        z, v, _ = c.exact(np.asarray(q, float))
-        return z, v, c.world_points(z)
-
-    def angle_of(pts, a, b):
-        pa, pb = pts[a], pts[b]
-        return np.arctan2(pb[1] - pa[1], pb[0] - pa[0])
-
-    qg = np.linspace(0.0, TWO_PI, 72, endpoint=False)
-    _, _, pts = solve(qg)
-    cf = g.solve(qg)
-    if isinstance(g, S.SliderCrank):
-        keys = (("crank.B", "B"), ("ram.C", "C"))
-    else:
-        keys = (("crank.B", "B"), ("rocker.C", "C")) + ((("coupler.P", "P"),) if g.P is not None else ())
-    out["branch_max_position_diff_m"] = float(max(np.max(np.hypot(pts[k][0] - cf[kk][:, 0], pts[k][1] - cf[kk][:, 1]))
-                                                  for k, kk in keys))
-    a = syn.achieved
-    if syn.kind == "slider-crank":
-        q = np.array([a["q_extended_rad"], a["q_folded_rad"]])
-        z, v, p = solve(q)
-        u = (p["ram.C"][0] - g.O[0]) * g.w[0] + (p["ram.C"][1] - g.O[1]) * g.w[1]
-        kg = [j.name for j in params.joints].index("guide")
-        rate = c.joint_rates(z, v)[:, kg]
-        out.update(u_solver_m=u.tolist(), u_synthesis_m=[a["u_extended_m"], a["u_folded_m"]],
-                   position_residual_m=float(np.max(np.abs(u - [a["u_extended_m"], a["u_folded_m"]]))),
-                   stroke_solver_m=float(u[0] - u[1]), stroke_residual_m=float(abs(u[0] - u[1] - a["stroke_m"])),
-                   dead_centre_rate_m_per_rad=float(np.max(np.abs(rate))))
-        out["residual"] = max(out["position_residual_m"], out["dead_centre_rate_m_per_rad"])
-    elif syn.kind == "crank-rocker":
-        q = np.array([a["q_extended_rad"], a["q_folded_rad"]])
-        z, v, p = solve(q)
-        psi = angle_of(p, "rocker.D", "rocker.C")
-        kd = [j.name for j in params.joints].index("D")
-        rate = c.joint_rates(z, v)[:, kd]
-        out.update(psi_solver_rad=psi.tolist(), psi_synthesis_rad=[a["psi_extended_rad"], a["psi_folded_rad"]],
-                   angle_residual_rad=float(np.max(np.abs(S.wrap(psi - [a["psi_extended_rad"], a["psi_folded_rad"]])))),
-                   swing_solver_deg=float(np.degrees(abs(S.wrap(psi[1] - psi[0])))),
-                   dead_centre_rate=float(np.max(np.abs(rate))))
-        out["residual"] = max(out["angle_residual_rad"], out["dead_centre_rate"])
-    elif syn.kind == "function-generator":
-        ph = np.asarray(syn.info["phi_points"])
-        ps = np.asarray(syn.info["psi_points"])
-        z, v, p = solve(ph + g.crank_offset)
-        psi = angle_of(p, "rocker.D", "rocker.C") - g.rocker_offset
-        out.update(psi_solver_rad=psi.tolist(), psi_target_rad=ps.tolist(),
-                   angle_residual_rad=float(np.max(np.abs(S.wrap(psi - ps)))))
-        spec = syn.info["spec"]
-        x = np.linspace(spec.x0, spec.x1, 201)
-        _, _, pp = solve(spec.phi(x, math.radians(a["phi0_deg"])) + g.crank_offset)
-        err = S.wrap(angle_of(pp, "rocker.D", "rocker.C") - g.rocker_offset - spec.psi(x, math.radians(a["psi0_deg"])))
-        out["structural_error_max_deg_solver"] = float(np.degrees(np.max(np.abs(err))))
-        out["residual"] = out["angle_residual_rad"]
-        if syn.info.get("method") == "least-squares":
-            out["residual"] = 0.0  # no precision points: the structural error is the figure
-    elif syn.kind == "motion-generator":
-        phi = np.asarray(syn.info["input_angles"])
-        z, v, p = solve(phi)
-        poses = np.asarray(syn.targets["poses"])
-        P_ = np.stack([p["coupler.P"][0], p["coupler.P"][1]], axis=-1)
-        mA, mB = np.asarray(a["moving_pivot_A"]), np.asarray(a["moving_pivot_B"])
-        th = angle_of(p, "coupler.B", "coupler.C") - math.atan2(*(mB - mA)[::-1])
-        out.update(position_residual_m=float(np.max(np.hypot(*(P_ - poses[:, :2]).T))),
-                   angle_residual_rad=float(np.max(np.abs(S.wrap(th - poses[:, 2])))))
-        out["residual"] = max(out["position_residual_m"], out["angle_residual_rad"])
-    out["table_info"] = dict(c.table_info)
-    out["links"] = links
-    return out
 
 
 # ============================================================================ scenario
@@ -310,28 +228,97 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     """Run the whole design (module doc).  ``requirements``: a path, a built-in name or a
     :class:`Requirements`; ``out``: folder for the outputs (written whole or not at all).
     Returns the result dict (also design.json); ``result["status"]`` is "ok" or "infeasible"."""
-    from .requirements import load as load_req
-
     clock = Clock()
     t0c, t0w = time.process_time(), time.perf_counter()
-    with clock("requirements"):
-        req = requirements if isinstance(requirements, Requirements) else load_req(str(requirements))
-        from . import catalogue as CAT
-
-        cat = CAT.select(CAT.load(req.drive.catalogue, base=os.path.dirname(req.source)
-                                  if req.source and not req.source.startswith("builtin:") else ""),
-                         req.drive.motors, req.drive.gearboxes)
+    req, cat = _requirements(requirements, clock)
     if out is not None:  # an unusable --out is an error before any work
         from ..outputs import check_out_dir
         check_out_dir(out, force=force)
+    res = _result_head(req, cat)
+
+    def finish(failures, scn_doc=None):
+        return _finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log)
+
+    syn, table, failures = _synthesis_stage(req, res, clock)
+    if failures:
+        return finish(failures)
+    if req.duty.law is not None:  # the crank follows a motion law per cycle: mjbench/design/law_duty.py
+        from . import law_duty
+
+        return law_duty.design(req, res, syn, table, cat, clock, t0c, t0w, out, force, log, verify=verify, tune=tune)
+    speed = req.duty.omega
+    load, sz, failures, stop = _sizing_stage(req, cat, table, speed, res, clock, log)
+    if stop:
+        return finish(failures)
+    cand = sz.chosen
+    log(f"chosen: {cand.label}; RMS motor torque {cand.summary['motor_torque_rms_Nm']:.4g} N·m, "
+        f"χ {cand.summary['chi']:.4g}")
+    # ---------------------------------------------------------------- control
+    T = TWO_PI / speed
+    M_mean = load.J_mean + cand.drive.J_eq
+    i_lim = min(x for x in (req.drive.current_limit, cand.motor.T_peak / cand.motor.k_m) if x is not None)
+    t_acc = start_up_time(cand.drive, M_mean, sz.torque["T_mean_Nm"], speed, i_lim, req.drive.supply_voltage)
+    if not math.isfinite(t_acc):
+        failures.append(dict(constraint("the drive starts the machine from rest (torque at the current limit > "
+                                        "mean load up to the speed)", False, compare="true"), stage="sizing"))
+        res["closest"] = cand.describe()
+        return finish(failures)
+    runs = _RunLength(req, cand.drive, M_mean, t_acc, T)
+    final, ctl = _control_stage(req, table, cand, load, speed, runs, req.control.tune if tune is None else tune, clock)
+    chi_stmt, init, t_end = _prediction(res, ctl, final, load, sz, speed, M_mean, runs, t_acc)
+    from .. import scenario as SC
+
+    scn_doc = machine_scenario(req, table, final, final.gains, init, speed, t_end)
+    scn = SC.from_raw(scn_doc, f"design:{req.name}")
+    res["machine"] = scn_doc
+    # ---------------------------------------------------------------- verification
+    ach, trs = None, {}
+    if verify:
+        scn_doc, scn, ach, trs = _verification(req, res, table, final, init, speed, t_end, runs, scn_doc, scn,
+                                               clock)
+        res["checks"] = checks_of(final.summary, ach, chi_stmt, final.thermal, req.duty.ambient_temperature,
+                                  req.verify.tolerance)
+        failures += [dict(constraint(f"check: {c['name']}", c["achieved"], compare="true", ok=False,
+                                     note=f"predicted {c['predicted']:.6g}, rel. diff {c['rel_diff']:+.3g} > "
+                                          f"{c['tolerance']:.3g}"), stage="verification")
+                     for c in res["checks"] if not c["ok"]]
+    with clock("analysis"):
+        res["requirements_table"] = requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
+    failures += [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
+    res["_trajectories"] = trs
+    res["_sizing"] = sz
+    res["_final"] = final
+    return finish(failures, scn_doc)
+
+
+def _requirements(requirements, clock):
+    """(Requirements, the catalogue's selected motors and gearboxes): stage "requirements"."""
+    from . import catalogue as CAT
+    from .requirements import load as load_req
+
+    with clock("requirements"):
+        req = requirements if isinstance(requirements, Requirements) else load_req(str(requirements))
+        cat = CAT.select(CAT.load(req.drive.catalogue, base=os.path.dirname(req.source)
+                                  if req.source and not req.source.startswith("builtin:") else ""),
+                         req.drive.motors, req.drive.gearboxes)
+    return req, cat
+
+
+def _result_head(req, cat) -> dict:
+    """The result's first entries: the requirements, the catalogue, the duty."""
     res = {"name": req.name, "title": req.design.title, "requirements_source": req.source,
            "requirements": req.raw, "catalogue": {"source": cat.source, "title": cat.title,
                                                   "illustrative": cat.illustrative}}
     speed = req.duty.omega
     res["duty"] = {"speed_rad_s": speed, "speed_rpm": speed * 30 / math.pi, "cycle_s": TWO_PI / speed,
                    "chi_max": req.duty.chi_max, "ambient_C": req.duty.ambient_temperature}
+    return res
+
+
+def _synthesis_stage(req, res, clock):
+    """Stages "synthesis" and "solver_check" → (Synthesis or None, [mechanism] table, failures);
+    ``res`` gets ``synthesis``, ``mechanism`` and ``_geometry``."""
     failures = []
-    # ---------------------------------------------------------------- synthesis
     with clock("synthesis"):
         syn, table, geom = synthesize(req)
         if syn is not None:
@@ -351,11 +338,15 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
                                                 compare="true", note=str(e)), stage="synthesis"))
     res["mechanism"] = table
     res["_geometry"] = geom
-    if failures:
-        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
-    # ---------------------------------------------------------------- sizing
+    return syn, table, failures
+
+
+def _sizing_stage(req, cat, table, speed, res, clock, log):
+    """Stage "sizing" → (load model, Sizing, failures, stop): ``stop`` when no candidate is chosen
+    (``res["closest"]``: the closest one, its failing checks in ``failures``)."""
     from .. import mechanisms as MR
 
+    failures = []
     with clock("sizing"):
         mech = MR.from_dict(table)
         if mech.internal or getattr(getattr(mech, "_tab", None), "lo", None) is not None:
@@ -372,76 +363,89 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     if sz.chosen is None:
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
         res["closest"] = best.describe()
-        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+        return load, sz, failures, True
     cand = sz.chosen
     if not cand.ok:  # the full-resolution steady state disagrees with the screening one
         failures += [dict(c, stage="sizing", candidate=cand.label) for c in cand.checks if not c["ok"]]
         res["closest"] = cand.describe()
-        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
-    log(f"chosen: {cand.label}; RMS motor torque {cand.summary['motor_torque_rms_Nm']:.4g} N·m, "
-        f"χ {cand.summary['chi']:.4g}")
-    # ---------------------------------------------------------------- control
-    T = TWO_PI / speed
-    M_mean = load.J_mean + cand.drive.J_eq
+        return load, sz, failures, True
+    return load, sz, failures, False
 
-    i_lim = min(x for x in (req.drive.current_limit, cand.motor.T_peak / cand.motor.k_m) if x is not None)
-    t_acc = start_up_time(cand.drive, M_mean, sz.torque["T_mean_Nm"], speed, i_lim, req.drive.supply_voltage)
-    if not math.isfinite(t_acc):
-        failures.append(dict(constraint("the drive starts the machine from rest (torque at the current limit > "
-                                        "mean load up to the speed)", False, compare="true"), stage="sizing"))
-        res["closest"] = cand.describe()
-        return _finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
 
-    def run_length(gains):
-        """Whole cycles covering the start from rest (at the current limit) and the loop's settling,
-        plus the cycles asked."""
-        ts = CT.settling_time(cand.drive, M_mean, gains)
-        n = req.verify.cycles + math.ceil((t_acc + (ts if math.isfinite(ts) else 0.0)) / T)
-        return on_record_grid(min(n, MAX_CYCLES) * T), ts
+class _RunLength:
+    """Lengths of the verification runs: whole cycles of period T covering the start from rest (at
+    the current limit, ``t_acc``) and the loop's settling, plus the cycles asked, on the recording
+    grid."""
 
-    def on_record_grid(t):
+    def __init__(self, req, drive, M_mean, t_acc, T):
+        self.req, self.drive, self.M_mean, self.t_acc, self.T = req, drive, M_mean, t_acc, T
+
+    def __call__(self, gains):
+        """(t_end [s], the loop's settling time [s]) for ``gains``."""
+        ts = CT.settling_time(self.drive, self.M_mean, gains)
+        n = self.req.verify.cycles + math.ceil((self.t_acc + (ts if math.isfinite(ts) else 0.0)) / self.T)
+        return self.on_record_grid(min(n, MAX_CYCLES) * self.T), ts
+
+    def on_record_grid(self, t):
         """t rounded up to the recording grid (the last sample falls on t_end: the χ window's end)."""
-        rdt = _record_dt(req.verify.dt, T)
+        rdt = _record_dt(self.req.verify.dt, self.T)
         return math.ceil(t / rdt - 1e-9) * rdt
+
+
+def _control_stage(req, table, cand, load, speed, runs, do_tune, clock):
+    """Stage "tuning" → (the final candidate, the ``control`` entry so far): the design rule's
+    gains, the box of gains the sizing model accepts, then ``mjbench.tune`` within it (when
+    ``do_tune``); the tuned gains kept only if the sizing model accepts them."""
     g0 = cand.gains
     ctl = {"design_rule": {"gains": g0.as_dict(), "crossover_rad_s": req.control.bandwidth_ratio * speed,
                            "zero_ratio": CT.ZERO_RATIO}}
-    do_tune = req.control.tune if tune is None else tune
     final = cand
     with clock("tuning"):
         box, scan = _gain_box(cand, load, req, speed)
         SZ.finalize(cand, load, req, speed)  # with the design rule's small K_d (the tuning's start)
-        g0 = cand.gains
         ctl["box"] = {k: list(v) for k, v in box.items()}
         ctl["box_scan"] = scan
         if do_tune:
-            from .. import scenario as SC
-
-            t_end, _ = run_length(g0)
-            init0 = P.initial_state(cand.ss)
-            scn0 = SC.from_raw(machine_scenario(req, table, cand, g0, init0, speed, t_end), f"design:{req.name}")
-            i_lim = scn0.drive.i_max
-            try:
-                tr = CT.tune_gains(scn0, req, g0, box, t_end, {"voltage": float(req.drive.supply_voltage),
-                                                               "current": float(i_lim)}, log=None)
-                gt = P.Gains(tr.best["kp"], tr.best["ki"], tr.best["kd"])
-                ctl["tune"] = {"best": tr.best, "baseline": tr.baseline, "objective": tr.objective,
-                               "search": _clean_metrics(tr.search), "validation": _clean_metrics(tr.validation),
-                               "evaluations": tr.history.get("evaluations"), "at_bound": tr.history.get("at_bound"),
-                               "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
-                tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, cand.J_f, gt, location=cand.location,
-                                      cost=cand.cost)
-                SZ.finalize(tuned, load, req, speed)
-                if tuned.ok:
-                    final = tuned
-                    ctl["source"] = "tuned (mjbench.tune), accepted by the sizing model"
-                else:
-                    ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
-                                     + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
-            except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
-                ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+            final = _tuned(req, table, cand, load, speed, runs, box, ctl)
         else:
             ctl["source"] = "design rule ([control] tune = false)"
+    return final, ctl
+
+
+def _tuned(req, table, cand, load, speed, runs, box, ctl):
+    """``mjbench.tune`` from the candidate's gains within ``box`` (``ctl``: ``tune``, ``source``) →
+    the tuned candidate if the sizing model accepts it, else ``cand``."""
+    from .. import scenario as SC
+
+    g0 = cand.gains
+    t_end, _ = runs(g0)
+    init0 = P.initial_state(cand.ss)
+    scn0 = SC.from_raw(machine_scenario(req, table, cand, g0, init0, speed, t_end), f"design:{req.name}")
+    i_lim = scn0.drive.i_max
+    try:
+        tr = CT.tune_gains(scn0, req, g0, box, t_end, {"voltage": float(req.drive.supply_voltage),
+                                                       "current": float(i_lim)}, log=None)
+        gt = P.Gains(tr.best["kp"], tr.best["ki"], tr.best["kd"])
+        ctl["tune"] = {"best": tr.best, "baseline": tr.baseline, "objective": tr.objective,
+                       "search": _clean_metrics(tr.search), "validation": _clean_metrics(tr.validation),
+                       "evaluations": tr.history.get("evaluations"), "at_bound": tr.history.get("at_bound"),
+                       "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
+        tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, cand.J_f, gt, location=cand.location,
+                             cost=cand.cost)
+        SZ.finalize(tuned, load, req, speed)
+        if tuned.ok:
+            ctl["source"] = "tuned (mjbench.tune), accepted by the sizing model"
+            return tuned
+        ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
+                         + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
+    except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
+        ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+    return cand
+
+
+def _prediction(res, ctl, final, load, sz, speed, M_mean, runs, t_acc):
+    """The final gains' loop figures into ``ctl`` (then ``res["control"]``), the predicted figures
+    (``res["prediction"]``, ``res["chosen"]``) → (χ statement, initial state, run length)."""
     gains = final.gains
     ctl["final"] = gains.as_dict()
     ctl["crossover_rad_s"] = CT.crossover(final.drive, M_mean, gains)
@@ -450,7 +454,7 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     ctl["slowest_decay_1_s"] = float(-max(p.real for p in poles))
     chi_stmt = SZ.chi_energy_statement(final, load, sz.torque["dE_J"], speed, sz.T_L)
     init = P.initial_state(final.ss)
-    t_end, t_settle = run_length(gains)
+    t_end, t_settle = runs(gains)
     ctl["settling_time_s"] = t_settle
     ctl["start_up_time_s"] = t_acc
     res["control"] = ctl
@@ -460,46 +464,35 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
                                                                      "residual": final.ss["residual"],
                                                                      "phase_lag_rad": final.ss["c0"]}}
     res["chosen"] = final.describe()
+    return chi_stmt, init, t_end
+
+
+def _verification(req, res, table, final, init, speed, t_end, runs, scn_doc, scn, clock):
+    """Stage "verification": the machine (``scn_doc``, ``scn``: run length ``t_end``) on the multibody
+    backend from the predicted steady state, longer runs (up to MAX_CYCLES) until its last two
+    cycles agree → (scenario doc, scenario, achieved figures, {"multibody": trajectory}); ``res``:
+    ``machine`` (a longer run), ``verification``."""
     from .. import scenario as SC
+    from ..backends import simulate
+    from ..runner import backend_options
 
-    scn_doc = machine_scenario(req, table, final, gains, init, speed, t_end)
-    scn = SC.from_raw(scn_doc, f"design:{req.name}")
-    res["machine"] = scn_doc
-    # ---------------------------------------------------------------- verification
-    ach, trs = None, {}
-    if verify:
-        with clock("verification"):
-            from ..backends import simulate
-            from ..runner import backend_options
-
-            for attempt in range(4):
-                tr = simulate(SC.make_machine(scn), "multibody", t_end, record_dt=scn.simulation.record_dt,
-                              options=backend_options(scn, "multibody"))
-                ach = measure(tr, final.drive, speed, final.motor, req.duty.ambient_temperature)
-                drift = periodicity(tr)
-                if drift <= 0.05 * req.verify.tolerance or t_end >= MAX_CYCLES * T - 1e-9:
-                    break
-                t_end = on_record_grid(min(MAX_CYCLES, 2 * round(t_end / T)) * T)  # not settled yet: a longer run
-                scn_doc = machine_scenario(req, table, final, gains, init, speed, t_end)
-                scn = SC.from_raw(scn_doc, f"design:{req.name}")
-                res["machine"] = scn_doc
-            trs["multibody"] = tr
-            ach["start_up"] = start_up(tr, speed)
-        res["verification"] = {"backend": "multibody", "t_end_s": t_end, "achieved": ach,
-                               "last_two_cycles_rel_diff": drift, "loop": tr.meta.get("loop", "")}
-        res["checks"] = checks_of(final.summary, ach, chi_stmt, final.thermal, req.duty.ambient_temperature,
-                                  req.verify.tolerance)
-        failures += [dict(constraint(f"check: {c['name']}", c["achieved"], compare="true", ok=False,
-                                     note=f"predicted {c['predicted']:.6g}, rel. diff {c['rel_diff']:+.3g} > "
-                                          f"{c['tolerance']:.3g}"), stage="verification")
-                     for c in res["checks"] if not c["ok"]]
-    with clock("analysis"):
-        res["requirements_table"] = requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
-    failures += [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
-    res["_trajectories"] = trs
-    res["_sizing"] = sz
-    res["_final"] = final
-    return _finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log)
+    T = runs.T
+    with clock("verification"):
+        for attempt in range(4):
+            tr = simulate(SC.make_machine(scn), "multibody", t_end, record_dt=scn.simulation.record_dt,
+                          options=backend_options(scn, "multibody"))
+            ach = measure(tr, final.drive, speed, final.motor, req.duty.ambient_temperature)
+            drift = periodicity(tr)
+            if drift <= 0.05 * req.verify.tolerance or t_end >= MAX_CYCLES * T - 1e-9:
+                break
+            t_end = runs.on_record_grid(min(MAX_CYCLES, 2 * round(t_end / T)) * T)  # not settled yet: a longer run
+            scn_doc = machine_scenario(req, table, final, final.gains, init, speed, t_end)
+            scn = SC.from_raw(scn_doc, f"design:{req.name}")
+            res["machine"] = scn_doc
+        ach["start_up"] = start_up(tr, speed)
+    res["verification"] = {"backend": "multibody", "t_end_s": t_end, "achieved": ach,
+                           "last_two_cycles_rel_diff": drift, "loop": tr.meta.get("loop", "")}
+    return scn_doc, scn, ach, {"multibody": tr}
 
 
 def _gain_box(cand, load, req, speed):
@@ -586,9 +579,18 @@ def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
     i.e. mjbench's own position solver; drive: the multibody run) and its margin."""
     from .. import analyze as A
 
+    an = A.analyze(scn, speeds=[req.duty.omega], n=720)
+    rows = _kinematic_rows(req, syn, an, syn_json)
+    if ach is not None:
+        rows += _drive_rows(req, cand, ach)
+    return rows
+
+
+def _kinematic_rows(req, syn, an, syn_json) -> list:
+    """The mechanism's requirements: stroke or swing and time ratio, structural error, poses
+    (mjbench analyze / the solver check), transmission angle, the synthesis's size constraints."""
     rows = []
     m = req.mechanism
-    an = A.analyze(scn, speeds=[req.duty.omega], n=720)
     src_k = "mjbench analyze (own position solver)"
     if m.type == "slider-crank":
         st = an["strokes_m"].get("guide")
@@ -638,32 +640,38 @@ def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
                 if c["name"].startswith(("link-length", "envelope", "input crank")):
                     rows.append(_row(c["name"], c["limit"], c["value"], {"max": "max", "min": "min"}.get(c["compare"], "true"),
                                      c["unit"], "synthesis (closed form)", ok=c["ok"]))
-    if ach is not None:
-        src = "multibody run, last cycle"
-        W = req.duty.omega
-        rows.append(_row("mean input speed", W, ach["mean_speed_rad_s"], "eq", "rad/s", src,
-                         ok=abs(ach["mean_speed_rad_s"] - W) <= req.verify.tolerance * W))
-        if req.duty.chi_max is not None:
-            rows.append(_row("speed fluctuation χ", req.duty.chi_max, ach["chi"], "max", "1", src))
-        mo, g = cand.motor, cand.gearbox
-        T_amb = req.duty.ambient_temperature
-        rows += [
-            _row("RMS motor torque ≤ continuous rating", TH.derated_continuous_torque(mo, T_amb),
-                 ach["motor_torque_rms_Nm"], "max", "N·m", src),
-            _row("peak motor torque ≤ T_peak", mo.T_peak, ach["motor_torque_peak_Nm"], "max", "N·m", src),
-            _row("winding temperature ≤ T_max", mo.T_max, ach["T_winding_C"], "max", "°C",
-                 "two-node model on the simulated current"),
-            _row("armature voltage ≤ supply", req.drive.supply_voltage, ach["voltage_peak_V"], "max", "V", src),
-            _row("motor speed ≤ maximum", mo.speed_max, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
-        if req.drive.current_limit is not None:
-            rows.append(_row("current ≤ amplifier limit", req.drive.current_limit, ach["current_peak_A"], "max", "A", src))
-        if g is not None:
-            rows += [_row("gearbox output torque RMS ≤ T_cont_out", g.T_cont_out, ach["gear_torque_rms_Nm"], "max", "N·m", src),
-                     _row("gearbox output torque peak ≤ T_peak_out", g.T_peak_out, ach["gear_torque_peak_Nm"], "max",
-                          "N·m", src),
-                     _row("gearbox input speed ≤ maximum", g.speed_max_in, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
-        if cand.J_f > 0 and req.drive.flywheel_max is not None:
-            rows.append(_row("flywheel ≤ flywheel_max", req.drive.flywheel_max, cand.J_f, "max", "kg·m²", "sizing"))
+    return rows
+
+
+def _drive_rows(req, cand, ach) -> list:
+    """The drive's requirements against the multibody run's last cycle (speed, χ, motor and gearbox
+    ratings, winding temperature, supply, current limit, flywheel)."""
+    rows = []
+    src = "multibody run, last cycle"
+    W = req.duty.omega
+    rows.append(_row("mean input speed", W, ach["mean_speed_rad_s"], "eq", "rad/s", src,
+                     ok=abs(ach["mean_speed_rad_s"] - W) <= req.verify.tolerance * W))
+    if req.duty.chi_max is not None:
+        rows.append(_row("speed fluctuation χ", req.duty.chi_max, ach["chi"], "max", "1", src))
+    mo, g = cand.motor, cand.gearbox
+    T_amb = req.duty.ambient_temperature
+    rows += [
+        _row("RMS motor torque ≤ continuous rating", TH.derated_continuous_torque(mo, T_amb),
+             ach["motor_torque_rms_Nm"], "max", "N·m", src),
+        _row("peak motor torque ≤ T_peak", mo.T_peak, ach["motor_torque_peak_Nm"], "max", "N·m", src),
+        _row("winding temperature ≤ T_max", mo.T_max, ach["T_winding_C"], "max", "°C",
+             "two-node model on the simulated current"),
+        _row("armature voltage ≤ supply", req.drive.supply_voltage, ach["voltage_peak_V"], "max", "V", src),
+        _row("motor speed ≤ maximum", mo.speed_max, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
+    if req.drive.current_limit is not None:
+        rows.append(_row("current ≤ amplifier limit", req.drive.current_limit, ach["current_peak_A"], "max", "A", src))
+    if g is not None:
+        rows += [_row("gearbox output torque RMS ≤ T_cont_out", g.T_cont_out, ach["gear_torque_rms_Nm"], "max", "N·m", src),
+                 _row("gearbox output torque peak ≤ T_peak_out", g.T_peak_out, ach["gear_torque_peak_Nm"], "max",
+                      "N·m", src),
+                 _row("gearbox input speed ≤ maximum", g.speed_max_in, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
+    if cand.J_f > 0 and req.drive.flywheel_max is not None:
+        rows.append(_row("flywheel ≤ flywheel_max", req.drive.flywheel_max, cand.J_f, "max", "kg·m²", "sizing"))
     return rows
 
 

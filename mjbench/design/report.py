@@ -35,6 +35,32 @@ def _pct(x):
     return "—" if x is None or not math.isfinite(float(x)) else f"{100 * float(x):+.2f} %"
 
 
+def _gains_text(g) -> str:
+    return ", ".join(f"{k} {v:.4g}" for k, v in (g or {}).items()) or "—"
+
+
+def _gains_row(g) -> list:
+    """The gains' row of the drive table: the speed PID's, or a motion-law duty's servo's."""
+    if g and "kpp" in g:
+        return ["servo kpp [1/s], kvp [V·s/rad], kvi [V/rad], kffv [V·s/rad], kffa [V·s²/rad]",
+                ", ".join(_fmt(g[k]) for k in ("kpp", "kvp", "kvi", "kffv", "kffa"))]
+    return ["speed PID kp [V·s/rad], ki [V/rad], kd [V·s²/rad]",
+            ", ".join(_fmt(g[k]) for k in ("kp", "ki", "kd")) if g else "—"]
+
+
+def _law_text(duty) -> str:
+    """', the crank following a 3-4-5 law ...' of a motion-law duty (empty otherwise)."""
+    lw = duty.get("law")
+    if not lw:
+        return ""
+    kind = "pseudo-polynomial " + "-".join(f"{x:g}" for x in lw["law"].get("gammas", [])) if lw["kind"] == "pseudopoly" \
+        else "Bezier"
+    return (f", the crank following a {kind} motion law once round per cycle (move {lw['move_time_s']:.4g} s, "
+            f"dwell {lw['dwell_s']:.4g} s)"
+            + (f", tracking error ≤ {math.degrees(lw['tracking_error_max_rad']):.3g}°"
+               if lw.get("tracking_error_max_rad") else ""))
+
+
 def public(res: dict) -> dict:
     """The result without its in-memory objects (keys starting with '_')."""
     return {k: v for k, v in res.items() if not k.startswith("_")}
@@ -47,8 +73,7 @@ def summary_text(res: dict) -> str:
     if ch:
         lines.append(f"  drive: {ch['motor']} + {ch['gearbox'] or 'direct drive'} (z = {ch['ratio']:g})"
                      + (f", flywheel {ch['flywheel_kgm2']:.4g} kg·m²" if ch["flywheel_kgm2"] > 0 else ", no flywheel")
-                     + f"; gains kp {ch['gains']['kp']:.4g}, ki {ch['gains']['ki']:.4g}, kd {ch['gains']['kd']:.3g} "
-                       f"({res.get('control', {}).get('source', '')})")
+                     + f"; gains {_gains_text(ch['gains'])} ({res.get('control', {}).get('source', '')})")
     for c in res.get("checks", []):
         lines.append(f"  check {c['name']}: predicted {_fmt(c['predicted'])}, simulated {_fmt(c['achieved'])}, "
                      f"{_pct(c['rel_diff'])} (tolerance {100 * c['tolerance']:.3g} %) {'ok' if c['ok'] else 'FAIL'}")
@@ -107,12 +132,13 @@ def drive_rows(res) -> tuple:
     p = ch["predicted"]
     body = [["motor", ch["motor"]], ["gearbox", ch["gearbox"] or "direct drive"], ["ratio z", _fmt(ch["ratio"])],
             [f"flywheel on the {ch.get('flywheel_location', 'crank')} shaft [kg·m²]", _fmt(ch["flywheel_kgm2"])],
-            ["speed PID kp [V·s/rad], ki [V/rad], kd [V·s²/rad]",
-             ", ".join(_fmt(ch["gains"][k]) for k in ("kp", "ki", "kd")) if ch.get("gains") else "—"],
+            _gains_row(ch.get("gains")),
             ["gains from", res.get("control", {}).get("source", "—")],
             ["RMS / peak motor current [A]", f"{_fmt(p.get('current_rms_A'))} / {_fmt(p.get('current_peak_A'))}"],
             ["winding temperature (steady) [°C]", _fmt(ch["thermal"].get("T_winding_C"))],
-            ["speed fluctuation χ", _fmt(p.get("chi"))]]
+            ["speed fluctuation χ", _fmt(p.get("chi"))] if p.get("tracking_peak_rad") is None else
+            ["tracking error |q_ref − q|, peak / RMS [rad]",
+             f"{_fmt(p.get('tracking_peak_rad'))} / {_fmt(p.get('tracking_rms_rad'))}"]]
     sz = res.get("sizing", {})
     sw = sz.get("ratio_sweep", {})
     if sw:
@@ -158,7 +184,7 @@ def markdown(res) -> str:
           f"Requirements: `{res['requirements_source']}`; catalogue: `{os.path.basename(res['catalogue']['source'])}`"
           + (" (**illustrative values**, not a vendor's data)" if res["catalogue"].get("illustrative") else "") + ".",
           f"Duty: {res['duty']['speed_rpm']:.4g} rpm ({res['duty']['speed_rad_s']:.4g} rad/s)"
-          + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "")
+          + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "") + _law_text(res["duty"])
           + f", ambient {res['duty']['ambient_C']:g} °C.", ""]
     if res.get("failures"):
         md += ["**What fails:**", ""]
@@ -212,7 +238,8 @@ def html_page(res) -> str:
              f"<code>{e(os.path.basename(res['catalogue']['source']))}</code>"
              + (" (<b>illustrative values</b>, not a vendor's data)" if res["catalogue"].get("illustrative") else "")
              + f". Duty {res['duty']['speed_rpm']:.4g} rpm"
-             + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "") + ".</p>"]
+             + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "")
+             + e(_law_text(res["duty"])) + ".</p>"]
     if res.get("failures"):
         parts.append("<p><b>What fails:</b></p><ul>" + "".join(
             f"<li>({e(str(f.get('stage')))}) {e(f['name'])}" + (f" — {e(f['note'])}" if f.get("note") else "") + "</li>"
@@ -234,6 +261,10 @@ def figure(res, path):
     from .. import plotstyle as ps
     from ..plots import save
 
+    if res.get("duty", {}).get("law"):  # a motion-law duty: over the cycle's time
+        from .law_duty import figure as law_figure
+
+        return law_figure(res, path)
     sz = res.get("_sizing")
     tr = (res.get("_trajectories") or {}).get("multibody")
     ch = res.get("_final") or (sz.chosen if sz is not None else None)
@@ -315,7 +346,7 @@ def write(res: dict, out, scn_doc, force=False) -> list:
                     f"{res.get('chosen', {}).get('motor')} + {res.get('chosen', {}).get('gearbox') or 'direct drive'}"
                     f" (catalogue {os.path.basename(res['catalogue']['source'])}"
                     + (": illustrative values" if res["catalogue"].get("illustrative") else "") + ")\n"
-                    "Starts from rest; simulation.t_end covers the start-up and the speed loop's settling, and\n"
+                    "Starts from rest; simulation.t_end covers the start-up and the control loop's settling, and\n"
                     "its last cycle (metrics.chi_window) is the periodic steady state design.json predicts and verifies.")
             text = B.toml_dumps(scn_doc, header=head)
             atomic_write(tmp / "machine.toml", lambda f: f.write(text))

@@ -9,7 +9,8 @@ message listing every problem, exit 2).
     [mechanism.mass]  mass model of the synthesised links (uniform bars, ram, tool, extra inertias)
     [[loads]]     process forces on named points of the linkage (constant or a profile near the
                   end of a stroke)
-    [duty]        the input speed (constant) and the speed-fluctuation bound χ_max, ambient
+    [duty]        the input speed (constant: bound χ_max) or a motion law per cycle ([duty.law]: bound
+                  the tracking error), ambient
     [drive]       supply voltage, catalogue, amplifier current limit, flywheel allowed, ratios
     [control]     tuning objective, margins, budgets (mjbench tune)
     [verify]      multibody verification: tolerance, step
@@ -273,19 +274,65 @@ class LoadReq(Strict):
         return self
 
 
-class Duty(Strict):
-    """``[duty]``: constant input (crank) speed and the speed-fluctuation bound."""
+class DutyLaw(Strict):
+    """``[duty.law]``: the crank follows a rest-to-rest motion law once round per cycle (one turn
+    in ``move_fraction`` of the cycle, then it dwells), the cycle repeated (mjbench/motionlaws.py,
+    the scenario's ``[law]`` kinds)."""
 
-    speed: OptQ("angular_velocity", gt=0.0) = Field(None, description="crank speed, e.g. '60 rpm'")
+    kind: Literal["pseudopoly", "bezier"] = Field("pseudopoly", description="law family")
+    gammas: list[float] | None = Field(None, description="pseudopoly exponents (default 3, 4, 5: the 3-4-5 law)")
+    m: int = Field(2, ge=0, description="bezier continuity order")
+    p: int = Field(3, ge=0, description="bezier free interior ordinates")
+    interior_over_Phi: list[float] | None = Field(None, description="bezier interior ordinates / 2π")
+    move_fraction: float = Field(1.0, gt=0.0, le=1.0, description="part of the cycle the turn takes (the rest: dwell)")
+
+    @model_validator(mode="after")
+    def _family(self):
+        own = {"pseudopoly": ("gammas",), "bezier": ("m", "p", "interior_over_Phi")}
+        foreign = [k for fam, keys in own.items() if fam != self.kind for k in keys if k in self.model_fields_set]
+        if foreign:
+            raise _err("{keys} belong to another law family than kind = {kind!r} (they would be ignored)",
+                       keys=", ".join(foreign), kind=self.kind)
+        return self
+
+    def build(self, T_cycle: float):
+        """The crank's law over one cycle: 2π in move_fraction × T_cycle [s] (crank side)."""
+        from ..motionlaws import BezierLaw, PseudoPolynomialLaw
+
+        T = self.move_fraction * float(T_cycle)
+        if self.kind == "pseudopoly":
+            return PseudoPolynomialLaw(2.0 * math.pi, T, self.gammas or (3.0, 4.0, 5.0))
+        interior = None if self.interior_over_Phi is None else [2.0 * math.pi * v for v in self.interior_over_Phi]
+        return BezierLaw(2.0 * math.pi, T, self.m, self.p, interior)
+
+
+class Duty(Strict):
+    """``[duty]``: the input (crank) speed — constant, or a motion law per cycle (``[duty.law]``) —
+    and its bounds: the speed fluctuation χ_max (constant speed), the tracking error (law)."""
+
+    speed: OptQ("angular_velocity", gt=0.0) = Field(None, description="crank speed (a law: the mean), e.g. '60 rpm'")
     cycles_per_minute: float | None = Field(None, gt=0.0, description="instead of speed: strokes per minute")
     chi_max: float | None = Field(None, gt=0.0, lt=1.0, description="bound of χ = (ω_max − ω_min)/ω_mean per cycle")
+    law: DutyLaw | None = Field(None, description="the crank follows this motion law once round per cycle")
+    tracking_error_max: OptQ("angle", gt=0.0) = Field(
+        None, description="a law duty: largest crank-angle error |q_ref − q| allowed in steady state")
     ambient_temperature: float = Field(25.0, ge=-40.0, le=100.0, description="[°C]")
 
     @model_validator(mode="after")
     def _speed(self):
         if (self.speed is None) == (self.cycles_per_minute is None):
             raise _err("give exactly one of speed, cycles_per_minute")
+        if self.law is not None and self.chi_max is not None:
+            raise _err("chi_max bounds the speed fluctuation at constant speed; a motion-law duty prescribes the speed "
+                       "(bound its tracking error: tracking_error_max)")
+        if self.law is None and self.tracking_error_max is not None:
+            raise _err("tracking_error_max needs a motion law ([duty.law]); at constant speed bound chi_max")
         return self
+
+    @property
+    def cycle_time(self) -> float:
+        """One cycle (one crank turn) [s]."""
+        return 2.0 * math.pi / self.omega
 
     @property
     def omega(self) -> float:
@@ -309,10 +356,14 @@ class DriveReq(Strict):
 
 
 class ControlReq(Strict):
-    """``[control]``: the speed PID, tuned by mjbench tune within the box the sizing model allows."""
+    """``[control]``: the speed PID (a motion-law duty: the cascade servo), tuned by mjbench tune
+    within the box the sizing model allows."""
 
     tune: Bool = Field(True, description="tune the gains (mjbench.tune); false: the design rule's")
-    objective: Literal["chi", "ise", "iae", "itae"] = Field("chi", description="tune objective (chi: last cycle)")
+    objective: Literal["chi", "ise", "iae", "itae", "tracking_rms", "tracking_peak"] | None = Field(
+        None, description="tune objective (default: chi of the last cycle; a law duty: tracking_rms)")
+    tracking_bandwidth_ratio: float = Field(
+        20.0, gt=0.0, le=1000.0, description="a law duty's design rule: velocity-loop crossover / (2π / move time)")
     margins: list[str] = Field(default_factory=lambda: ["pm>=45", "ms<=2"], description="tune --margin constraints")
     bandwidth_ratio: float = Field(0.5, gt=0.0, le=20.0, description="design rule: crossover / cycle frequency")
     n_global: int = Field(12, ge=1, le=1024)
@@ -353,6 +404,17 @@ class Requirements(Strict):
     verify: VerifyReq = Field(default_factory=VerifyReq)
     source: str = Field("", exclude=True)
     raw: dict = Field(default_factory=dict, exclude=True, repr=False)
+
+    @model_validator(mode="after")
+    def _objective(self):
+        law = self.duty.law is not None
+        if self.control.objective is None:
+            self.control.objective = "tracking_rms" if law else "chi"
+        elif law != self.control.objective.startswith("tracking"):
+            raise _err("control.objective = {o!r}: a {what} duty is tuned for {want}",
+                       o=self.control.objective, what="motion-law" if law else "constant-speed",
+                       want="tracking_rms or tracking_peak" if law else "chi, ise, iae or itae")
+        return self
 
     @property
     def name(self) -> str:

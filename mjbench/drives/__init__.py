@@ -1,10 +1,13 @@
 """Drive types: what turns the mechanism's input (``[drive] type = ...``).
 
-Each drive type is one class with its own ``Params`` (a :class:`mjbench.schema.Strict` model of
-the ``[drive]`` table, ``type = "<name>"``, physical fields with units) whose ``build()`` gives the
-drive object.  The co-step kernel (:mod:`mjbench.kernel`) calls a drive only through its laws,
-bound by slot from ``drive.form(h)`` — ``limit`` (DLIMIT), ``mean`` (DMEAN), ``torque`` (DTORQUE),
-``step`` (DSTEP), ``record`` (DREC) — so a new drive type needs no kernel change.  What the object
+Each drive type is one :class:`Drive` subclass with ``type_name`` and its own ``Params`` (a
+:class:`mjbench.fields.Strict` model of the ``[drive]`` table, ``type = "<name>"``, physical fields
+with units) whose ``build()`` gives the drive object, registered in :data:`REGISTRY` (the same
+:class:`mjbench.registry.Registry` as mechanisms and controllers: ``@mjbench.drives.register``, or
+an installed package's entry point in the group ``mjbench.drives``).  The co-step kernel
+(:mod:`mjbench.kernel`) calls a drive only through its laws, bound by slot from ``drive.form(h)``
+— ``limit`` (DLIMIT), ``mean`` (DMEAN), ``torque`` (DTORQUE), ``step`` (DSTEP), ``record`` (DREC)
+— so a new drive type needs no kernel change.  What the object
 offers besides (``docs/engine.md``, "Drive types"):
 
 * ``form(h)``: its :class:`~mjbench.compiled.Form` (parameters ``P`` with at least ``z``, the
@@ -21,15 +24,14 @@ Built in: ``dcmotor`` (:class:`mjbench.drive.DCMotorDrive`, the default), ``torq
 """
 from __future__ import annotations
 
-import importlib
+from typing import ClassVar
 
 from ..errors import ParameterError
+from ..registry import GROUPS, Registry
 
 #: built-in drive types → the module that registers them
 BUILTIN = {"dcmotor": "mjbench.drive", "torque": "mjbench.drives.ideal", "speed": "mjbench.drives.ideal"}
 DEFAULT = "dcmotor"  #: ``[drive]`` without ``type``
-
-_REGISTRY: dict = {}
 
 
 class DriveCapabilityError(ParameterError, AttributeError):
@@ -38,28 +40,45 @@ class DriveCapabilityError(ParameterError, AttributeError):
     ``getattr(drive, name, default)`` still falls back."""
 
 
-def register(params_cls):
-    """Class decorator on a drive's Params model: ``[drive] type = <its type literal>``."""
-    default = params_cls.model_fields["type"].default
-    if not isinstance(default, str) or not default:
-        raise TypeError(f"register: {params_cls.__name__} needs a field type = \"<name>\" with that default")
-    _REGISTRY[default] = params_cls
-    return params_cls
+class Drive:
+    """Base of every drive type: ``type_name`` (``[drive] type``), ``Params`` (the table's model,
+    with ``type: Literal[type_name]`` defaulting to it) and the object the kernel drives (see the
+    module docstring for what it offers)."""
+
+    #: ``[drive] type`` of this class
+    type_name: ClassVar[str] = ""
+    #: pydantic model of the ``[drive]`` table
+    Params: ClassVar[type | None] = None
+
+    @classmethod
+    def from_params(cls, params, **kw):
+        """The drive object from its validated Params (default: ``params.build()``)."""
+        return params.build()
+
+
+#: the drive registry (built-ins, plugins of entry-point group ``mjbench.drives``, registered classes)
+REGISTRY = Registry("drive", Drive, BUILTIN, GROUPS[3], prefix=("drive",), unknown="drive.type = {typ!r}",
+                    invalid="invalid [drive] table")
+
+
+def register(cls):
+    """Class decorator on a :class:`Drive` subclass: ``[drive] type = cls.type_name``."""
+    return REGISTRY.register(cls)
 
 
 def names() -> list[str]:
-    for mod in set(BUILTIN.values()):
-        importlib.import_module(mod)
-    return sorted(_REGISTRY)
+    """Every drive type name (built-ins, plugins, registered)."""
+    return REGISTRY.names()
+
+
+def get(type_name):
+    """The drive class of ``type_name`` (None if unknown)."""
+    return REGISTRY.get(type_name)
 
 
 def params_class(type_name):
     """The Params model of a drive type (None if unknown)."""
-    if not isinstance(type_name, str):
-        return None
-    if type_name not in _REGISTRY and type_name in BUILTIN:
-        importlib.import_module(BUILTIN[type_name])
-    return _REGISTRY.get(type_name)
+    return REGISTRY.params_class(type_name)
 
 
 def type_of(raw) -> str:
@@ -77,4 +96,5 @@ def validate(raw: dict):
     return cls.model_validate(raw)
 
 
-__all__ = ["register", "names", "params_class", "validate", "type_of", "DriveCapabilityError", "BUILTIN"]
+__all__ = ["Drive", "REGISTRY", "register", "names", "get", "params_class", "validate", "type_of",
+           "DriveCapabilityError", "BUILTIN"]

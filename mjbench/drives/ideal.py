@@ -39,7 +39,7 @@ from pydantic import Field
 
 from .. import compiled as C
 from ..fields import Q, Strict
-from . import DriveCapabilityError, register
+from . import Drive, DriveCapabilityError, register
 
 #: controller types whose output is an armature voltage or that model a DC motor (refused on an ideal drive)
 VOLTAGE_MODES = {"open": "gives an armature voltage", "smc": "models a DC motor (R, L, k_m: Eq 37)",
@@ -71,7 +71,7 @@ def mode_output_problems(scn, drive_type: str) -> list[str]:
     return out
 
 
-class _Ideal:
+class _Ideal(Drive):
     """What the ideal drives share: no gearbox, no drive train, DC-motor quantities refused."""
 
     z = 1.0
@@ -94,7 +94,6 @@ class _Ideal:
 
 
 # ============================================================================ torque source
-@register
 class TorqueDriveParams(Strict):
     """``[drive] type = "torque"``: an ideal torque source on the input joint (no electrics, z = 1).
     The mode's output is the input torque [N·m]."""
@@ -115,6 +114,7 @@ class TorqueDriveParams(Strict):
         return mode_output_problems(scn, "torque")
 
 
+@register
 @dataclass
 class TorqueDrive(_Ideal):
     """Ideal torque source: u [N·m] on the input joint, held over the step; J [kg·m²] and damping
@@ -125,6 +125,7 @@ class TorqueDrive(_Ideal):
     T_max: float = math.inf
     FIELDS = ("J", "damping", "T_max")
     type_name = "torque"
+    Params = TorqueDriveParams
 
     def __post_init__(self):
         for name in ("J", "damping"):
@@ -196,7 +197,6 @@ def torque_record(out, b, I, V, w, P):
 
 
 # ============================================================================ speed source
-@register
 class SpeedDriveParams(Strict):
     """``[drive] type = "speed"``: a stiff velocity loop makes the input follow the mode's output, a
     commanded input speed [rad/s] (no electrics, z = 1; see the module doc for the model)."""
@@ -221,6 +221,7 @@ class SpeedDriveParams(Strict):
         return mode_output_problems(scn, "speed")
 
 
+@register
 @dataclass
 class SpeedDrive(_Ideal):
     """Stiff speed source: T = k_v·(ω* − q̇) + k_i·∫(ω* − q̇)dt on the input joint, −k_v·q̇ as the
@@ -232,6 +233,7 @@ class SpeedDrive(_Ideal):
     speed_max: float = math.inf
     FIELDS = ("k_v", "k_i", "J", "speed_max")
     type_name = "speed"
+    Params = SpeedDriveParams
 
     def __post_init__(self):
         if not (math.isfinite(float(self.k_v)) and float(self.k_v) > 0.0):

@@ -399,7 +399,7 @@ class Mechanism(abc.ABC):
                                     "limit_positions": why}}
         out = lk.kinematic_analysis(q)
         out["source"] = ("own linkage kinematics" if lk is self else
-                         f"the equivalent generic linkage of the {self.type_name} (mechanisms/linkage.py)")
+                         f"the equivalent generic linkage of the {self.type_name} (mechanisms/linkage/)")
         out.setdefault("unavailable", {})
         return out
 

@@ -1,4 +1,4 @@
-"""Planar closed-chain kinematics in body coordinates, for the generic linkage (linkage.py).
+"""Planar closed-chain kinematics in body coordinates, for the generic linkage (the package linkage/).
 
 Coordinates (Haug 1989, *Computer-Aided Kinematics and Dynamics of Mechanical Systems*, ch. 2-3):
 each moving link b has z_b = (x_b, y_b, θ_b), the position of its mass centre G_b and the angle

@@ -632,7 +632,7 @@ class MjcfMechanism(Mechanism):
     def kinematics(self, q) -> dict:
         """Velocity ratios of the file's joints (constraint Jacobian null space) and their limit
         positions; a MuJoCo model has no link lines, so no transmission angles or toggles."""
-        from .linkage import _roots
+        from .linkage.view import _roots
 
         ratios = {k: v for k, v in self.joint_rates(q).items() if k != self.input_joint}
         lim = {k: [float(x) for x in _roots(q, v)] for k, v in ratios.items()} if self._m.hinge else {}

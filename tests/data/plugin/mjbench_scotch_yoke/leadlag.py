@@ -7,6 +7,7 @@ run (never in ``__init__``: a value stored on the object would be shared by ever
 """
 from __future__ import annotations
 
+import math
 from collections import namedtuple
 from typing import Literal
 
@@ -52,6 +53,9 @@ class LeadLag(Controller):
     Params = LeadLagParams
     STATE = ("e_prev", "u_prev")
     law = lead_lag_law
+    #: what ``mjbench tune --controller lead-lag`` searches: the gain, the zero and the pole, these
+    #: two below the Nyquist rate π/T of a 1e-4 s sample period (≈ 3.1e4 rad/s)
+    TUNABLE = {"K": (0.0, math.inf), "wz": (1.0, 3e4), "wp": (1.0, 3e4)}
 
     def __init__(self, K, wz, wp, omega0, period=0.0):
         self.K, self.wz, self.wp, self.period = float(K), float(wz), float(wp), float(period)
