@@ -81,7 +81,7 @@ def main(argv=None) -> int:
     if argv[:1] == ["--version"]:
         print(f"mjbench {version()}")
         return 0
-    from .render import check_gl_env
+    from .render.gl import check_gl_env
 
     check_gl_env()  # a MUJOCO_GL typo is replaced (with a warning) before MuJoCo is imported
     cmd = _command_in(argv)

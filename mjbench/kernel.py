@@ -521,16 +521,18 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
         return "python", "CPython loop requested (MJBENCH_JIT=0 / loop='python')"
     if not program.compiled:
         return "python", "; ".join(program.reasons)
-    if not jit.AVAILABLE:
-        return "python", "numba is not installed"
     if mode in ("1", "compiled"):
-        return "compiled", "compiled loop requested (MJBENCH_JIT=1 / loop='compiled')"
-    if jit.loaded():
-        return "compiled", "numba already loaded"
-    need = program.min_steps
-    if run_steps >= need:
-        return "compiled", f"{run_steps:.3g} co-steps ≥ {need:g} (pays numba's start-up)"
-    return "python", f"{run_steps:.3g} co-steps < {need:g}: numba's start-up would cost more than it saves"
+        why = "compiled loop requested (MJBENCH_JIT=1 / loop='compiled')"
+    elif jit.loaded():
+        why = "numba already loaded"
+    elif run_steps >= program.min_steps:
+        why = f"{run_steps:.3g} co-steps ≥ {program.min_steps:g} (pays numba's start-up)"
+    else:
+        return "python", (f"{run_steps:.3g} co-steps < {program.min_steps:g}: numba's start-up would cost more "
+                          f"than it saves")
+    if not jit.available():
+        return "python", "numba is not installed"
+    return "compiled", why
 
 
 def preload(run_steps: float) -> bool:
@@ -538,7 +540,7 @@ def preload(run_steps: float) -> bool:
     pays for the start-up (then every later run of the process is compiled); → whether loaded."""
     from .compiled import jit
 
-    if not jit.AVAILABLE or os.environ.get("MJBENCH_JIT", "") == "0":
+    if os.environ.get("MJBENCH_JIT", "") == "0" or not jit.available():
         return False
     if jit.loaded() or run_steps >= MIN_STEPS:
         jit.init()

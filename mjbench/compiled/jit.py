@@ -23,7 +23,15 @@ import threading
 from . import BRIDGES, LAWS
 from . import cache as _cache
 
-AVAILABLE = importlib.util.find_spec("numba") is not None
+_AVAILABLE = None
+
+
+def available() -> bool:
+    """Whether numba is installed (looked up once, when a run could be compiled)."""
+    global _AVAILABLE
+    if _AVAILABLE is None:
+        _AVAILABLE = "numba" in sys.modules or importlib.util.find_spec("numba") is not None
+    return _AVAILABLE
 _LOCK = threading.Lock()
 _READY = False
 _LOOPS: dict = {}

@@ -31,18 +31,25 @@ view), ``runs`` (videos of simulated runs).
 """
 from __future__ import annotations
 
-from .gl import RenderError, MUJOCO_GL_VALUES, INSTALL_HINT, check_gl_env, gl_setup
-from .scene import (
-    TRACE_PATH_RGBA, TRACE_TRAIL_RGBA, BACKDROP_RGB, LINK_SCALE, GRID_RGB, point_bounds, build_render_model,
-    frame_camera)
-from .overlay import TextBox
-from .view import MechanismView
-from .video import VideoWriter, frame_indices
-from .platform import PlatformView, render_platform_laws
-from .runs import simulate_for_video, render_trajectory, render_scenario
+import importlib as _importlib
 
-__all__ = [
-    "RenderError", "MUJOCO_GL_VALUES", "INSTALL_HINT", "check_gl_env", "gl_setup", "TRACE_PATH_RGBA",
-    "TRACE_TRAIL_RGBA", "BACKDROP_RGB", "LINK_SCALE", "GRID_RGB", "point_bounds", "build_render_model",
-    "frame_camera", "TextBox", "MechanismView", "VideoWriter", "frame_indices", "PlatformView",
-    "render_platform_laws", "simulate_for_video", "render_trajectory", "render_scenario"]
+#: public name → submodule (imported on first use: ``import mjbench.render`` costs nothing until a
+#: name is used, so the CLI's GL check does not import the renderer)
+_WHERE = {
+    **dict.fromkeys(("RenderError", "MUJOCO_GL_VALUES", "INSTALL_HINT", "check_gl_env", "gl_setup"), "gl"),
+    **dict.fromkeys(("TRACE_PATH_RGBA", "TRACE_TRAIL_RGBA", "BACKDROP_RGB", "LINK_SCALE", "GRID_RGB", "point_bounds",
+                     "build_render_model", "frame_camera"), "scene"),
+    "TextBox": "overlay", "MechanismView": "view", "VideoWriter": "video", "frame_indices": "video",
+    "PlatformView": "platform", "render_platform_laws": "platform",
+    **dict.fromkeys(("simulate_for_video", "render_trajectory", "render_scenario"), "runs"),
+}
+
+
+def __getattr__(name):
+    mod = _WHERE.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'mjbench.render' has no attribute {name!r}")
+    return getattr(_importlib.import_module(f"{__name__}.{mod}"), name)
+
+
+__all__ = sorted(_WHERE)
