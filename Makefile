@@ -18,7 +18,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/mjbench reproduce all --out results --force
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/mjbench reproduce all --out results --force --jobs 2
 
 test: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q

@@ -89,7 +89,8 @@ INTRO = ("Each case opens with its headline figure, its video and its headline n
          "missed by the amount shown.  'meet the paper' counts the rows that agree, lie inside the band or "
          "meet the bound, out of the rows with a paper figure.  Words and symbols: see the glossary at the end.")
 
-SUMMARY_HEAD = ["case", "paper", "verdicts", "rows", "meet the paper", "differ", "no paper figure", "runtime [s]"]
+SUMMARY_HEAD = ["case", "paper", "verdicts", "rows", "meet the paper", "differ", "no paper figure", "runtime [s]",
+                "CPU [s]"]
 #: verdict classes in the order the summary bar draws them: (key in verdicts.counts, legend text)
 BAR = (("meet", "meet the paper"), ("fitted", "fitted (agree by construction)"), ("differ", "differ"),
        ("unjudged", "no paper figure"))
@@ -131,7 +132,8 @@ def _summary_cells(r):
     """The summary columns of a case, as text (the "verdicts" column: the markdown bar)."""
     c = _counts(r)
     return [r["case"], r.get("citation") or r.get("paper") or "", _bar_md(c), str(len(r["rows"])),
-            _count_text(c), str(c["differ"]), str(c["unjudged"]), f"{r['runtime_s']:.1f}"]
+            _count_text(c), str(c["differ"]), str(c["unjudged"]), f"{r['runtime_s']:.1f}",
+            f"{r['cpu_s']:.1f}" if r.get("cpu_s") is not None else "—"]
 
 
 def _bar_text(c) -> str:
@@ -217,8 +219,9 @@ def _full_summary(r) -> str:
     """The line that unfolds a case's full table."""
     c = _counts(r)
     judged = c["meet"] + c["fitted"] + c["differ"]
-    return (f"All {len(r['rows'])} rows: {judged} with a paper figure ({_count_text(c)} meet it), "
-            f"{c['unjudged']} computed without one — quantity, paper, ours, verdict, reason")
+    what = (f"{judged} with a paper figure ({_count_text(c)} meet it), {c['unjudged']} computed without one"
+            if judged else "none with a paper figure to compare")
+    return f"All {len(r['rows'])} rows: {what} — quantity, paper, ours, verdict, reason"
 
 
 def _case_intro(r):
@@ -344,7 +347,8 @@ def _markdown(results, total_s):
 # ============================================================================ HTML
 _CSS = """
 body{font-family:DejaVu Sans,Arial,sans-serif;max-width:1280px;margin:1.5em auto;padding:0 1em;color:#222}
-h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.25em;border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:2.2em}
+h1{font-size:1.6em;margin-bottom:.2em}
+h2{font-size:1.25em;border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:2.2em}
 h3{font-size:1em;margin:1.2em 0 .3em;color:#444}
 table{border-collapse:collapse;margin:.6em 0;font-size:.88em}
 th,td{border:1px solid #bbb;padding:.25em .5em;text-align:left;vertical-align:top}
@@ -365,7 +369,8 @@ details>summary{cursor:pointer;color:#234;font-size:.92em}
 .bar{display:flex;width:220px;height:14px;border:1px solid #999;background:#fff}
 .bar span{display:block;height:100%}
 .c-meet{background:#4caf50}.c-fitted{background:#7b8fd6}.c-differ{background:#f39c34}.c-unjudged{background:#d5d5d5}
-.legend span.sw{display:inline-block;width:12px;height:12px;border:1px solid #999;margin:0 .3em 0 1em;vertical-align:-2px}
+.legend span.sw{display:inline-block;width:12px;height:12px;border:1px solid #999;margin:0 .3em 0 1em;
+  vertical-align:-2px}
 table.summary td.grp{background:#f3f3f3;font-weight:bold}table.summary td{padding:.15em .5em}
 dt{font-weight:bold;margin-top:.4em}dd{margin-left:1.5em}
 """
@@ -467,9 +472,9 @@ def _head_html(r):
     case, figs = r["case"], list(r["figures"])
     side = []
     v = r.get("video")
-    if v:
+    if v:  # preload: the first frame shows (the videos are small local files)
         src = f"{e(case)}/{e(v['file'])}"
-        side.append(f'<video src="{src}" controls muted loop preload="metadata" width="{v["width"]}"></video>'
+        side.append(f'<video src="{src}" controls muted loop preload="auto" width="{v["width"]}"></video>'
                     f'<p class="meta">Video (<a href="{src}">{e(v["file"])}</a>): {_md_inline(_video_caption(v))}</p>')
     elif _no_video(r):
         side.append(f'<p class="meta">{_md_inline(_no_video(r))}</p>')
@@ -504,7 +509,8 @@ def _case_html(r):
         parts.append(f"<details><summary>{e(_full_summary(r))}</summary>")
         parts += [_verdict_table(r["rows"]), "</details>"]
     for t in r.get("tables") or []:
-        parts.append(f"<details><summary>Table: {e(t.get('title') or 'more numbers')} ({len(t['rows'])} rows)</summary>")
+        title = t.get("title") or "more numbers"
+        parts.append(f"<details><summary>Table: {e(title)} ({len(t['rows'])} rows)</summary>")
         parts.append(_html_table(t["head"], t["rows"]))
         if t.get("note"):
             parts.append(f'<p class="meta">{_md_inline(t["note"])}</p>')

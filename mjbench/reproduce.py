@@ -9,8 +9,8 @@ metrics, output folder; hooks may also append extra tables to ``ctx.tables`` and
 "reason", "headline"?}``; its verdict is computed from the numbers by :mod:`mjbench.verdicts` —
 never typed in; ``headline = True`` puts the row among the case's headline numbers
 (:func:`mjbench.report.headline`).  For ``kind = "run"`` the rows of the scenario's
-``[[paper.figures]]`` (runner.paper_rows) come first; ``kind = "optimize-law"`` runs the motion-law study (vibration.study);
-``kind = "study"`` calls the paper module's ``study(ctx)``.
+``[[paper.figures]]`` (runner.paper_rows) come first; ``kind = "optimize-law"`` runs the
+motion-law study (vibration.study); ``kind = "study"`` calls the paper module's ``study(ctx)``.
 
 Outputs per case in ``DIR/<case>/``: PNG figures, ``metrics.json`` (metrics of every mode and
 backend + the comparison rows with their verdicts, exactly the numbers the report tables print),
@@ -82,7 +82,7 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
     """Run one case; write its files into ``out_dir/<case>/``; return its metrics dict."""
     from . import plotstyle
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     out = Path(out_dir) / case.name
     out.mkdir(parents=True, exist_ok=True)
     from . import papers
@@ -135,6 +135,7 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
     except MjbenchError as e:
         res["video_error"] = str(e)
     res["runtime_s"] = time.perf_counter() - t0
+    res["cpu_s"] = time.process_time() - c0  # this process, every thread (a shared machine inflates runtime_s)
     _write_json(out / "metrics.json", res)
     return res
 
@@ -302,21 +303,68 @@ def _write_json(path, obj):
 
 
 def reproduce(which="all", out_dir="results", quick=False, video=True, progress=True, width=None,
-              height=None, log=print) -> list:
-    """Run the selected cases and write the report; returns the list of case results."""
-    t0 = time.perf_counter()
+              height=None, log=print, jobs=1) -> list:
+    """Run the selected cases and write the report; returns the list of case results (report
+    order).  ``jobs`` > 1: the cases run in that many worker processes (each case is independent;
+    same numbers as in one process), the report is written when all are done."""
+    t0, c0 = time.perf_counter(), time.process_time()
     cases = select(load_cases(), which)
+    jobs = max(1, min(int(jobs or 1), len(cases)))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    results = []
-    for i, case in enumerate(cases, 1):
-        log(f"[{i}/{len(cases)}] {case.name} ({case.scenario}, {case.kind}) ...")
-        r = run_case(case, out, quick=quick, video=video, progress=progress, width=width, height=height)
-        results.append(_clean(r))
-        log(f"        {len(r['rows'])} comparison rows, {len(r['figures'])} figures"
-            + (f", video {r['video']['frames']} frames" if r.get("video") else "") + f" — {r['runtime_s']:.1f} s")
+    results = run_cases(cases, out, dict(quick=quick, video=video, width=width, height=height), progress=progress,
+                        log=log, jobs=jobs)
     total = time.perf_counter() - t0
+    cpu = time.process_time() - c0 + (sum(r["cpu_s"] for r in results) if jobs > 1 else 0.0)
     md, htm = write_report(results, out, total)
-    _write_json(out / "summary.json", {"cases": [r["case"] for r in results], "total_runtime_s": total})
-    log(f"report: {md.name} and {htm.name} ({total:.0f} s)")
+    _write_json(out / "summary.json", {"cases": [r["case"] for r in results], "total_runtime_s": total,
+                                       "total_cpu_s": cpu, "jobs": int(jobs),
+                                       "cases_runtime_s": {r["case"]: r["runtime_s"] for r in results},
+                                       "cases_cpu_s": {r["case"]: r["cpu_s"] for r in results}})
+    log(f"report: {md.name} and {htm.name} ({total:.0f} s, CPU {cpu:.0f} s)")
     return results
+
+
+def _done(r) -> str:
+    return (f"{len(r['rows'])} comparison rows, {len(r['figures'])} figures"
+            + (f", video {r['video']['frames']} frames" if r.get("video") else "")
+            + f" — {r['runtime_s']:.1f} s (CPU {r['cpu_s']:.1f} s)")
+
+
+def run_cases(cases, out, kw: dict, progress=True, log=print, jobs=1) -> list:
+    """:func:`run_case` for every case (keywords ``kw``), in this process or, ``jobs`` > 1, in
+    that many worker processes (spawned: each sets up its own OpenGL context and numba; the
+    compiled-code cache is shared and written atomically); JSON-safe results in ``cases``' order."""
+    n, jobs = len(cases), max(1, min(int(jobs or 1), len(cases) or 1))
+    if jobs == 1:
+        results = []
+        for i, case in enumerate(cases, 1):
+            log(f"[{i}/{n}] {case.name} ({case.scenario}, {case.kind}) ...")
+            results.append(_clean(run_case(case, out, progress=progress, **kw)))
+            log(f"        {_done(results[-1])}")
+        return results
+    import concurrent.futures as cf
+    import multiprocessing as mp
+
+    log(f"{n} cases on {jobs} worker processes ...")
+    results = [None] * n
+    with cf.ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn"), initializer=_worker_init) as ex:
+        futs = {ex.submit(_worker_case, case, os.fspath(out), kw): i for i, case in enumerate(cases)}
+        try:
+            for k, f in enumerate(cf.as_completed(futs), 1):
+                r = results[futs[f]] = f.result()
+                log(f"[{k}/{n}] {r['case']} ({r['scenario']}, {r['kind']}): {_done(r)}")
+        except BaseException:
+            ex.shutdown(wait=True, cancel_futures=True)
+            raise
+    return results
+
+
+def _worker_init():
+    """A worker process: MuJoCo's log file routed like the parent's (the OpenGL backend is set up
+    on the first video, as in the parent: ``MUJOCO_GL`` is inherited)."""
+    outputs.route_mujoco_log()
+
+
+def _worker_case(case, out, kw):
+    return _clean(run_case(case, Path(out), progress=False, **kw))

@@ -61,6 +61,8 @@ def test_files_written(report):
         assert (case_dir / f).stat().st_size > 0, f
     assert md.exists() and htm.exists()
     assert res["video"]["frames"] == 16  # 0.5 s at 30 fps: frames at k/30, k = 0..15
+    # the video shows the case's own PID run (recorded every 0.5 ms), not a second MuJoCo run
+    assert res["video"]["source"] == "the case's multibody run (samples every 0.5 ms)"
 
 
 def _split(line):
@@ -154,7 +156,8 @@ def test_page_leads_with_pictures(report):
         n = sum(c.values())
         for k, v in c.items():  # the bar's segments are the verdict counts, to scale
             seg = re.search(rf'class="c-{k}" style="width:([\d.]+)%"', widths)
-            assert (seg is None) == (v == 0) and (seg is None or float(seg.group(1)) == pytest.approx(100 * v / n, abs=0.01))
+            assert (seg is None) == (v == 0)
+            assert seg is None or float(seg.group(1)) == pytest.approx(100 * v / n, abs=0.01)
     sec = {case: html_text.split(f'<h2 id="{RP._anchor(case)}"')[1].split("<h2 ")[0] for case, _ in cases}
     s = sec["incerti2012-short"]
     pos = [s.index(x) for x in ('<img src="incerti2012-short/fig4.png"', "<video ", 'class="headline"',
@@ -171,6 +174,26 @@ def test_page_leads_with_pictures(report):
         first = f"[![{r['figures'][0]}]({case}/{r['figures'][0]})]"
         assert m.index(first) < m.index("**Headline numbers**") < m.index("<details><summary>All ")
     assert "🟧" in md_text.split("<details>")[0]  # the summary's verdict bars (incerti2012: 'differ' rows)
+
+
+def test_cases_in_worker_processes_give_the_same_numbers(tmp_path):
+    """``--jobs 2``: the cases run side by side in spawned worker processes; every result (rows,
+    verdicts, metrics of every mode and backend, figures) is the one the same case gives in this
+    process, in the cases' order."""
+    cases = [papers.Case(name="jobs-a", scenario="incerti2012", modes=["open", "pid"], t_end=0.3, video=False),
+             papers.Case(name="jobs-b", scenario="hulako2025-model1", modes=["pid"], t_end=0.3, video=False)]
+    kw = dict(quick=True, video=False, width=None, height=None)
+    seq = R.run_cases(cases, tmp_path / "seq", kw, progress=False, log=lambda *a: None)
+    lines = []
+    par = R.run_cases(cases, tmp_path / "par", kw, progress=False, log=lines.append, jobs=2)
+    assert [r["case"] for r in par] == ["jobs-a", "jobs-b"] and "2 worker processes" in lines[0]
+    for a, b in zip(seq, par):
+        assert a["rows"] == b["rows"] and a["figures"] == b["figures"]
+        for mode, m in a["modes"].items():
+            for bk, mb in m["backends"].items():
+                num = {k: v for k, v in mb.items() if isinstance(v, float)}
+                assert num and num == {k: v for k, v in b["modes"][mode]["backends"][bk].items() if k in num}
+        assert (tmp_path / "par" / b["case"] / "metrics.json").exists()
 
 
 def test_markdown_bar():

@@ -154,7 +154,8 @@ def test_report_prints_the_computed_verdicts(tmp_path):
     assert lines["deviation"][2] == "≤ 0.01" and lines["deviation"][4].startswith("exceeds the upper bound by 0.2 %")
     assert lines["error"][4] == "agrees: -1.5 %"
     # summary: 1 of 3 meets the paper, in both files
-    assert "| [synthetic](#case-synthetic) | Someone 2024 | 3 | 1/3 | 2 | 0 | 1.0 |" in text
+    # (with the verdict bar: 1 of 3 rows meets, 2 differ → 3 green, 7 orange of 10 squares)
+    assert "| [synthetic](#case-synthetic) | Someone 2024 | 🟩🟩🟩🟧🟧🟧🟧🟧🟧🟧 | 3 | 1/3 | 2 | 0 | 1.0 | — |" in text
     assert '<td class="num">1/3</td>' in page and "meet the paper" in page
     assert "Glossary" in text and "Glossary" in page
     for term in ("χ", "J(α)", "reduced", "multibody", "verdict"):

@@ -21,7 +21,7 @@ def paper_cases() -> list[Any]:
 def reproduce_papers(path: str | os.PathLike[str], case: str = "all", *, quick: bool = False, video: bool = True,
                      width: int | None = None, height: int | None = None, force: bool = False,
                      progress: bool = False, log: Callable[[str], Any] | None = None,
-                     what: str = "save") -> list[dict[str, Any]]:
+                     what: str = "save", jobs: int = 1) -> list[dict[str, Any]]:
     """Run paper cases end to end and write their report into the folder ``path``.
 
     Parameters
@@ -40,6 +40,10 @@ def reproduce_papers(path: str | os.PathLike[str], case: str = "all", *, quick: 
         Video frame size [px].
     progress, log
         Progress bars; a callable for the per-case lines (default: silent).
+    jobs : int
+        Worker processes running the cases side by side (1: in this process; the numbers do not
+        depend on it).  The workers are spawned: a script calling this with ``jobs > 1`` must
+        guard its entry point (``if __name__ == "__main__":``), as for any ``multiprocessing`` use.
 
     Returns
     -------
@@ -61,5 +65,5 @@ def reproduce_papers(path: str | os.PathLike[str], case: str = "all", *, quick: 
             warn([f"{e} The report is written without videos."])
     with staged_dir(path, force=force, what=what) as tmp:
         res: list[dict[str, Any]] = R.reproduce(case, tmp, quick=quick, video=video, progress=progress, width=width,
-                                                height=height, log=log or (lambda *a: None))
+                                                height=height, log=log or (lambda *a: None), jobs=jobs)
     return res

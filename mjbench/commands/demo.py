@@ -32,7 +32,7 @@ def run(args) -> int:
     with_gl(args)
     api.reproduce_papers(args.out, "all", quick=True, video=not args.no_video, width=args.width, height=args.height,
                          force=args.force, progress=not args.no_progress and sys.stderr.isatty(), log=print,
-                         what="--out")
+                         what="--out", jobs=args.jobs)
     out = os.path.abspath(args.out)
     print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
           f"(or read {os.path.join(out, 'report.md')})")

@@ -21,6 +21,9 @@ def add_common(p, out_required=True):
     p.add_argument("--height", type=integer(ge=16, le=MAX_HEIGHT), default=None,
                    help="video height [px] (even; default 540, --quick 360)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--jobs", type=integer(ge=1, le=64), default=1,
+                   help="run the cases in N worker processes side by side (default 1; `make demo`: 2); "
+                        "the numbers do not depend on it")
     p.add_argument("--force", action="store_true",
                    help="replace a non-empty --out folder (the old one is kept until the new report is complete)")
 
@@ -62,7 +65,7 @@ def run(args) -> int:
     with_gl(args)
     api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
                          height=args.height, force=args.force, progress=not args.no_progress and sys.stderr.isatty(),
-                         log=print, what="--out")
+                         log=print, what="--out", jobs=args.jobs)
     print(f"results written to {args.out}")
     return 0
 

@@ -12,7 +12,9 @@ A new paper = one module defining ``KEY``, ``CITATION``, ``TITLE``, ``SCENARIOS`
 :class:`mjbench.reproduce.CaseRun`), added to :data:`MODULES`; optional: ``study(ctx)`` for cases
 of ``kind = "study"``, ``SCENARIO_TITLES`` ({scenario: paper title} when a module covers several
 papers).  Rows state the paper's figure (a value, a band [lo, hi], a bound) and our numbers,
-never a verdict: :mod:`mjbench.verdicts` computes it.  Hooks may append extra tables to
+never a verdict: :mod:`mjbench.verdicts` computes it; ``"headline": True`` puts a row among the
+few numbers the report shows next to the case's first figure (:func:`mjbench.report.headline`),
+and ``figures(ctx)`` lists the case's headline figure first.  Hooks may append extra tables to
 ``ctx.tables`` and warnings to ``ctx.warnings``.
 """
 from __future__ import annotations

@@ -45,7 +45,12 @@ _WHERE = {
 }
 
 
+_SUBMODULES = ("gl", "scene", "overlay", "view", "video", "platform", "runs")
+
+
 def __getattr__(name):
+    if name in _SUBMODULES:
+        return _importlib.import_module(f"{__name__}.{name}")
     mod = _WHERE.get(name)
     if mod is None:
         raise AttributeError(f"module 'mjbench.render' has no attribute {name!r}")
