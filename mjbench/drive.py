@@ -95,6 +95,10 @@ class DriveParams(Strict):
         return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 
 
+#: per drive class, its parameter fields (for :meth:`DCMotorDrive._validate_scalars`)
+_SCALAR_FIELDS: dict = {}
+
+
 @register
 @dataclass
 class DCMotorDrive(Drive):
@@ -139,6 +143,8 @@ class DCMotorDrive(Drive):
         def bad(name, why):
             raise ParameterError(f"drive.{name} = {getattr(self, name)!r}: {why}")
 
+        if self._validate_scalars(bad):
+            return
         for f in fields(self):
             if f.name == "train":
                 continue
@@ -153,6 +159,30 @@ class DCMotorDrive(Drive):
         for name in ("L", "J_m", "J_a", "J_b", "T_0", "lam"):
             if np.any(np.asarray(getattr(self, name)) < 0):
                 bad(name, "must be >= 0")
+
+    def _validate_scalars(self, bad) -> bool:
+        """:meth:`validate` for a drive whose parameters are all plain numbers (every scenario's):
+        the same checks in the same order without NumPy (≈ 80 µs per run otherwise); False (not
+        checked) if any is an array."""
+        names = _SCALAR_FIELDS.get(type(self))
+        if names is None:
+            names = _SCALAR_FIELDS[type(self)] = tuple(f.name for f in fields(self) if f.name != "train")
+        vals = [getattr(self, n) for n in names]
+        if not all(isinstance(v, (float, int)) for v in vals):
+            return False
+        for n, v in zip(names, vals):
+            x = float(v)
+            if not math.isfinite(x) and n not in ("v_max", "i_max"):
+                bad(n, "must be finite")
+            if math.isnan(x):
+                bad(n, "must not be NaN")
+        for n in ("R", "k_m", "z", "v_max", "i_max"):
+            if float(getattr(self, n)) <= 0:
+                bad(n, "must be > 0")
+        for n in ("L", "J_m", "J_a", "J_b", "T_0", "lam"):
+            if float(getattr(self, n)) < 0:
+                bad(n, "must be >= 0")
+        return True
 
     @property
     def J_eq(self):

@@ -333,6 +333,13 @@ def _absent(*args):  # a slot no run calls (its flag is off)
     return 0.0
 
 
+def _ident(form) -> tuple:
+    """A form's law and its function arguments' laws, nested, by identity (:attr:`Program.key`)."""
+    if not form.fn_args:
+        return id(form.law)
+    return (id(form.law), tuple(_ident(f) for f in form.fn_args))
+
+
 _ABSENT = C.Form(_absent)
 
 
@@ -448,12 +455,13 @@ class Program:
 
     @property
     def key(self) -> tuple:
-        """The composition: slot laws (names and function objects) and flags (runs with the same
-        key share one loop; computed once, the slots do not change after :meth:`build`)."""
+        """The composition: the slot laws' function objects (each slot's law and, nested, its function
+        arguments' laws, by identity: the laws of a cached loop are kept alive, so their ids stay
+        unique) and the flags, in :data:`SLOTS` and :data:`FLAGS` order.  Runs with the same key share
+        one loop; computed once (the slots do not change after :meth:`build`)."""
         k = self.__dict__.get("_key")
         if k is None:
-            k = self._key = (tuple((s, self.slots[s].key, self.slots[s].ident) for s in SLOTS),
-                             tuple((f, self.flags[f]) for f in FLAGS))
+            k = self._key = (tuple(_ident(self.slots[s]) for s in SLOTS), tuple(self.flags[f] for f in FLAGS))
         return k
 
     def env(self) -> dict:
@@ -548,20 +556,28 @@ def preload(run_steps: float) -> bool:
     return False
 
 
+#: records up to this size [bytes] are allocated without reading the available memory (16 MiB)
+SMALL_RECORD = 16 * 2 ** 20
+
+
 def record_bytes(nrec: int, ncol: int, nsim: int = 1) -> int:
     """Memory of a record [bytes]: nsim × nrec rows × ncol float64 columns."""
     return 8 * nrec * ncol * nsim
 
 
-def memory_limit() -> int:
+def memory_limit(need: int | None = None) -> int:
     """Largest record a run may allocate [bytes]: ``MJBENCH_MAX_RECORD_MB`` if set, else half the
-    machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read)."""
+    machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read).  With
+    ``need`` [bytes] at most :data:`SMALL_RECORD` and no ``MJBENCH_MAX_RECORD_MB``, ``need`` itself
+    without reading the system's figure (a record that small is never refused)."""
     env = os.environ.get("MJBENCH_MAX_RECORD_MB")
     if env:
         try:
             return int(float(env) * 2 ** 20)
         except ValueError:
             raise ParameterError(f"MJBENCH_MAX_RECORD_MB = {env!r}: must be a number of MiB") from None
+    if need is not None and need <= SMALL_RECORD:
+        return int(need)
     try:
         with open("/proc/meminfo") as f:
             for line in f:
@@ -576,7 +592,7 @@ def check_record(nsteps: int, decim: int, ncol: int, nsim: int, h: float, record
     """Refuse, before simulating, a record that would not fit (ParameterError naming the cause)."""
     nrec = nsteps // decim + 1
     need = record_bytes(nrec, ncol, nsim)
-    lim = memory_limit()
+    lim = memory_limit(need)
     if need > lim:
         raise ParameterError(
             f"the record needs {need / 2 ** 20:,.0f} MiB ({nsim} run(s) × {nrec:,} samples × {ncol} columns at "
@@ -680,8 +696,10 @@ _CHECKED: set = set()
 
 def _machine_key(mc):
     """What :func:`check_machine` depends on: the mechanism's parameters and the drive's inertia."""
+    from .backends.table import mechanism_key
+
     try:
-        mech = (type(mc.mechanism).__name__, repr(sorted(mc.mechanism.describe().items())))
+        mech = (type(mc.mechanism).__name__, mechanism_key(mc.mechanism))
     except Exception:  # noqa: BLE001 - a mechanism that cannot describe itself: check each
         mech = id(mc.mechanism)
     return mech, float(mc.drive.J_eq)
@@ -759,7 +777,7 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     cols = progs[0].columns
     ncol = len(cols)
     mode, why = _job_loop(progs, N * nsteps, loop)
-    nthreads = min(N, threads or os.cpu_count() or 1) if mode == "compiled" else 1
+    nthreads = min(N, threads or os.cpu_count() or 1) if mode == "compiled" and N > 1 else 1
     check_record(nsteps, decim, ncol, nthreads if consume is not None else N, h, record_dt)
     data = None if consume is not None else np.full((N, nrec * ncol), np.nan)
     fns = {}
@@ -804,14 +822,23 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
 
 def _programs(plants, machines, h: float) -> list:
     """Each run's :class:`Program` (its plant started), after the checks of a job: every machine
-    (once per mechanism and drive inertias), one step for all, the same recorded columns."""
+    (once per mechanism and drive inertia in this process: :data:`_CHECKED`), one step for all, the
+    same recorded columns."""
+    from .backends.table import composing
+
+    with composing():
+        return _compose(plants, machines, h)
+
+
+def _compose(plants, machines, h: float) -> list:
     progs = []
-    checked = set()
     for pl, mc in zip(plants, machines):
         key = _machine_key(mc)
-        if key not in checked:  # (a sweep's rows share their mechanism and drive inertias: check once)
+        if key not in _CHECKED:  # (a sweep's rows, the runs of a design loop share it: check once per process)
             check_machine(mc)
-            checked.add(key)
+            if len(_CHECKED) > 4096:
+                _CHECKED.clear()
+            _CHECKED.add(key)
         if abs(float(pl.h) - h) > 1e-15 * h:
             raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
         pl.start()
@@ -852,12 +879,15 @@ def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
             return
         t0 = time.perf_counter()
         n0 = st.n
-        st.advance(n0 + chunk)
+        n_to = n0 + chunk
+        if st.nsteps + 1 - n_to <= chunk // 4:  # a short tail (a run's last step): in this call
+            n_to = st.nsteps + 1
+        st.advance(n_to)
         if progress is not None:
             progress.update(st.n - n0)
         dt = time.perf_counter() - t0
-        if compiled and dt > 0:
-            chunk = int(max(1000, min(5_000_000, chunk * CHUNK_S / dt)))
+        if compiled and dt > 0 and st.n > n0:
+            chunk = int(max(1000, min(5_000_000, (st.n - n0) * CHUNK_S / dt)))
 
 
 def _run_threaded(task, N: int, nthreads: int, progress) -> None:

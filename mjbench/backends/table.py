@@ -30,7 +30,9 @@ shares one table, a calibration builds one per candidate linkage (≈ 2–5 ms).
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict, namedtuple
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -67,6 +69,8 @@ class ReducedTable:
         names = ["J", "dJ_half", "dEp"] + (["D"] if self.viscous else [])
         self.names, self.m = tuple(names), len(names)
         n = int(n0)
+        if n <= 0 or n & (n - 1):  # the laws find a cell with a bit mask (table_model)
+            raise ParameterError(f"tabulated reduced model: n0 = {n0!r} nodes must be a power of two")
         while True:
             q = np.arange(n + 1) * (P / n)
             q[-1] = P
@@ -129,7 +133,39 @@ def _quantities(mech, q, viscous):
 
 
 def _key(mech, tol, viscous=None):
-    return (type(mech).__name__, repr(sorted(mech.describe().items())), float(tol), viscous)
+    return (type(mech).__name__, mechanism_key(mech), float(tol), viscous)
+
+
+_MEMO = threading.local()
+
+
+def mechanism_key(mech) -> str:
+    """The mechanism's parameters as a cache key, ``repr(sorted(mech.describe().items()))``;
+    computed once per mechanism object while a job is composed (:func:`composing`: the machine
+    check and the table both need it, and a description can cost ≈ 25–100 µs)."""
+    memo = getattr(_MEMO, "keys", None)
+    if memo is not None:
+        hit = memo.get(id(mech))
+        if hit is not None and hit[0] is mech:
+            return hit[1]
+    k = repr(sorted(mech.describe().items()))
+    if memo is not None:
+        memo[id(mech)] = (mech, k)
+    return k
+
+
+@contextmanager
+def composing():
+    """Within this block (the kernel composing one job's runs, no mechanism changes its parameters)
+    :func:`mechanism_key` is computed once per mechanism object."""
+    if getattr(_MEMO, "keys", None) is not None:
+        yield
+        return
+    _MEMO.keys = {}
+    try:
+        yield
+    finally:
+        _MEMO.keys = None
 
 
 def table_for(mech, tol: float = TOL, viscous: bool | None = None) -> ReducedTable:
@@ -156,8 +192,10 @@ def floor(x):
 
 # ----------------------------------------------------------------------------- the table as a law
 #: the table's parameters for :func:`table_model`: coefficients (n, 4m) (row j: c₀ of the m
-#: quantities, then c₁, c₂, c₃ of cell j), n cells, k = n/period, m quantities, viscous (4th = D)
-TableP = namedtuple("TableP", "C n k m viscous")
+#: quantities, then c₁, c₂, c₃ of cell j), n cells, k = n/period, m quantities, viscous (4th = D),
+#: ``mask`` = n − 1 (n is a power of two: the cell i mod n is i & mask, the same index without an
+#: integer division on the lookup's path)
+TableP = namedtuple("TableP", "C n k m viscous mask")
 
 
 def table_params(tab: "ReducedTable") -> TableP:
@@ -167,7 +205,10 @@ def table_params(tab: "ReducedTable") -> TableP:
     if P is None:
         C = np.ascontiguousarray(tab.coef.T)
         C.flags.writeable = False
-        P = tab._params = TableP(C, int(tab.n), float(tab.k), int(tab.m), bool(tab.viscous))
+        n = int(tab.n)
+        if n <= 0 or n & (n - 1):
+            raise ParameterError(f"table of {n} nodes: the node count must be a power of two")
+        P = tab._params = TableP(C, n, float(tab.k), int(tab.m), bool(tab.viscous), n - 1)
     return P
 
 
@@ -181,7 +222,7 @@ def table_model(q, qd, t, P):
         return math.nan, math.nan, math.nan, math.nan
     fl = math.floor(u)
     f = u - fl
-    j = fl % P.n
+    j = fl & P.mask  # = fl mod n (n a power of two)
     C = P.C
     m = P.m
     J = ((C[j, 3 * m] * f + C[j, 2 * m]) * f + C[j, m]) * f + C[j, 0]

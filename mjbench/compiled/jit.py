@@ -67,13 +67,24 @@ def init():
 _REGISTERED = set()
 
 
+#: numba's options for every law: no reference counting (laws never allocate; the arrays belong to
+#: the caller for the whole call) and LLVM's ``alwaysinline``.  A law that LLVM chose not to inline
+#: (a law called from several places, or one grown past the inliner's threshold by the laws it
+#: calls) is a real call per use, its parameter tuples flattened into one argument per array field
+#: (pointer, shape, strides …) — the generic linkage's loads were ≈ 330 stack arguments per step;
+#: the table's lookup four calls per RK4 step.  Inlined, the loop is one function and a law costs its
+#: arithmetic (the same operations: inlining changes no floating-point result).
+LAW_OPTIONS = {"_nrt": False, "forceinline": True}
+_LAW_OPTIONS_TEXT = ", ".join(f"{k}={v!r}" for k, v in LAW_OPTIONS.items())
+
+
 def register(fn):
     """Make the law ``fn`` callable by name from compiled code (numba's ``register_jitable``)."""
     if id(fn) in _REGISTERED:
         return
     from numba.extending import register_jitable
 
-    register_jitable(_nrt=False)(fn)
+    register_jitable(**LAW_OPTIONS)(fn)
     _REGISTERED.add(id(fn))
 
 
@@ -156,7 +167,7 @@ def _bind_text(name, form, lines, mods, inmemory):
     fn = form.law
     if not _importable(fn):
         inmemory[f"_{name}_law"] = fn
-        lines.append(f"{name} = numba.njit(_{name}_law)")
+        lines.append(f"{name} = numba.njit(forceinline=True)(_{name}_law)")
         return
     if not form.fn_args:  # the registered law itself: compiled once per process, whatever the composition
         lines.append(f"from {fn.__module__} import {fn.__qualname__} as {name}")
@@ -196,7 +207,7 @@ def _specialise(name, fn, argn, mods):
 
     Rename().visit(fdef)
     mods.add(fn.__module__)
-    return imports + ["", "", "@register_jitable(_nrt=False)", ast.unparse(fdef), ""]
+    return imports + ["", "", f"@register_jitable({_LAW_OPTIONS_TEXT})", ast.unparse(fdef), ""]
 
 
 def _build(program, loop_source: str):

@@ -409,9 +409,10 @@ class PeriodicTable:
         c = cs.c  # (4, N, k): (x−x_i)^3, ^2, ^1, ^0
         self.coef = np.stack([c[0] * h ** 3, c[1] * h ** 2, c[2] * h, c[3]], axis=0)  # (4, N, k)
         self._inv_h = 1.0 / h
-        # the scalar law's parameters: row i = (c3, c2, c1, c0) of channel 0, then channel 1, …
-        rows = np.ascontiguousarray(self.coef.transpose(1, 2, 0).reshape(N, 4 * k))
-        self.P = PTableP(rows, self.q0, self._inv_h, N)
+        # the scalar law's parameters: row c = channel c's (c3, c2, c1, c0) of cell 0, then cell 1, …
+        # (a channel's cells side by side: the cells a run visits in turn share cache lines)
+        rows = np.ascontiguousarray(self.coef.transpose(2, 1, 0).reshape(k, 4 * N))
+        self.P = PTableP(rows, self.q0, self._inv_h, N, N - 1 if N & (N - 1) == 0 else -1)
 
     def locate(self, q):
         u = (np.asarray(q, dtype=float) - self.q0) * self._inv_h
@@ -436,9 +437,10 @@ class PeriodicTable:
         return ptable_channel(q, ch, self.P)
 
 
-#: a periodic table's parameters for :func:`ptable_channel`: rows (N, 4k) — cell i's Horner
-#: coefficients (t³, t², t, 1) of channel 0, then channel 1, … —, q0, N/2π, N
-PTableP = namedtuple("PTableP", "rows q0 inv_h N")
+#: a periodic table's parameters for :func:`ptable_channel`: rows (k, 4N) — channel c's Horner
+#: coefficients (t³, t², t, 1) of cell 0, then cell 1, … —, q0, N/2π, N, and M = N − 1 when N is a
+#: power of two (the cell i mod N is then i & M, without an integer division), else −1
+PTableP = namedtuple("PTableP", "rows q0 inv_h N M")
 
 
 @law
@@ -450,7 +452,6 @@ def ptable_channel(q, ch, T):
         return math.nan
     i = math.floor(u)
     t = u - i
-    j = i % T.N
-    b = 4 * ch
+    b = 4 * ((i & T.M) if T.M >= 0 else i % T.N)
     R = T.rows
-    return ((R[j, b] * t + R[j, b + 1]) * t + R[j, b + 2]) * t + R[j, b + 3]
+    return ((R[ch, b] * t + R[ch, b + 1]) * t + R[ch, b + 2]) * t + R[ch, b + 3]

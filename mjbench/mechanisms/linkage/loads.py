@@ -26,8 +26,8 @@ from .description import LoadSpec
 #: the stroke along its direction, −1 against), the table's start t0 and length tn in ``xf``, the
 #: periodic-table channels of s and of the gate's rate g (point: ds/dq; torque: dθ_link/dq), the
 #: abscissa (0: s; 1: the input angle reduced into [q₀, q₀ + 2π)) and q₀ —, ``xf`` (2, ·) the
-#: tables' abscissae (row 0) and forces or torques (row 1) (few arrays: each array a compiled law
-#: reads costs a reference-count update).  A torque load's generalised force is T·dθ_link/dq, a
+#: tables' abscissae (row 0) and forces or torques (row 1) (few arrays: a law that is not inlined
+#: receives every array as its whole struct, pointer, shape and strides).  A torque load's generalised force is T·dθ_link/dq, a
 #: point load's F·ds/dq: the same product of the magnitude and the gate's rate.
 LoadsP = namedtuple("LoadsP", "spec xf")
 #: the external torque: the linkage's periodic table, the loads

@@ -26,16 +26,32 @@ from ..linkage_kin import ptable_channel
 from .loads import load_abscissa, load_force
 from .topology import GROUND, _ref
 
-#: the MuJoCo loads: live qpos, qvel, qfrc_applied, the input's dof and qpos, h/2, the periodic
-#: table, the loads; damped closures (coefficient, entries dptr[k]..dptr[k+1]: f slot, dof, sign);
-#: loads on slides only (load, s channel… terms aptr[k]..: f slot, qpos, dof, gain); loads through a
-#: chain (load, ds/dq channel, elements cptr[k]..cptr[k+1], point in its link, direction; elements:
-#: f slot, qpos, dof, hinge, p, c, u, φ); work arrays (per element a, b; f per dof) and the dofs;
-#: torque loads (load, dθ/dq channel, the f slots of the link chain's hinges tptr[k]..tptr[k+1])
-LinkageLoadP = namedtuple("LinkageLoadP", "qpos qvel qfrc ina qina h2 tab loads dc dptr dslot ddof dsign "
-                                          "aload akd as0 aptr ai aqa ada akk cload ckd cptr cpt0 cpt1 cdx cdy "
-                                          "ei eqa eda ehinge ep0 ep1 ec0 ec1 eu0 eu1 ephi wa wb f dofs "
-                                          "tload tkd tptr tslot")
+#: the MuJoCo loads' parameters — few arrays: every array a compiled law receives is passed as its
+#: whole struct (pointer, shape, strides …) on every call, so the layout is two tables and a work
+#: array besides the live MuJoCo arrays and the tables of the load laws:
+#:
+#: * ``qpos``, ``qvel``, ``qfrc``: live views of the MuJoCo data; ``tab``: the description's
+#:   periodic table (:func:`~..linkage_kin.ptable_channel`); ``loads``: the loads
+#:   (:func:`~.loads.load_force`);
+#: * ``I`` (rows, 4) int64 and ``F`` (rows, 8) float64, one row each: first the *groups* — damped
+#:   closures [0, ga), loads on slides only [ga, gc), loads through a chain [gc, gt), torque loads
+#:   [gt, ge) — with their entries' rows [I[g, G_START], I[g, G_END]); then those *entries*; then
+#:   the ``nd`` touched dofs at rows [rd, rd + nd) (``E_DOF``; their force is f slot i = row − rd);
+#: * ``W`` (max(rows, nd, 1), 3): work — each touched dof's force (column W_F, row = f slot) and
+#:   each chain element's pivot or slide direction (W_A, W_B, row = the element's row);
+#: * ``ina``, ``qina``: the input's dof and qpos address; ``h2`` = h/2.
+LinkageLoadP = namedtuple("LinkageLoadP", "qpos qvel qfrc tab loads I F W ina qina h2 ga gc gt ge rd nd")
+#: columns of a group's row in ``I`` (its entries' rows, its load, the periodic-table channel of its
+#: gate's rate) and in ``F`` (a damped closure's coefficient c or a slide load's s₀; a chain load's
+#: point in its link and its direction)
+G_START, G_END, G_LOAD, G_KD = range(4)
+G_C, G_PT0, G_PT1, G_DX, G_DY = range(5)
+#: columns of an entry's row in ``I`` (its f slot, qpos and dof addresses, 1 for a hinge) and in ``F``
+#: (a closure entry's sign ±1 or a slide term's gain k; a chain element's p, c, u, φ)
+E_SLOT, E_QPOS, E_DOF, E_HINGE = range(4)
+E_K, E_P0, E_P1, E_C0, E_C1, E_U0, E_U1, E_PHI = range(8)
+#: columns of ``W``
+W_F, W_A, W_B = range(3)
 
 
 # ============================================================================ laws
@@ -50,127 +66,130 @@ def linkage_load(t, P):
     sum of those hinge angles), T at the input's mid-step angle (an angle table: MuJoCo's own input
     angle; a stroke table's s and the gate's dθ_link/dq: the description's kinematics).  The input
     dof's force (the drive torque) is added to, every other touched dof is set."""
-    f = P.f
-    for i in range(len(f)):
-        f[i] = 0.0
-    closure_damping_forces(P)
-    q_mid = P.qpos[P.qina] + P.h2 * P.qvel[P.ina]
-    slide_load_forces(q_mid, P)
-    chain_load_forces(q_mid, P)
-    link_torque_forces(q_mid, P)
-    write_forces(P)
+    W = P.W
+    for i in range(P.nd):
+        W[i, W_F] = 0.0
+    qpos = P.qpos
+    qvel = P.qvel
+    I = P.I
+    F = P.F
+    closure_damping_forces(qvel, I, F, W, 0, P.ga)
+    q_mid = qpos[P.qina] + P.h2 * qvel[P.ina]
+    slide_load_forces(q_mid, qpos, qvel, P.h2, P.tab, P.loads, I, F, W, P.ga, P.gc)
+    chain_load_forces(q_mid, qpos, qvel, P.h2, P.tab, P.loads, I, F, W, P.gc, P.gt)
+    link_torque_forces(q_mid, P.tab, P.loads, I, W, P.gt, P.ge)
+    write_forces(P.qfrc, P.ina, I, W, P.rd, P.nd)
 
 
 @law
-def closure_damping_forces(P):
-    """Into ``P.f``: each damped loop-closing hinge's torque −c·w on the hinges of its two chains
-    (w its relative rate: the plus chain's rates minus the minus chain's)."""
-    f = P.f
-    qvel = P.qvel
-    for k in range(len(P.dc)):
+def closure_damping_forces(qvel, I, F, W, g0, g1):
+    """Into the forces ``W[:, W_F]``: each damped loop-closing hinge g ∈ [g0, g1)'s torque −c·w on the
+    hinges of its two chains (w its relative rate: the plus chain's rates minus the minus chain's)."""
+    for g in range(g0, g1):
+        e0 = I[g, G_START]
+        e1 = I[g, G_END]
         w = 0.0
-        for e in range(P.dptr[k], P.dptr[k + 1]):
-            if P.dsign[e] > 0.0:
-                w = w + qvel[P.ddof[e]]
+        for e in range(e0, e1):
+            if F[e, E_K] > 0.0:
+                w = w + qvel[I[e, E_DOF]]
             else:
-                w = w - qvel[P.ddof[e]]
-        tau = -P.dc[k] * w
-        for e in range(P.dptr[k], P.dptr[k + 1]):
-            if P.dsign[e] > 0.0:
-                f[P.dslot[e]] = f[P.dslot[e]] + tau
+                w = w - qvel[I[e, E_DOF]]
+        tau = -F[g, G_C] * w
+        for e in range(e0, e1):
+            i = I[e, E_SLOT]
+            if F[e, E_K] > 0.0:
+                W[i, W_F] = W[i, W_F] + tau
             else:
-                f[P.dslot[e]] = f[P.dslot[e]] - tau
+                W[i, W_F] = W[i, W_F] - tau
 
 
 @law
-def slide_load_forces(q_mid, P):
-    """Into ``P.f``: the loads on points moved by slides only, s = s₀ + Σ k_i·(slide i at mid-step),
-    force F(s)·k_i on slide i; the gate from ds/dq at the input's mid-step angle ``q_mid``."""
-    f = P.f
-    qpos = P.qpos
-    qvel = P.qvel
-    h2 = P.h2
-    for k in range(len(P.aload)):
-        sv = P.as0[k]
-        for e in range(P.aptr[k], P.aptr[k + 1]):
-            sv = sv + P.akk[e] * (qpos[P.aqa[e]] + h2 * qvel[P.ada[e]])
-        sp = ptable_channel(q_mid, P.akd[k], P.tab)
-        F = load_force(P.aload[k], sv, sp, P.loads)
-        for e in range(P.aptr[k], P.aptr[k + 1]):
-            f[P.ai[e]] = f[P.ai[e]] + F * P.akk[e]
+def slide_load_forces(q_mid, qpos, qvel, h2, tab, loads, I, F, W, g0, g1):
+    """Into the forces ``W[:, W_F]``: the loads g ∈ [g0, g1) on points moved by slides only,
+    s = s₀ + Σ k_i·(slide i at mid-step), force F(s)·k_i on slide i; the gate from ds/dq at the
+    input's mid-step angle ``q_mid``."""
+    for g in range(g0, g1):
+        e0 = I[g, G_START]
+        e1 = I[g, G_END]
+        sv = F[g, G_C]
+        for e in range(e0, e1):
+            sv = sv + F[e, E_K] * (qpos[I[e, E_QPOS]] + h2 * qvel[I[e, E_DOF]])
+        sp = ptable_channel(q_mid, I[g, G_KD], tab)
+        Fs = load_force(I[g, G_LOAD], sv, sp, loads)
+        for e in range(e0, e1):
+            i = I[e, E_SLOT]
+            W[i, W_F] = W[i, W_F] + Fs * F[e, E_K]
 
 
 @law
-def chain_load_forces(q_mid, P):
-    """Into ``P.f``: the loads on points reached through hinges: the point walked down its chain
-    at the mid-step qpos (each element's pivot, or slide direction, kept in ``P.wa``, ``P.wb``),
-    then F(s) through the point Jacobian: (P − pivot) × d on a hinge, u·d on a slide."""
-    f = P.f
-    qpos = P.qpos
-    qvel = P.qvel
-    h2 = P.h2
-    for k in range(len(P.cload)):
+def chain_load_forces(q_mid, qpos, qvel, h2, tab, loads, I, F, W, g0, g1):
+    """Into the forces ``W[:, W_F]``: the loads g ∈ [g0, g1) on points reached through hinges: the
+    point walked down its chain at the mid-step qpos (each element's pivot, or slide direction, kept
+    in ``W[e, W_A]``, ``W[e, W_B]``), then F(s) through the point Jacobian: (P − pivot) × d on a hinge, u·d on a slide."""
+    for g in range(g0, g1):
+        e0 = I[g, G_START]
+        e1 = I[g, G_END]
         th = 0.0
         cP = 1.0
         sP = 0.0
         ox = 0.0
         oy = 0.0
-        for e in range(P.cptr[k], P.cptr[k + 1]):
-            val = qpos[P.eqa[e]] + h2 * qvel[P.eda[e]]
-            px = ox + cP * P.ep0[e] - sP * P.ep1[e]
-            py = oy + sP * P.ep0[e] + cP * P.ep1[e]
-            if P.ehinge[e] != 0.0:
-                P.wa[e] = px
-                P.wb[e] = py
+        for e in range(e0, e1):
+            val = qpos[I[e, E_QPOS]] + h2 * qvel[I[e, E_DOF]]
+            px = ox + cP * F[e, E_P0] - sP * F[e, E_P1]
+            py = oy + sP * F[e, E_P0] + cP * F[e, E_P1]
+            if I[e, E_HINGE] != 0:
+                W[e, W_A] = px
+                W[e, W_B] = py
                 th = th + val
             else:
-                ux = cP * P.eu0[e] - sP * P.eu1[e]
-                uy = sP * P.eu0[e] + cP * P.eu1[e]
+                ux = cP * F[e, E_U0] - sP * F[e, E_U1]
+                uy = sP * F[e, E_U0] + cP * F[e, E_U1]
                 px = px + val * ux
                 py = py + val * uy
-                P.wa[e] = ux
-                P.wb[e] = uy
-                th = th + P.ephi[e]
+                W[e, W_A] = ux
+                W[e, W_B] = uy
+                th = th + F[e, E_PHI]
             cP = math.cos(th)
             sP = math.sin(th)
-            ox = px - (cP * P.ec0[e] - sP * P.ec1[e])
-            oy = py - (sP * P.ec0[e] + cP * P.ec1[e])
-        x = ox + cP * P.cpt0[k] - sP * P.cpt1[k]
-        y = oy + sP * P.cpt0[k] + cP * P.cpt1[k]
-        dx = P.cdx[k]
-        dy = P.cdy[k]
-        sp = ptable_channel(q_mid, P.ckd[k], P.tab)
-        F = load_force(P.cload[k], x * dx + y * dy, sp, P.loads)
-        for e in range(P.cptr[k], P.cptr[k + 1]):
-            if P.ehinge[e] != 0.0:
-                f[P.ei[e]] = f[P.ei[e]] + F * ((P.wb[e] - y) * dx + (x - P.wa[e]) * dy)
+            ox = px - (cP * F[e, E_C0] - sP * F[e, E_C1])
+            oy = py - (sP * F[e, E_C0] + cP * F[e, E_C1])
+        x = ox + cP * F[g, G_PT0] - sP * F[g, G_PT1]
+        y = oy + sP * F[g, G_PT0] + cP * F[g, G_PT1]
+        dx = F[g, G_DX]
+        dy = F[g, G_DY]
+        sp = ptable_channel(q_mid, I[g, G_KD], tab)
+        Fs = load_force(I[g, G_LOAD], x * dx + y * dy, sp, loads)
+        for e in range(e0, e1):
+            i = I[e, E_SLOT]
+            if I[e, E_HINGE] != 0:
+                W[i, W_F] = W[i, W_F] + Fs * ((W[e, W_B] - y) * dx + (x - W[e, W_A]) * dy)
             else:
-                f[P.ei[e]] = f[P.ei[e]] + F * (P.wa[e] * dx + P.wb[e] * dy)
+                W[i, W_F] = W[i, W_F] + Fs * (W[e, W_A] * dx + W[e, W_B] * dy)
 
 
 @law
-def link_torque_forces(q_mid, P):
-    """Into ``P.f``: each torque load T (at the input's mid-step angle) on every hinge of its
-    link's chain from the ground."""
-    f = P.f
-    for k in range(len(P.tload)):
-        i = P.tload[k]
-        T = load_force(i, load_abscissa(i, q_mid, P.loads, P.tab), ptable_channel(q_mid, P.tkd[k], P.tab), P.loads)
-        for e in range(P.tptr[k], P.tptr[k + 1]):
-            f[P.tslot[e]] = f[P.tslot[e]] + T
+def link_torque_forces(q_mid, tab, loads, I, W, g0, g1):
+    """Into the forces ``W[:, W_F]``: each torque load g ∈ [g0, g1) (its magnitude T at the input's
+    mid-step angle) on every hinge of its link's chain from the ground."""
+    for g in range(g0, g1):
+        k = I[g, G_LOAD]
+        T = load_force(k, load_abscissa(k, q_mid, loads, tab), ptable_channel(q_mid, I[g, G_KD], tab), loads)
+        for e in range(I[g, G_START], I[g, G_END]):
+            i = I[e, E_SLOT]
+            W[i, W_F] = W[i, W_F] + T
 
 
 @law
-def write_forces(P):
-    """``P.f`` into ``qfrc_applied``: added on the input dof (it holds the drive torque), set on
-    every other touched dof."""
-    f = P.f
-    for i in range(len(P.dofs)):
-        d = P.dofs[i]
-        if d == P.ina:
-            P.qfrc[d] += f[i]
+def write_forces(qfrc, ina, I, W, rd, nd):
+    """The forces ``W[:nd, W_F]`` into ``qfrc_applied`` at the touched dofs (rows rd … rd + nd of
+    ``I``): added on the input dof ``ina`` (it holds the drive torque), set on every other."""
+    for i in range(nd):
+        d = I[rd + i, E_DOF]
+        if d == ina:
+            qfrc[d] += W[i, W_F]
         else:
-            P.qfrc[d] = f[i]
+            qfrc[d] = W[i, W_F]
 
 
 # ============================================================================ the mechanism's side
@@ -190,15 +209,6 @@ def _affine_terms(cc, pt, d):
     cc_, ss_ = math.cos(th), math.sin(th)
     s0 = (ox + cc_ * pt[0] - ss_ * pt[1]) * d[0] + (oy + ss_ * pt[0] + cc_ * pt[1]) * d[1]
     return float(s0), tuple(terms)
-
-
-def _csr(groups):
-    """(pointers, flat entries) of a list of lists (pointers[k]..pointers[k+1]: group k)."""
-    ptr, flat = [0], []
-    for g in groups:
-        flat += list(g)
-        ptr.append(len(flat))
-    return ptr, flat
 
 
 class MultibodyLoadsMixin:
@@ -269,29 +279,37 @@ class MultibodyLoadsMixin:
         if not self.has_multibody_load():
             return None
         damp, loads, affine, dofs, ina, qina, h2, torques = self._mb_setup(model)
-        tptr, tslot = _csr(slots for _, _, slots in torques)  # torque loads: +T on the f slots of the link's hinges
-        # damped closures: entries (f slot, dof, ±1) of each, in order (plus, then minus)
-        dptr, dent = _csr([(i, d, 1.0) for i, d in plus] + [(i, d, -1.0) for i, d in minus] for _, plus, minus in damp)
-        aptr, at = _csr(terms for _, _, terms, _ in affine)  # loads on slides only: s = s0 + Σ kk·(slide value)
-        cptr, ce = _csr(ch for _, ch, *_ in loads)  # loads through the tree's chain of hinges and slides
-        i64 = (lambda v: np.array(v, dtype=np.int64))
-        f64 = (lambda v: np.array(v, dtype=float))
-        dcols = list(zip(*dent)) if dent else [()] * 3
-        acols = list(zip(*at)) if at else [()] * 4
-        cols = list(zip(*ce)) if ce else [()] * 11
-        P = LinkageLoadP(
-            data.qpos, data.qvel, data.qfrc_applied, ina, qina, h2, self.c.table.P, self.loads_P,
-            f64([cd for cd, _, _ in damp]), i64(dptr), i64(dcols[0]), i64(dcols[1]), f64(dcols[2]),
-            i64([law for _, _, _, law in affine]), i64([kd for kd, _, _, _ in affine]),
-            f64([s0 for _, s0, _, _ in affine]), i64(aptr), i64(acols[0]), i64(acols[1]), i64(acols[2]),
-            f64(acols[3]),
-            i64([ld[-1] for ld in loads]), i64([ld[0] for ld in loads]), i64(cptr),
-            f64([ld[2] for ld in loads]), f64([ld[3] for ld in loads]), f64([ld[4] for ld in loads]),
-            f64([ld[5] for ld in loads]),
-            i64(cols[0]), i64(cols[1]), i64(cols[2]), f64(cols[3]), f64(cols[4]), f64(cols[5]), f64(cols[6]),
-            f64(cols[7]), f64(cols[8]), f64(cols[9]), f64(cols[10]),
-            np.zeros(max(len(ce), 1)), np.zeros(max(len(ce), 1)), np.zeros(max(len(dofs), 1)), i64(dofs),
-            i64([k for k, _, _ in torques]), i64([kd for _, kd, _ in torques]), i64(tptr), i64(tslot))
+        # the groups in order — (I row, F row, entries) — and each entry's (I row, F row): a damped
+        # closure's hinges (f slot, dof; sign ±1), its plus chain then its minus chain; a slide load's
+        # terms (f slot, qpos, dof; gain k); a chain load's elements (f slot, qpos, dof, hinge; p, c,
+        # u, φ); a torque load's hinges (f slot)
+        groups = [((0, 0, 0, 0), (cd,), [((i, 0, d, 0), (1.0,)) for i, d in plus]
+                   + [((i, 0, d, 0), (-1.0,)) for i, d in minus]) for cd, plus, minus in damp]
+        groups += [((0, 0, k, kd), (s0,), [((i, qa, da, 0), (kk,)) for i, qa, da, kk in terms])
+                   for kd, s0, terms, k in affine]
+        groups += [((0, 0, k, kd), (0.0, pt0, pt1, dx, dy), [((i, qa, da, int(hinge)), (0.0,) + tuple(geo))
+                                                             for i, qa, da, hinge, *geo in chain])
+                   for kd, chain, pt0, pt1, dx, dy, k in loads]
+        groups += [((0, 0, k, kd), (), [((i, 0, 0, 0), ()) for i in slots]) for k, kd, slots in torques]
+        ng = len(groups)
+        ne = sum(len(ents) for _, _, ents in groups)
+        rows = ng + ne + len(dofs)
+        Ii = np.zeros((rows, 4), dtype=np.int64)
+        Ff = np.zeros((rows, 8))
+        r = ng
+        for g, (gi, gf, ents) in enumerate(groups):
+            Ii[g] = gi
+            Ii[g, G_START], Ii[g, G_END] = r, r + len(ents)
+            Ff[g, :len(gf)] = gf
+            for ei, ef in ents:
+                Ii[r], Ff[r, :len(ef)] = ei, ef
+                r += 1
+        Ii[r:, E_DOF] = dofs  # the touched dofs: f slot i is dof Ii[ng + ne + i, E_DOF]
+        ga = len(damp)
+        gc = ga + len(affine)
+        gt = gc + len(loads)
+        P = LinkageLoadP(data.qpos, data.qvel, data.qfrc_applied, self.c.table.P, self.loads_P, Ii, Ff,
+                         np.zeros((max(rows, 1), 3)), ina, qina, h2, ga, gc, gt, ng, ng + ne, len(dofs))
         return C.Form(linkage_load, P)
 
     def multibody_load(self, model, data, t: float) -> None:
