@@ -558,10 +558,7 @@ def cutting_force_law(q, P):
 @law
 def cutting_force_at(q, xC, P):
     """:func:`cutting_force_law` with the slider position x_C given (window and sine profiles)."""
-    if P.profile == 0:
-        return 0.0
-    u = (q - P.q0) % P.period
-    if not u < P.arc:
+    if not on_working_stroke(q, P):
         return 0.0
     w = 1.0
     if P.profile != 1:
@@ -574,9 +571,19 @@ def cutting_force_at(q, xC, P):
 
 
 @law
-def cutting_torque(q, P):
-    """The cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m]."""
+def on_working_stroke(q, P):
+    """Whether the cut acts at crank angle q: a profile other than none and (q − q0) mod 2π < arc."""
     if P.profile == 0:
+        return False
+    u = (q - P.q0) % P.period
+    return u < P.arc
+
+
+@law
+def cutting_torque(q, P):
+    """The cutting force reduced to the crank, Q = F_x(q)·dx_C/dq [N·m] (0 on the return stroke,
+    where x_C is not needed: the slider's kinematics are evaluated on the working stroke only)."""
+    if not on_working_stroke(q, P):
         return 0.0
     xC, xd = slider_x(q, P)
     return cutting_force_at(q, xC, P) * xd
