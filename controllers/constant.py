@@ -20,6 +20,7 @@ from mjbench.errors import ParameterError
 from mjbench.fields import OptQ, Q, Strict
 
 from . import register
+from .openloop import ramped
 from .base import Controller
 
 
@@ -49,10 +50,7 @@ ConstantP = namedtuple("ConstantP", "value t_ramp")
 @law
 def constant_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
     """u = ``value`` (ramped linearly from 0 over ``t_ramp`` s when t_ramp > 0)."""
-    tr = P.t_ramp
-    if tr > 0.0 and t < tr:
-        return P.value * (t / tr)
-    return P.value
+    return ramped(P.value, t, P.t_ramp)
 
 
 @register

@@ -25,12 +25,17 @@ OpenP = namedtuple("OpenP", "voltage t_ramp")
 
 
 @law
+def ramped(value, t, tr):
+    """``value``, ramped linearly from 0 over ``tr`` s when tr > 0 (open loop and constant command)."""
+    if tr > 0.0 and t < tr:
+        return value * (t / tr)
+    return value
+
+
+@law
 def open_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
     """V_a = ``voltage`` (ramped linearly from 0 over ``t_ramp`` s when t_ramp > 0)."""
-    tr = P.t_ramp
-    if tr > 0.0 and t < tr:
-        return P.voltage * (t / tr)
-    return P.voltage
+    return ramped(P.voltage, t, P.t_ramp)
 
 
 @register

@@ -129,6 +129,15 @@ class _Base(Fmi2Slave):
         self.t0 = float(start_time or 0.0)
         self.t_stop = None if stop_time is None else float(stop_time) - self.t0
 
+    def do_step(self, current_time, step_size):
+        """One communication step: the session advances from current_time by step_size (an error is
+        logged through the FMI logger and reported as a failed step)."""
+        try:
+            self.session.step(float(current_time) - self.t0, float(step_size))
+            return True
+        except Exception as e:  # noqa: BLE001
+            return self._fail(e)
+
     def _fail(self, e) -> bool:
         self.log(f"{type(e).__name__}: {e}", Fmi2Status.error)
         from mjbench.errors import MjbenchError
@@ -166,12 +175,6 @@ class PlantSlave(_Base):
             self._fail(e)
             raise
 
-    def do_step(self, current_time, step_size):
-        try:
-            self.session.step(float(current_time) - self.t0, float(step_size))
-            return True
-        except Exception as e:  # noqa: BLE001
-            return self._fail(e)
 
     def terminate(self):
         self.session.finish()
@@ -200,9 +203,3 @@ class ControllerSlave(_Base):
     def exit_initialization_mode(self):
         self.session.start()
 
-    def do_step(self, current_time, step_size):
-        try:
-            self.session.step(float(current_time) - self.t0, float(step_size))
-            return True
-        except Exception as e:  # noqa: BLE001
-            return self._fail(e)
