@@ -79,5 +79,5 @@ def _fig4(runs, path, setpoint, title, chi):
         col[-1].set_xlabel("time t [s]")
     if title:
         suptitle(fig, title, fontsize=11)
-    fig.tight_layout()
+    # laid out once, when drawn: the style's tight layout engine (plotstyle.RC "figure.autolayout")
     return save(fig, path, tight=False)

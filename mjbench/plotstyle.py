@@ -109,7 +109,8 @@ def suptitle(fig, text, **kw):
 def finish(fig, title=None):
     if title:
         suptitle(fig, title, fontsize=10.5)
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:  # else laid out once, when drawn (RC "figure.autolayout")
+        fig.tight_layout()
     return fig
 
 
