@@ -50,8 +50,9 @@ ZERO_RATIO = 0.25
 POSITION_RATIO = 0.25
 #: tuning box: each servo gain within ×/÷ this factor of the design rule's
 BOX = 3.0
-#: longest verification run [cycles]
+#: longest verification run [cycles]; at most this many runs, each twice as long as the last
 MAX_CYCLES = 60
+ATTEMPTS = 6
 
 
 # ============================================================================ the law
@@ -470,15 +471,44 @@ def checks_of(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float) ->
 # ============================================================================ the command's law branch
 def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, verify=True, tune=None) -> dict:
     """Sizing, control, verification and outputs of a motion-law duty (after the synthesis of
-    :func:`mjbench.design.pipeline.design`, whose ``res`` this continues)."""
-    from .. import mechanisms as MR
+    :func:`mjbench.design.pipeline.design`, whose ``res`` this continues): the stages of the module
+    doc, one function each below."""
     from .. import scenario as SC
-    from ..errors import ParameterError
     from . import pipeline as PL
 
-    failures = []
     law, T_c = law_of(req)
     res["duty"].update(law=describe(req, law, T_c), tracking_error_max_rad=req.duty.tracking_error_max)
+    load, sz, failures, stop = _sizing_stage(req, cat, table, law, T_c, res, clock, log)
+    if stop:
+        return PL._finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
+    cand = sz.chosen
+    log(f"chosen: {cand.label}; RMS motor torque {cand.summary['motor_torque_rms_Nm']:.4g} N·m, peak tracking error "
+        f"{cand.summary['tracking_peak_rad']:.4g} rad")
+    M_mean = load.J_mean + cand.drive.J_eq
+    do_tune = req.control.tune if tune is None else tune
+    final, ctl = _control_stage(req, table, cand, load, law, T_c, M_mean, do_tune, clock)
+    t_end = _prediction(res, ctl, final, req, law, T_c, M_mean)
+    scn_doc = machine_scenario(req, table, final, law, T_c, t_end)
+    scn = SC.from_raw(scn_doc, f"design:{req.name}")
+    res["machine"] = scn_doc
+    ach, trs = None, {}
+    if verify:
+        scn_doc, scn, ach, trs = _verification(req, res, table, final, law, T_c, t_end, scn_doc, scn, clock)
+        failures += _checks(res, req, final, ach)
+    failures += _analysis_stage(req, res, syn, scn, final, ach, clock)
+    res["_trajectories"] = trs
+    return PL._finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log)
+
+
+def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
+    """Stage "sizing" (stage 1, the catalogue search) → (load model, LawSizing, failures, stop):
+    ``stop`` when no candidate is chosen or the chosen one fails at full resolution
+    (``res["closest"]``: the best one, its failing checks in ``failures``); ``res`` gets ``sizing``
+    and ``_sizing``."""
+    from .. import mechanisms as MR
+    from ..errors import ParameterError
+
+    failures = []
     with clock("sizing"):
         mech = MR.from_dict(table)
         if mech.internal or getattr(getattr(mech, "_tab", None), "lo", None) is not None:
@@ -494,63 +524,83 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
     if sz.chosen is None or not sz.chosen.ok:
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
         res["closest"] = best.describe()
-        return PL._finish(res, req, failures, None, clock, t0c, t0w, out, force, log)
-    cand = sz.chosen
-    log(f"chosen: {cand.label}; RMS motor torque {cand.summary['motor_torque_rms_Nm']:.4g} N·m, peak tracking error "
-        f"{cand.summary['tracking_peak_rad']:.4g} rad")
-    M_mean = load.J_mean + cand.drive.J_eq
+        return load, sz, failures, True
+    return load, sz, failures, False
+
+
+def _run_length(drive, M_mean, g: ServoGains, req, T_c):
+    """(verification run length [s]: the cycles asked plus the loop's settling, at most MAX_CYCLES,
+    on the recording grid; the settling time [s])."""
+    ts = settling_time(drive, M_mean, g)
+    n = req.verify.cycles + math.ceil((ts if math.isfinite(ts) else 0.0) / T_c)
+    return on_grid(min(n, MAX_CYCLES) * T_c, req, T_c), ts
+
+
+def _control_stage(req, table, cand, load, law, T_c, M_mean, do_tune, clock):
+    """Stage "tuning" → (the final candidate, the ``control`` entry so far): the design rule's gains
+    (stage 2), the box ×/÷ BOX around them, then ``mjbench.tune`` within it when ``do_tune``
+    (stage 4); the tuned gains kept only if the harmonic balance accepts them."""
     g0 = cand.gains
     ctl = {"controller": "servo (cascade: P position, PI velocity, feed-forward)",
            "design_rule": {"gains": g0.as_dict(), "velocity_crossover_rad_s": req.control.tracking_bandwidth_ratio
                            * TWO_PI / float(law.T), "zero_ratio": ZERO_RATIO, "position_ratio": POSITION_RATIO,
                            "basis": "velocity PI crossover ω_v on the mean-inertia plant, its zero at ω_v/4; position "
                                     "loop K_pp = ω_v/4; feed-forward K_ffv = k_m + R·λ/k_m, K_ffa = R·M̄/(η·z²·k_m)"}}
-
-    def run_length(g):
-        ts = settling_time(cand.drive, M_mean, g)
-        n = req.verify.cycles + math.ceil((ts if math.isfinite(ts) else 0.0) / T_c)
-        return on_grid(min(n, MAX_CYCLES) * T_c, req, T_c), ts
-
-    do_tune = req.control.tune if tune is None else tune
     final = cand
     with clock("tuning"):
         box = {k: (getattr(g0, k) / BOX, getattr(g0, k) * BOX) for k in ("kpp", "kvp", "kvi")}
         ctl["box"] = {k: list(v) for k, v in box.items()}
         if do_tune:
-            from .. import tune as T
-
-            t_end, _ = run_length(g0)
-            scn0 = SC.from_raw(machine_scenario(req, table, cand, law, T_c, t_end), f"design:{req.name}")
-            c = req.control
-            try:
-                tr = T.tune(scn0, controller="servo", objective=c.objective,
-                            limits={"voltage": float(req.drive.supply_voltage), "current": float(scn0.drive.i_max)},
-                            n_global=c.n_global, starts=1, maxfev=c.maxfev, bounds=box, seed=0, t_end=t_end,
-                            backend="reduced", verify=1, margins=list(c.margins), margin_mode="penalty",
-                            margin_angles=c.margin_angles, log=lambda *_: None)
-                gt = ServoGains(tr.best["kpp"], tr.best["kvp"], tr.best["kvi"], g0.kffv, g0.kffa)
-                ctl["tune"] = {"best": tr.best, "baseline": tr.baseline, "objective": tr.objective,
-                               "search": PL._clean_metrics(tr.search), "validation": PL._clean_metrics(tr.validation),
-                               "evaluations": tr.history.get("evaluations"), "at_bound": tr.history.get("at_bound"),
-                               "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
-                tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, 0.0, gt, cost=cand.cost)
-                finalize(tuned, load, req, law, T_c)
-                if tuned.ok:
-                    final = tuned
-                    ctl["source"] = "tuned (mjbench.tune, servo, " + c.objective + "), accepted by the sizing model"
-                else:
-                    ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
-                                     + "; ".join(x["name"] for x in tuned.checks if not x["ok"]) + ")")
-            except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
-                ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+            final = _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl)
         else:
             ctl["source"] = "design rule ([control] tune = false)"
+    return final, ctl
+
+
+def _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl):
+    """``mjbench.tune`` (controller ``servo``) from the candidate's gains within ``box`` on the
+    reduced backend (``ctl``: ``tune``, ``source``) → the tuned candidate if the harmonic balance
+    accepts it, else ``cand``."""
+    from .. import scenario as SC
+    from .. import tune as T
+    from . import pipeline as PL
+
+    g0 = cand.gains
+    t_end, _ = _run_length(cand.drive, M_mean, g0, req, T_c)
+    scn0 = SC.from_raw(machine_scenario(req, table, cand, law, T_c, t_end), f"design:{req.name}")
+    c = req.control
+    try:
+        tr = T.tune(scn0, controller="servo", objective=c.objective,
+                    limits={"voltage": float(req.drive.supply_voltage), "current": float(scn0.drive.i_max)},
+                    n_global=c.n_global, starts=1, maxfev=c.maxfev, bounds=box, seed=0, t_end=t_end,
+                    backend="reduced", verify=1, margins=list(c.margins), margin_mode="penalty",
+                    margin_angles=c.margin_angles, log=lambda *_: None)
+        gt = ServoGains(tr.best["kpp"], tr.best["kvp"], tr.best["kvi"], g0.kffv, g0.kffa)
+        ctl["tune"] = {"best": tr.best, "baseline": tr.baseline, "objective": tr.objective,
+                       "search": PL._clean_metrics(tr.search), "validation": PL._clean_metrics(tr.validation),
+                       "evaluations": tr.history.get("evaluations"), "at_bound": tr.history.get("at_bound"),
+                       "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
+        tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, 0.0, gt, cost=cand.cost)
+        finalize(tuned, load, req, law, T_c)
+        if tuned.ok:
+            ctl["source"] = "tuned (mjbench.tune, servo, " + c.objective + "), accepted by the sizing model"
+            return tuned
+        ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
+                         + "; ".join(x["name"] for x in tuned.checks if not x["ok"]) + ")")
+    except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
+        ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+    return cand
+
+
+def _prediction(res, ctl, final, req, law, T_c, M_mean):
+    """The final gains' loop figures into ``ctl`` (then ``res["control"]``), the predicted figures
+    (``res["prediction"]``, ``res["chosen"]``, ``res["_final"]``) → the verification run's length [s]."""
     gains = final.gains
     ctl["final"] = gains.as_dict()
     poles = closed_loop_poles(final.drive, M_mean, gains)
     ctl["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
     ctl["slowest_decay_1_s"] = float(-max(p.real for p in poles))
-    t_end, t_settle = run_length(gains)
+    t_end, t_settle = _run_length(final.drive, M_mean, gains, req, T_c)
     ctl["settling_time_s"] = t_settle
     res["control"] = ctl
     res["prediction"] = {**final.summary, "thermal": final.thermal,
@@ -563,41 +613,58 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
             "static load in the dwell the RMS figures agree less closely (docs/design.md §7: 1-3 % measured)")
     res["chosen"] = final.describe()
     res["_final"] = final
-    scn_doc = machine_scenario(req, table, final, law, T_c, t_end)
-    scn = SC.from_raw(scn_doc, f"design:{req.name}")
-    res["machine"] = scn_doc
-    ach, trs = None, {}
-    if verify:
-        with clock("verification"):
-            from ..backends import simulate
-            from ..runner import backend_options
+    return t_end
 
-            z = float(final.drive.z)
-            for _ in range(6):
-                mach = SC.make_machine(scn)
-                ref = mach.controller.reference
 
-                def ref_angle(t, ref=ref):
-                    return ref.reference_angle(t) / z
+def _verification(req, res, table, final, law, T_c, t_end, scn_doc, scn, clock):
+    """Stage "verification" (stage 5): the machine (``scn_doc``, ``scn``: run length ``t_end``) on the
+    multibody backend from rest, longer runs (up to MAX_CYCLES) until its last two cycles agree →
+    (scenario doc, scenario, achieved figures of the last cycle, {"multibody": trajectory});
+    ``res``: ``machine`` (a longer run), ``verification``."""
+    from .. import scenario as SC
 
-                tr = simulate(mach, "multibody", t_end, record_dt=scn.simulation.record_dt,
-                              options=backend_options(scn, "multibody"))
-                drift = periodicity(tr, ref_angle, T_c)
-                if drift <= 0.05 * req.verify.tolerance or t_end >= MAX_CYCLES * T_c - 1e-9:
-                    break
-                t_end = on_grid(min(MAX_CYCLES, 2 * round(t_end / T_c)) * T_c, req, T_c)
-                scn_doc = machine_scenario(req, table, final, law, T_c, t_end)
-                scn = SC.from_raw(scn_doc, f"design:{req.name}")
-                res["machine"] = scn_doc
-            ach = measure(tr, final.drive, ref_angle, T_c, final.motor, req.duty.ambient_temperature)
-            trs["multibody"] = tr
-        res["verification"] = {"backend": "multibody", "t_end_s": t_end, "achieved": ach,
-                               "last_two_cycles_rel_diff": drift, "loop": tr.meta.get("loop", "")}
-        res["checks"] = checks_of(final.summary, ach, final.thermal, req.duty.ambient_temperature, req.verify.tolerance)
-        failures += [dict(constraint(f"check: {c['name']}", c["achieved"], compare="true", ok=False,
-                                     note=f"predicted {c['predicted']:.6g}, rel. diff {c['rel_diff']:+.3g} > "
-                                          f"{c['tolerance']:.3g}"), stage="verification")
-                     for c in res["checks"] if not c["ok"]]
+    with clock("verification"):
+        from ..backends import simulate
+        from ..runner import backend_options
+
+        z = float(final.drive.z)
+        for attempt in range(ATTEMPTS):
+            mach = SC.make_machine(scn)
+            ref = mach.controller.reference
+
+            def ref_angle(t, ref=ref):
+                return ref.reference_angle(t) / z
+
+            tr = simulate(mach, "multibody", t_end, record_dt=scn.simulation.record_dt,
+                          options=backend_options(scn, "multibody"))
+            drift = periodicity(tr, ref_angle, T_c)
+            if drift <= 0.05 * req.verify.tolerance or t_end >= MAX_CYCLES * T_c - 1e-9 or attempt == ATTEMPTS - 1:
+                break  # (the last attempt's run is the one reported: t_end, machine.toml describe it)
+            t_end = on_grid(min(MAX_CYCLES, 2 * round(t_end / T_c)) * T_c, req, T_c)
+            scn_doc = machine_scenario(req, table, final, law, T_c, t_end)
+            scn = SC.from_raw(scn_doc, f"design:{req.name}")
+            res["machine"] = scn_doc
+        ach = measure(tr, final.drive, ref_angle, T_c, final.motor, req.duty.ambient_temperature)
+    res["verification"] = {"backend": "multibody", "t_end_s": t_end, "achieved": ach,
+                           "last_two_cycles_rel_diff": drift, "loop": tr.meta.get("loop", "")}
+    return scn_doc, scn, ach, {"multibody": tr}
+
+
+def _checks(res, req, final, ach) -> list:
+    """``res["checks"]``: the prediction against the multibody run (:func:`checks_of`) → the failing
+    ones as failures of stage "verification"."""
+    res["checks"] = checks_of(final.summary, ach, final.thermal, req.duty.ambient_temperature, req.verify.tolerance)
+    return [dict(constraint(f"check: {c['name']}", c["achieved"], compare="true", ok=False,
+                            note=f"predicted {c['predicted']:.6g}, rel. diff {c['rel_diff']:+.3g} > "
+                                 f"{c['tolerance']:.3g}"), stage="verification")
+            for c in res["checks"] if not c["ok"]]
+
+
+def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
+    """Stage "analysis": ``res["requirements_table"]`` (the pipeline's rows, plus the tracking error's
+    when verified) → its failing rows as failures of stage "requirements"."""
+    from . import pipeline as PL
+
     with clock("analysis"):
         rows = PL.requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
         if ach is not None:
@@ -608,9 +675,7 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
                                 ok=None if lim is not None else True))
             rows.append(PL._row("RMS tracking error", None, ach["tracking_rms_rad"], "info", "rad", src, ok=True))
         res["requirements_table"] = rows
-    failures += [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
-    res["_trajectories"] = trs
-    return PL._finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log)
+    return [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
 
 
 # ============================================================================ figure
