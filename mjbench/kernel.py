@@ -34,7 +34,7 @@ kernel, against ≈ 2–3 µs saved per co-step: :data:`MIN_STEPS`), or numba is
 (``meta["loop"]``, ``meta["loop_reason"]``).
 
 **Chunks.**  The loop runs a range of steps and keeps its state in arrays, so a run is executed in
-chunks of ≈ 0.1 s: progress bars advance, Ctrl-C and SIGTERM stop a compiled run within a chunk.
+chunks of ≈ 0.05 s (:data:`CHUNK_S`): progress bars advance, Ctrl-C and SIGTERM stop a compiled run within a chunk.
 
 Slot signatures (P: the component's parameter tuple, S: its state array):
 

@@ -9,15 +9,17 @@ Stages
    ``maxfev`` evaluations per start.  Nelder–Mead because χ is a max−min of a sampled signal:
    piecewise smooth, no useful gradient.
 3. **Verification**: the ``verify`` best distinct candidates (local winners first, then the best
-   global ones) re-simulated together on the multibody backend (``mujoco.batch``); the winner is
-   the best *verified* candidate, and it and the scenario's gains are then run by the single-run
+   global ones) re-simulated together on the multibody backend (:mod:`mjbench.backends.batch`:
+   independent runs, the same numbers as single runs); the winner is the best *verified*
+   candidate, and it and the scenario's gains are then run by the single-run
    ``multibody.simulate``.  The report states the search figure, the MuJoCo figure and their
    difference.
 
-Search backend (``backend``): ``reduced`` (default; the batched reduced model,
-:mod:`mjbench.backends.reduced_batch`, ≈ 15× cheaper per run-step than ``mujoco.batch``; with numba
-installed, the compiled co-step of :mod:`mjbench.backends.fused` — the same bits, ≈ 50× cheaper than
-the Python kernel's single run, so the sequential Nelder–Mead stage costs ≈ 0.05 s) or
+Search backend (``backend``): ``reduced`` (default; the reduced model, batched by
+:mod:`mjbench.backends.reduced_batch`; every run, the sequential Nelder–Mead stage's single runs
+included, executes the compiled co-step loop of :mod:`mjbench.kernel` — loaded up front by
+:func:`mjbench.kernel.preload` when the planned co-steps pay numba's start-up — with the same bits
+as the CPython loop, ≈ 0.05 µs per co-step, ≈ 1/180 of a MuJoCo co-step; docs/performance.md) or
 ``multibody`` (search on MuJoCo itself; the verification then repeats the search's numbers).
 
 Objective (minimised, penalised): the metric plus 10 × the relative excess of the peak |voltage|

@@ -47,7 +47,7 @@ def test_open_loop_per_sim_voltage_and_threads():
     np.testing.assert_array_equal(r1.data, r2.data)  # bit-identical at any thread count
     single = multibody.simulate(machines[2], 0.05, record_dt=1e-3)
     np.testing.assert_allclose(r1.trajectory(2).data[:, :10], single.data[:, :10], rtol=0, atol=1e-12)
-    # one simulation through mujoco.batch (no single-run fast path) is the same too
+    # a batch of one simulation is the same too
     one = batch.simulate(machines[2:], 0.05, record_dt=1e-3)
     np.testing.assert_allclose(one.trajectory(0).data[:, :10], single.data[:, :10], rtol=0, atol=1e-12)
     # higher voltage → faster start-up

@@ -12,7 +12,7 @@ from mjbench.cli import main
 
 
 def test_batch_equals_single_runs_with_a_point_load():
-    """Press (forming load + counterbalance spring) at two armature resistances: mujoco.batch =
+    """Press (forming load + counterbalance spring) at two armature resistances: the batch =
     single runs to round-off."""
     scn = S.load("press-slidercrank")
     machines = [S.make_machine(S.with_values(scn, {"drive.R": R}), "pi") for R in (0.25, 0.35)]

@@ -209,7 +209,8 @@ def simulate_many(targets: Sequence[Scenario | Machine | str | Any], backend: st
         Scenarios must share ``simulation.dt``, ``record_dt`` and the backend options (one
         batch); machines share ``dt`` and ``record_dt`` given here.
     backend : {"reduced", "multibody", "both"}
-        ``reduced``: N reduced models as (N,) arrays; ``multibody``: ``mujoco.batch``.
+        ``reduced``: N reduced models; ``multibody``: N MuJoCo models (N independent runs of the one
+        compiled loop, on threads: :mod:`mjbench.backends.batch`).
     t_end : float or str, optional
         Simulated time [s]; default the first scenario's ``simulation.t_end`` (required for
         machines).

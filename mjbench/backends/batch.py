@@ -5,7 +5,8 @@ tests/test_batch.py): each simulation is a :class:`~mjbench.machine.Machine` (bu
 scenario) with its own MuJoCo data (one compiled model per distinct machine: compiling is what
 ``multibody.simulate`` does, so the models are the same and derived constants stay consistent)
 or its own reduced plant.  The kernel compiles the loop once for the batch's composition and runs
-the simulations one after the other on it.
+the simulations on it, on threads when compiled (the loop releases the GIL; each run's bits are the
+same at any thread count), else one after the other.
 
 A simulation that diverges is marked in ``BatchResult.diverged`` with its time and message, its
 rows stop there; the others continue.

@@ -33,11 +33,11 @@ def register(sub):
                         "up to 256 (multibody) / 1024 (reduced), at least two chunks per Dask worker)")
     p.add_argument("--backend", default="reduced", choices=["reduced", "multibody"],
                    help="reduced (default: the batched reduced model; the --verify best rows are then re-run on "
-                        "the multibody backend) or multibody (mujoco.batch)")
+                        "the multibody backend) or multibody (MuJoCo, one model per distinct row)")
     p.add_argument("--verify", type=integer(ge=0, le=1000), default=None,
                    help="best rows (smallest --metric) re-run on the multibody backend, written to verify.csv "
                         "(default 3; 0: none)")
-    p.add_argument("--threads", type=integer(ge=0, le=1024), default=0, help="MuJoCo batch threads per chunk (0: all CPUs)")
+    p.add_argument("--threads", type=integer(ge=0, le=1024), default=0, help="threads per chunk (the compiled loop runs the chunk's simulations on them; 0: all CPUs)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://host:port (pip install mjbench[dask])")
     p.add_argument("--metric", help="metric of the summary plots (default chi_window, else chi_last_cycle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -12,8 +12,8 @@ of ``--set``, aliases included).  Rows come from
 Rows are simulated in *chunks* (``chunk_size`` rows, in row order; default: it follows the
 number of rows, :func:`auto_chunk`) by :func:`run_chunk`: one batch of the chunk's machines on the
 sweep's ``backend`` — ``reduced`` (default: the batched reduced model,
-:mod:`mjbench.backends.reduced_batch`) or ``multibody`` (``mujoco.batch``, per-row models via
-``set_models`` where masses or geometry differ) — the same pure function locally and on a Dask
+:mod:`mjbench.backends.reduced_batch`) or ``multibody`` (:mod:`mjbench.backends.batch`: one MuJoCo model per
+distinct row where masses or geometry differ) — the same pure function locally and on a Dask
 worker, so the table is identical either way (tests/test_sweep.py).  With the reduced backend the
 ``verify`` best rows (by the summary metric) are then re-run on the multibody backend and
 written to ``verify.csv`` with both figures and their difference (:func:`verify_best`).

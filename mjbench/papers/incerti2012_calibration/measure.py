@@ -65,7 +65,7 @@ def _options(scn, backend, dt):
 def measure_many(scns, dt=None, record_dt=None, backend="reduced", t_open=None, refine=False):
     """:func:`measure` of many scenarios (same dt, record step, χ window and run lengths), their
     open-loop and PID runs each simulated together (``simulate_many``: the batched reduced model,
-    or ``mujoco.batch``).  Returns a list of measurement dicts, or the error message (str) of a
+    or the MuJoCo batch of :mod:`mjbench.backends.batch`).  Returns a list of measurement dicts, or the error message (str) of a
     scenario whose run diverged."""
     if not scns:
         return []
