@@ -215,3 +215,31 @@ def test_signal_stops_a_compiled_run_within_a_second(tmp_path, sig):
     assert elapsed < 1.0, elapsed
     assert p.returncode != 0
     assert not out_dir.exists() or not any(out_dir.iterdir())  # no partial output
+
+
+def test_a_law_whose_source_changed_after_import_is_refused(tmp_path, monkeypatch):
+    """The compiled loop re-reads a law's source (specialisation): an edit of the file after the
+    import must give a clear error, never the neighbouring function's code (lines shifted)."""
+    import ast
+    import importlib
+    import inspect
+    import sys
+    import textwrap
+
+    from mjbench.compiled import jit
+    from mjbench.errors import MjbenchError
+
+    mod = tmp_path / "law_edit_mod.py"
+    mod.write_text("def first(x):\n    return x + 1.0\n\n\ndef second(x):\n    return 2.0 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    m = importlib.import_module("law_edit_mod")
+    try:
+        for fn in (m.first, m.second):  # unchanged: accepted
+            tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+            jit._check_source(fn, tree, tree.body[0])
+        mod.write_text("# two lines\n# shifted\ndef first(x):\n    return x + 1.0\n\n\ndef second(x):\n    return 2.0 * x\n")
+        tree = ast.parse(textwrap.dedent(inspect.getsource(m.second)))  # now the wrong lines
+        with pytest.raises(MjbenchError, match="law_edit_mod.second: its source file changed"):
+            jit._check_source(m.second, tree, tree.body[0])
+    finally:
+        sys.modules.pop("law_edit_mod", None)

@@ -179,6 +179,28 @@ def _bind_text(name, form, lines, mods, inmemory):
     lines += _specialise(name, fn, argn, mods)
 
 
+def _check_source(fn, tree, fdef) -> None:
+    """The source read from disk is the law that runs: its file may have changed since the module was
+    imported (an edit during a run: the lines then name another function, or other code).  The source
+    read, compiled, must define the function's name with its parameters, names and constants (its
+    bytecode itself may differ: the interpreter can rewrite a running function's)."""
+    import types
+
+    code = compile(tree, inspect.getsourcefile(fn) or "<law>", "exec")
+    consts = [c for c in code.co_consts if isinstance(c, types.CodeType)]
+
+    def sig(c):
+        return (c.co_name, c.co_argcount, c.co_varnames, c.co_names,
+                tuple(repr(k) for k in c.co_consts if not isinstance(k, types.CodeType)))
+
+    same = getattr(fdef, "name", None) == fn.__name__ and len(consts) == 1 and sig(consts[0]) == sig(fn.__code__)
+    if not same:
+        from ..errors import MjbenchError
+
+        raise MjbenchError(f"law {fn.__module__}.{fn.__qualname__}: its source file changed after it was imported; "
+                           "start the command again (the compiled loop is built from the law's source)")
+
+
 def _specialise(name, fn, argn, mods):
     """The law ``fn`` re-defined as ``name`` with its first len(argn) parameters bound to the
     globals ``argn`` and its own free globals imported from its module under private names."""
@@ -187,6 +209,7 @@ def _specialise(name, fn, argn, mods):
 
     tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
     fdef = tree.body[0]
+    _check_source(fn, tree, fdef)
     fdef.decorator_list = []
     fdef.name = name
     removed = [a.arg for a in fdef.args.args[:len(argn)]]
