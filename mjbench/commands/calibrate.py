@@ -82,7 +82,7 @@ def _calibrate(args, scn, names, out):
 
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,
                       n_screen=args.screen, polish=args.polish_nfev > 0, polish_nfev=max(args.polish_nfev, 1),
-                      jobs=args.jobs, progress=not args.no_progress, select=args.select, backend=args.backend)
+                      jobs=args.jobs, progress=not args.no_progress and sys.stderr.isatty(), select=args.select, backend=args.backend)
     res["command"] = "mjbench " + " ".join(sys.argv[1:]) if sys.argv and "mjbench" in sys.argv[0] else None
     print(C.table(res))
     if out is not None:

@@ -33,7 +33,8 @@ def main(args) -> int:
     scn = api.load(args.scenario, args.overrides)
     final = args.out or os.path.join("results", f"{scn.name}-optimize-law")
     check_out_dir(final, force=args.force)
-    res = api.optimize_motion_law(scn, multibody=False if args.no_multibody else None, progress=True)
+    res = api.optimize_motion_law(scn, multibody=False if args.no_multibody else None,
+                                   progress=sys.stderr.isatty())
     res.save(final, force=args.force, plots=not args.no_plots, what="--out")
     print(res.summary())
     for w in res.warnings:

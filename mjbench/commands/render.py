@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import sys
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
@@ -41,7 +42,7 @@ def run(args) -> int:
     outputs.route_mujoco_log()
     scn = api.load(args.scenario, args.set)
     info = api.render_video(scn, args.out, mode=args.mode, fps=args.fps, width=args.width, height=args.height,
-                            t_end=args.t_end, crf=args.crf, progress=not args.no_progress, what="--out")
+                            t_end=args.t_end, crf=args.crf, progress=not args.no_progress and sys.stderr.isatty(), what="--out")
     print(f"wrote {info['path']}: {info['frames']} frames {info['width']}x{info['height']} at {info['fps']:g} fps "
           f"({info['duration_s']:.2f} s video); simulation {info['sim_s']:.2f} s, rendering+encoding "
           f"{info['wall_s']:.1f} s ({info['frames_per_s']:.1f} frames/s, OpenGL: {info['gl']})")
