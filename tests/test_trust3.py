@@ -495,3 +495,37 @@ def test_incomplete_mp4_is_not_saved(tmp_path):
     p.write_bytes(b"\x00\x00\x00\x10ftypisom\x00\x00\x00\x00" + b"\x00\x00\x10\x00mdat" + b"\x00" * 100)
     with pytest.raises((RenderError, OSError)):
         _check_mp4(str(p), str(p))
+
+
+def test_ffmpeg_that_stops_reading_frames_is_one_line(tmp_path, monkeypatch):
+    """ffmpeg exits at the MP4 header (a full disk): imageio-ffmpeg raises a broken pipe with its
+    whole command line; the writer turns it into ENOSPC (disk full) or one line naming --out."""
+    from collections import namedtuple
+
+    import numpy as np
+
+    from mjbench.render import RenderError
+    from mjbench.render.video import VideoWriter
+
+    class Dead:
+        def send(self, frame):
+            raise BrokenPipeError("[Errno 32] Broken pipe\n\nFFMPEG COMMAND:\nffmpeg -y -f rawvideo ...\n\nFFMPEG STDERR")
+
+        def close(self):
+            pass
+
+    Usage = namedtuple("Usage", "total used free")
+    frame = np.zeros((16, 16, 3), np.uint8)
+    for free, want in ((4096, OSError), (10 ** 9, RenderError)):
+        monkeypatch.setattr(shutil, "disk_usage", lambda p, free=free: Usage(10 ** 10, 10 ** 10 - free, free))
+        w = VideoWriter.__new__(VideoWriter)
+        w.path, w.ext, w.n, w._gen = str(tmp_path / "v.mp4"), ".mp4", 3, Dead()
+        w.tmp = str(tmp_path / ".tmp-v.mp4")
+        with pytest.raises(want) as ei:
+            w.write(frame)
+        msg = str(ei.value)
+        assert "\n" not in msg and "FFMPEG COMMAND" not in msg
+        if want is OSError:
+            assert ei.value.errno == errno.ENOSPC
+        else:
+            assert "ffmpeg stopped writing the video after 3 frames ([Errno 32] Broken pipe)" in msg and "v.mp4" in msg

@@ -190,8 +190,11 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
-    rec = kernel.run(plant, machine, t_end, record_dt, progress, backend="reduced", loop=loop)
+    from .table import composing
+
+    with composing():  # the mechanism's description key: once for the table and the machine check
+        plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
+        rec = kernel.run(plant, machine, t_end, record_dt, progress, backend="reduced", loop=loop)
     return Trajectory.from_record(rec, "reduced")
 
 

@@ -31,9 +31,12 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
                              "(solve_ivp: run the simulations one by one)")
     model = model or o.get("model", "table")
     kernel.check_times(t_end, h, record_dt)
-    plants = [ReducedPlant(mc, h, "rk4", model=model, record_joints=bool(o.get("record_joints"))) for mc in machines]
-    rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="reduced", loop=loop,
-                          consume=consumer(consume, "reduced"))
+    from .table import composing
+
+    with composing():  # each mechanism's description key: once for its table and the machine check
+        plants = [ReducedPlant(mc, h, "rk4", model=model, record_joints=bool(o.get("record_joints"))) for mc in machines]
+        rec = kernel.run_many(plants, machines, t_end, record_dt, progress, backend="reduced", loop=loop,
+                              consume=consumer(consume, "reduced"))
     rec.meta.pop("div_state", None)
     return BatchResult(rec)
 

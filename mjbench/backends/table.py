@@ -5,7 +5,8 @@ E_p'(q) (seed 000 Eqs 10-13) — closed forms full of trigonometry and square ro
 four-bar evaluation in Python).  They depend on the input coordinate only and are periodic in it
 (one crank turn, ``Mechanism.reduced_period``), so we tabulate them once per mechanism:
 
-* a periodic cubic spline (``scipy.interpolate.CubicSpline(bc_type="periodic")``) of each
+* a periodic cubic spline (:func:`mjbench.spline.periodic_cubic`, the spline of
+  ``scipy.interpolate.CubicSpline(bc_type="periodic")`` solved by one FFT on the uniform nodes) of each
   quantity on a uniform grid of n nodes over the period; its coefficients are stored per cell in
   the cell's local coordinate f ∈ [0, 1) so that a lookup is ``i = ⌊q·n/P⌋ mod n``,
   ``f = q·n/P − ⌊q·n/P⌋`` and one Horner evaluation ``((c₃f + c₂)f + c₁)f + c₀`` per quantity —
@@ -36,6 +37,8 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ..spline import periodic_cubic
+
 from ..compiled import law
 from ..errors import ParameterError
 
@@ -59,8 +62,6 @@ class ReducedTable:
     quantity in ``errors``)."""
 
     def __init__(self, mech, tol: float = TOL, n0: int = N0, nmax: int = NMAX, viscous: bool | None = None):
-        from scipy.interpolate import CubicSpline
-
         if not supports(mech):
             raise ParameterError(f"{mech.type_name}: the reduced model cannot be tabulated (internal coordinates "
                                  "or not periodic in the input coordinate); use [reduced] model = \"closed\"")
@@ -72,17 +73,17 @@ class ReducedTable:
         if n <= 0 or n & (n - 1):  # the laws find a cell with a bit mask (table_model)
             raise ParameterError(f"tabulated reduced model: n0 = {n0!r} nodes must be a power of two")
         while True:
-            q = np.arange(n + 1) * (P / n)
-            q[-1] = P
+            q = np.arange(n) * (P / n)
             y = _quantities(mech, q, self.viscous)
-            y[-1] = y[0]  # periodic: the closed forms agree to round-off, the spline needs equality
-            sp = CubicSpline(q, y, bc_type="periodic", axis=0)
+            c = periodic_cubic(y)  # (4, n, m): c₀…c₃ of each cell in f = (q − q_i)·n/P (periodic: y_n = y_0)
             # check at 3 interior points of every cell, against the closed forms
             fq = np.array([0.25, 0.5, 0.75])
             qc = (np.arange(n)[:, None] + fq[None, :]).ravel() * (P / n)
             exact = _quantities(mech, qc, self.viscous)
+            f = fq[None, :, None]
+            approx = (((c[3][:, None] * f + c[2][:, None]) * f + c[1][:, None]) * f + c[0][:, None]).reshape(-1, self.m)
             scale = np.maximum(np.max(np.abs(y), axis=0), 1e-300)
-            err = np.max(np.abs(sp(qc) - exact), axis=0) / scale
+            err = np.max(np.abs(approx - exact), axis=0) / scale
             if np.all(err <= tol) or n >= nmax:
                 break
             n *= 2
@@ -95,12 +96,9 @@ class ReducedTable:
             raise ParameterError(f"{mech.type_name}: tabulated reduced model misses the tolerance {tol:g} with "
                                  f"{n} nodes (relative error {self.max_rel_error:.3g}: a near-singular linkage?); "
                                  "use [reduced] model = \"closed\"")
-        # CubicSpline: y = Σ c[3-j]·(x − x_i)^j.  In f = (x − x_i)·n/P: c_j·(P/n)^j
-        dx = P / n
-        c = sp.c  # (4, n, m): highest power first
         coef = np.empty((4 * self.m, n))
-        for j in range(4):  # c_j (power j)
-            coef[j * self.m:(j + 1) * self.m] = (c[3 - j] * dx ** j).T
+        for j in range(4):  # c_j (power j of f)
+            coef[j * self.m:(j + 1) * self.m] = c[j].T
         self.coef = np.ascontiguousarray(coef)
 
     def describe(self) -> dict:

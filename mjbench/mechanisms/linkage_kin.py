@@ -395,19 +395,16 @@ class PeriodicTable:
     """
 
     def __init__(self, q0, values):
-        from scipy.interpolate import CubicSpline
+        from ..spline import periodic_cubic
 
         values = np.asarray(values, dtype=float)
         N, k = values.shape
         self.q0, self.N, self.k = float(q0), N, k
         self.h = TWO_PI / N
-        x = np.linspace(0.0, TWO_PI, N + 1)
-        y = np.vstack([values, values[:1]])
-        cs = CubicSpline(x, y, axis=0, bc_type="periodic")
         h = self.h
         # coefficients in the normalised coordinate t ∈ [0, 1): c3 t³ + c2 t² + c1 t + c0
-        c = cs.c  # (4, N, k): (x−x_i)^3, ^2, ^1, ^0
-        self.coef = np.stack([c[0] * h ** 3, c[1] * h ** 2, c[2] * h, c[3]], axis=0)  # (4, N, k)
+        c = periodic_cubic(values)  # (4, N, k): t^0 … t^3
+        self.coef = np.stack([c[3], c[2], c[1], c[0]], axis=0)  # (4, N, k): t^3 … t^0
         self._inv_h = 1.0 / h
         # the scalar law's parameters: row c = channel c's (c3, c2, c1, c0) of cell 0, then cell 1, …
         # (a channel's cells side by side: the cells a run visits in turn share cache lines)

@@ -79,16 +79,35 @@ class VideoWriter:
             self._gen = imageio_ffmpeg.write_frames(
                 self.tmp, (int(width), int(height)), fps=self.fps, codec="libx264", quality=None,
                 pix_fmt_in="rgb24", pix_fmt_out="yuv420p", macro_block_size=2,
-                ffmpeg_log_level="error",
+                ffmpeg_log_level="fatal",  # its errors become one line of ours (write, close: _check_mp4)
                 output_params=["-preset", "veryfast", "-crf", str(int(crf)), "-movflags", "+faststart"])
             self._gen.send(None)
 
     def write(self, frame):
         if self.ext == ".mp4":
-            self._gen.send(np.ascontiguousarray(frame))
+            try:
+                self._gen.send(np.ascontiguousarray(frame))
+            except OSError as e:  # ffmpeg exited (imageio-ffmpeg: a broken pipe and its whole command line)
+                raise self._ffmpeg_stopped(e) from None
         else:
             self._frames.append(frame.copy())
         self.n += 1
+
+    def _ffmpeg_stopped(self, e: OSError) -> Exception:
+        """One-line error for an ffmpeg that stopped reading frames: a full disk (the usual cause: it
+        cannot write the file's header) as ENOSPC, for the CLI's disk-full message; else what failed."""
+        import errno
+        import shutil
+
+        try:
+            full = shutil.disk_usage(os.path.dirname(os.path.abspath(self.tmp))).free < 2 ** 20
+        except OSError:
+            full = False
+        if full:
+            return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), self.path)
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        return RenderError(f"--out {self.path}: ffmpeg stopped writing the video after {self.n} frames ({first}); "
+                           "the video was not saved")
 
     def close(self):
         try:
