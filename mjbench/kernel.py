@@ -534,9 +534,9 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
     elif jit.loaded():
         why = "numba already loaded"
     elif run_steps >= program.min_steps:
-        why = f"{run_steps:.3g} co-steps ≥ {program.min_steps:g} (pays numba's start-up)"
+        why = f"{int(run_steps):,} co-steps ≥ {int(program.min_steps):,} (pays numba's start-up)"
     else:
-        return "python", (f"{run_steps:.3g} co-steps < {program.min_steps:g}: numba's start-up would cost more "
+        return "python", (f"{int(run_steps):,} co-steps < {int(program.min_steps):,}: numba's start-up would cost more "
                           f"than it saves")
     if not jit.available():
         return "python", "numba is not installed"

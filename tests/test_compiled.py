@@ -243,3 +243,20 @@ def test_a_law_whose_source_changed_after_import_is_refused(tmp_path, monkeypatc
             jit._check_source(m.second, tree, tree.body[0])
     finally:
         sys.modules.pop("law_edit_mod", None)
+
+
+def test_run_verbose_prints_each_backends_loop_and_reason(tmp_path, capsys):
+    """``mjbench run --verbose``: one line per backend, the loop and why (as metrics.json "loop")."""
+    import json
+
+    from mjbench.cli import main
+
+    out = tmp_path / "r"
+    assert main(["run", "incerti2012", "--t-end", "0.05", "--no-figure", "--quiet", "--verbose",
+                 "--set", "reduced.model=closed", "--out", str(out)]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("loop ")]
+    loops = json.loads((out / "metrics.json").read_text())["loop"]
+    assert len(lines) == 2 and set(loops) == {"multibody", "reduced"}
+    for b, how in loops.items():
+        assert f"loop {b}: {how['loop']} ({how['loop_reason']})" in lines
+    assert "reduced.model = 'closed'" in loops["reduced"]["loop_reason"]

@@ -23,6 +23,8 @@ def register(sub):
     add_force_option(p)
     p.add_argument("--no-figure", action="store_true", help="skip the PNG")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    p.add_argument("--verbose", action="store_true",
+                   help="also print which loop ran each backend (compiled or CPython) and why (metrics.json \"loop\")")
     add_fast_multibody(p)
     p.set_defaults(func=cmd_run)
 
@@ -52,6 +54,10 @@ def cmd_run(args):
     if not args.quiet:
         print(res.summary())
         print(f"results written to {args.out}")
+    if args.verbose:
+        for b, how in res.metrics.get("loop", {}).items():
+            why = how.get("loop_reason") or ""
+            print(f"loop {b}: {how.get('loop', '')}" + (f" ({why})" if why else ""))
     for w in res.warnings:
         print(f"mjbench: warning: {w}", file=sys.stderr)
     return 0

@@ -717,6 +717,7 @@ def figure(res, path):
                         (ax[1][0], ps.label("motor current", "A")), (ax[1][1], ps.label("gearbox output torque", "N·m"))):
             a2.set_xlabel(ps.label("time in the cycle", "s"))
             a2.set_ylabel(lab)
-            a2.legend(loc="best", fontsize=7)
+            if a2.get_legend_handles_labels()[0]:  # (no candidate chosen: empty panels, no legend)
+                a2.legend(loc="best", fontsize=7)
         ps.finish(fig, f"mjbench design {res['name']} (motion law per cycle): {res['status']}")
         return save(fig, path)
