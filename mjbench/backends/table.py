@@ -20,7 +20,9 @@ four-bar evaluation in Python).  They depend on the input coordinate only and ar
 * the mechanism's viscous external torque −D(q)·q̇ (``Mechanism.reduced_viscous``, e.g. the
   four-bar's hinge friction) is tabulated as a fourth quantity; any other external torque
   (the quick-return's cutting force, discontinuous; a linkage's point loads; friction) is the
-  mechanism's own law, added to the table's at each stage (``Mechanism.model_form``).
+  mechanism's own law, added to the table's at each stage (``Mechanism.model_form``) — those laws
+  read the smooth kinematics they need from periodic tables of their own (the quick-return's
+  x_C(q), dx_C/dq: ``QuickReturn.slider_table``; a linkage's loads: its ``PeriodicTable``).
 
 Layout: ``coef`` is (4·m, n) — rows c₀ of the m quantities, then c₁, c₂, c₃ — evaluated for
 arrays by :meth:`ReducedTable.__call__`; the law :func:`table_model` reads the same coefficients
