@@ -148,12 +148,17 @@ def test_reference_outputs_motor_side_and_integrates(fb1):
     for n, q in enumerate(qs):
         phi, om, acc = ref(n * h, y.set(n * h, float(q), 0.8, 0.0, 0.0))
         phis.append(phi); oms.append(om); accs.append(acc)
+    # against the closed form of S(q) (the law reads its spline table: ≤ 1e-9 of the peak, measured 8e-11)
     qd_trj = vc / fb1.coupler_speed_ratio(qs)
-    np.testing.assert_allclose(np.array(oms) / z, qd_trj, rtol=1e-12)           # ω_ref = z·q̇_trj (Eq 17)
+    np.testing.assert_allclose(np.array(oms) / z, qd_trj, rtol=1e-9)            # ω_ref = z·q̇_trj (Eq 17)
     assert phis[0] == pytest.approx(z * qs[0])                                     # integral error 0 at t = 0
     trap = z * (qs[0] + np.concatenate(([0], np.cumsum(0.5 * h * (qd_trj[1:] + qd_trj[:-1])))))
-    np.testing.assert_allclose(phis, trap, rtol=1e-12)
-    np.testing.assert_allclose(np.array(accs[1:]) / z, np.diff(qd_trj) / h, rtol=1e-10)  # backward difference
+    np.testing.assert_allclose(phis, trap, rtol=1e-9)
+    np.testing.assert_allclose(np.array(accs[1:]) / z, np.diff(qd_trj) / h, rtol=1e-6)  # backward difference
+    # the operators exactly, on the reference's own q̇_trj(q)
+    own = ref.crank_speed(qs)
+    np.testing.assert_allclose(np.array(oms) / z, own, rtol=1e-15)
+    np.testing.assert_allclose(np.array(accs[1:]) / z, np.diff(own) / h, rtol=1e-10)
     ref.reset()
     phi, _, acc = ref(0.0, y.set(0.0, 2.0, 0.0, 0.0, 0.0))
     assert phi == pytest.approx(z * 2.0) and acc == 0.0

@@ -37,9 +37,11 @@ differentiated.
 **Laws** (one formula for the kernel, compiled or not, and the methods): the profile
 ``PROFILE(s_lap, P) → (V_C, dV_C/ds)`` (:func:`profile_constant`, :func:`profile_piecewise`,
 :func:`profile_table`: breaks and values as arrays in P); the target :func:`coupler_target`
-(Eq 17 with the ramp and the cap: S(q), dS/dq by the four-bar's
-:func:`~mjbench.mechanisms.fourbar.coupler_speed_ratio_law`, s(q) by its
-:func:`~mjbench.mechanisms.fourbar.arc_length_law` on the tabulated arc length); the reference
+(Eq 17 with the ramp and the cap: S(q), dS/dq read from the four-bar's periodic spline table of
+:func:`~mjbench.mechanisms.fourbar.coupler_speed_ratio_law`, ``FourBar.speed_ratio_table``, ≤ 1e-9
+of the peak — the closed forms cost four trigonometric calls, two atan2 and a square root per
+step —, s(q) by its :func:`~mjbench.mechanisms.fourbar.arc_length_law` on the tabulated arc
+length); the reference
 :func:`coupler_speed_law` (state: previous time, φ_ref, q̇_trj, the derivative memory, the last
 ω̇_ref).  ``crank_speed``, ``vc_at`` and the FourBar methods run the same laws elementwise.
 
@@ -58,7 +60,8 @@ from pydantic import Field
 
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
-from mjbench.mechanisms.fourbar import arc_length_law, coupler_speed_ratio_law
+from mjbench.mechanisms.fourbar import arc_length_law
+from mjbench.mechanisms.linkage_kin import ptable_channel
 from mjbench.fields import Bool, Q, Strict
 
 from ..reference import Reference
@@ -110,16 +113,18 @@ def profile_table(sl, P):
     return P.vp[j] + P.dv[j] * (sl - P.sp[j]), P.dv[j]
 
 
-#: the target's parameters: the four-bar's kinematic P, its arc-length P, the path length L [m],
-#: whether the profile needs s, the start-up ramp [s], the cap q̇_max [rad/s], the profile's P
-TargetP = namedtuple("TargetP", "kin arc L need_s t_ramp qd_max profile")
+#: the target's parameters: the coupler point's speed-ratio table (S, dS/dq: ``FourBar.speed_ratio_table``),
+#: its arc-length P, the path length L [m], whether the profile needs s, the start-up ramp [s], the
+#: cap q̇_max [rad/s], the profile's P
+TargetP = namedtuple("TargetP", "ratio arc L need_s t_ramp qd_max profile")
 
 
 @law
 def coupler_target(PROFILE, t, q, P):
     """Eq 17 at crank angle q [rad] and time t [s]: → (q̇_trj, V_C, dV_C/ds, S, dS/dq, ramp) with
     V_C = PROFILE(s_lap)·ramp(t), q̇_trj = min(V_C/S(q), q̇_max)."""
-    Sq, dS = coupler_speed_ratio_law(q, P.kin)
+    Sq = ptable_channel(q, 0, P.ratio)
+    dS = ptable_channel(q, 1, P.ratio)
     sl = 0.0
     if P.need_s:
         sl = arc_length_law(q, P.arc) % P.L
@@ -171,7 +176,7 @@ def coupler_speed_law(TARGET, t, q, qd, qdd, I, P, S):
 
 
 class CouplerSpeed(Reference):
-    """On-line Eq 17 reference.  ``mechanism`` needs ``kinematic_params()`` and ``arc_params()``
+    """On-line Eq 17 reference.  ``mechanism`` needs ``speed_ratio_table()`` and ``arc_params()``
     (FourBar); ``z`` is the gear ratio (motor per crank)."""
 
     STATE = ("t_last", "phi", "qd_last", "qd_diff", "acc_last")
@@ -261,7 +266,7 @@ class CouplerSpeed(Reference):
 
         pf = self.profile_form()
         m = self.mechanism
-        P = TargetP(m.kinematic_params(), m.arc_params(), self.L, self.profile != "constant", self.t_ramp,
+        P = TargetP(m.speed_ratio_table().P, m.arc_params(), self.L, self.profile != "constant", self.t_ramp,
                     self.qd_max, pf.P)
         return C.Form(coupler_target, P, fn_args=(pf,))
 

@@ -266,6 +266,14 @@ class FourBar(Mechanism):
         :func:`arc_length_law` (cached by geometry)."""
         return _arc_table(self, self._arc_key(point), point)
 
+    def speed_ratio_table(self, point: CouplerPoint | None = None):
+        """Periodic spline table of (S, dS/dα) of a coupler point over one crank turn (channels 0, 1;
+        :class:`~mjbench.mechanisms.linkage_kin.PeriodicTable`, cached by geometry) for the
+        coupler-speed reference's law: nodes doubled from 1024 until the error at the cells'
+        mid-points against :func:`coupler_speed_ratio_law` is ≤ ``SPEED_RATIO_TOL`` of each channel's
+        peak (attribute ``max_rel_error``)."""
+        return _speed_ratio_table(self, self._arc_key(point), point)
+
     def path_length(self, point: CouplerPoint | None = None) -> float:
         """Length of the closed coupler curve traced in one crank turn [m]."""
         return float(self.arc_params(point).L)
@@ -535,6 +543,35 @@ def _arc_table(fb, key, point, n: int = 2048) -> "ArcP":
     _ARC_CACHE[key] = ArcP(int(n), float(h), float(s_nodes[-1]), np.ascontiguousarray(s_nodes),
                            np.ascontiguousarray(slopes))
     return _ARC_CACHE[key]
+
+
+#: largest relative error of the tabulated S, dS/dα (:meth:`FourBar.speed_ratio_table`)
+SPEED_RATIO_TOL = 1e-9
+_RATIO_CACHE: dict = {}
+
+
+def _speed_ratio_table(fb, key, point):
+    hit = _RATIO_CACHE.get(key)
+    if hit is not None:
+        return hit
+    from .linkage_kin import PeriodicTable
+
+    for n in (1024, 2048, 4096, 8192, 16384):
+        u = np.arange(n) * (2 * np.pi / n)
+        tab = PeriodicTable(0.0, np.stack(fb.coupler_speed_ratio_derivative(u, point), axis=1))
+        um = u + np.pi / n
+        exact = np.stack(fb.coupler_speed_ratio_derivative(um, point), axis=1)
+        err = np.max(np.abs(tab(um) - exact), axis=0) / np.max(np.abs(exact), axis=0)
+        if np.all(err <= SPEED_RATIO_TOL):
+            break
+    else:
+        raise ParameterError(f"fourbar: the coupler point's speed ratio cannot be tabulated to {SPEED_RATIO_TOL:g} "
+                             f"(error {np.max(err):.3g} with {n} nodes: a near-singular linkage?)")
+    tab.max_rel_error = float(np.max(err))
+    if len(_RATIO_CACHE) > 64:
+        _RATIO_CACHE.clear()
+    _RATIO_CACHE[key] = tab
+    return tab
 
 
 # ================================================================ kinematic laws (one formula)
