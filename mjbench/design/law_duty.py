@@ -582,11 +582,7 @@ def _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl):
                        "seconds": tr.history.get("seconds"), "margins": [list(m) for m in tr.margins]}
         tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, 0.0, gt, cost=cand.cost)
         finalize(tuned, load, req, law, T_c)
-        if tuned.ok:
-            ctl["source"] = "tuned (mjbench.tune, servo, " + c.objective + "), accepted by the sizing model"
-            return tuned
-        ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
-                         + "; ".join(x["name"] for x in tuned.checks if not x["ok"]) + ")")
+        return PL.accept_tuned(ctl, tuned, cand, "mjbench.tune, servo, " + c.objective)
     except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
         ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
     return cand

@@ -433,13 +433,20 @@ def _tuned(req, table, cand, load, speed, runs, box, ctl):
         tuned = SZ.Candidate(cand.motor, cand.gearbox, cand.drive, cand.J_f, gt, location=cand.location,
                              cost=cand.cost)
         SZ.finalize(tuned, load, req, speed)
-        if tuned.ok:
-            ctl["source"] = "tuned (mjbench.tune), accepted by the sizing model"
-            return tuned
-        ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
-                         + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
+        return accept_tuned(ctl, tuned, cand, "mjbench.tune")
     except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
         ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
+    return cand
+
+
+def accept_tuned(ctl, tuned, cand, how: str):
+    """The tuned candidate if the sizing model accepts it, else the design rule's ``cand``;
+    ``ctl["source"]`` says which (and which checks the tuned gains fail)."""
+    if tuned.ok:
+        ctl["source"] = f"tuned ({how}), accepted by the sizing model"
+        return tuned
+    ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
+                     + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
     return cand
 
 
