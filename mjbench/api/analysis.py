@@ -262,10 +262,14 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     return LinearResult(scn, res["json"], res["objects"])
 
 
+def number_text(v: Any, fmt: str = "{:.4g}") -> str:
+    """A figure of a summary: "—" for None or NaN, "∞" for ±inf, else ``fmt``."""
+    return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
+
+
 def linear_summary(js: dict[str, Any]) -> str:
     """Text summary of a linear.json."""
-    def f(v: Any, fmt: str = "{:.4g}") -> str:
-        return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
+    f = number_text
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}): q* = {f(op['q_rad'])} rad, "

@@ -98,8 +98,7 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
 
 def frest_summary(js: dict[str, Any]) -> str:
     """Text summary of a frest.json."""
-    def f(v: Any, fmt: str = "{:.4g}") -> str:
-        return "—" if v is None or v != v else ("∞" if v in (float("inf"), float("-inf")) else fmt.format(v))
+    from .analysis import number_text as f
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['backend']}, {js['signal']}): q* = {f(op['q_rad'])} rad, "

@@ -328,25 +328,12 @@ def finalize(c: SZ.Candidate, load, req, law, T_c, n=1024):
 
 
 def sizing_json(sz: LawSizing, load) -> dict:
-    sw = sz.sweep
-    k = np.unique(np.linspace(0, len(sw["z"]) - 1, 60).astype(int))
+    from .pipeline import sizing_common
+
     return {"duty": "motion law", "cycle_s": sz.T_c, "torque_of_the_law": sz.torque,
-            "load_model": {"J_mean": load.J_mean, "J_ptp": load.J_ptp, "affine_error": load.affine_error,
-                           "nodes": load.n},
             "flywheel": {"J_flywheel": 0.0, "note": "none for a motion-law duty: the motor would accelerate it "
                                                     "every cycle"},
-            "ratio_sweep": {"motor": (sz.chosen or sz.closest).motor.name, "z_best": sw["z_best"],
-                            "rms_best_Nm": sw["rms_best_Nm"], "z_closed_form": sw["z_closed_form"],
-                            "best_at_envelope_limit": sw["at_limit"],
-                            "z": sw["z"][k].tolist(), "rms_Nm": sw["rms_Nm"][k].tolist(),
-                            "peak_Nm": sw["peak_Nm"][k].tolist(), "allowed": sw["allowed"][k].tolist()},
-            "candidates": [{"label": c.label, "ok": c.ok, "cost": c.cost, "violation": c.violation,
-                            "screened_out": c.screened_out, "current_rms_A": c.summary.get("current_rms_A"),
-                            "tracking_peak_rad": c.summary.get("tracking_peak_rad"),
-                            "fails": [x["name"] for x in c.checks if not x["ok"]]} for c in sz.candidates],
-            "n_candidates": len(sz.candidates), "n_analysed": sum(not c.screened_out for c in sz.candidates),
-            "n_feasible": sum(c.ok for c in sz.candidates),
-            "chosen": sz.chosen.label if sz.chosen else None, "timing": sz.timing}
+            **sizing_common(sz, load, "tracking_peak_rad")}
 
 
 # ============================================================================ the machine

@@ -539,10 +539,16 @@ def _clean_metrics(d):
 
 
 def _sizing_json(sz: SZ.Sizing, load) -> dict:
+    return {"speed_rad_s": sz.speed, "torque_at_constant_speed": sz.torque, "flywheel": sz.flywheel,
+            **sizing_common(sz, load, "chi")}
+
+
+def sizing_common(sz, load, figure: str) -> dict:
+    """What design.json's ``sizing`` holds for every duty: the load model, the gear-ratio study (60
+    of its points), every candidate (with its summary's ``figure``), the counts, the choice, timing."""
     sw = sz.sweep
     k = np.unique(np.linspace(0, len(sw["z"]) - 1, 60).astype(int))
-    return {"speed_rad_s": sz.speed, "torque_at_constant_speed": sz.torque, "flywheel": sz.flywheel,
-            "load_model": {"J_mean": load.J_mean, "J_ptp": load.J_ptp, "affine_error": load.affine_error,
+    return {"load_model": {"J_mean": load.J_mean, "J_ptp": load.J_ptp, "affine_error": load.affine_error,
                            "nodes": load.n},
             "ratio_sweep": {"motor": (sz.chosen or sz.closest).motor.name, "z_best": sw["z_best"],
                             "rms_best_Nm": sw["rms_best_Nm"], "z_closed_form": sw["z_closed_form"],
@@ -550,8 +556,8 @@ def _sizing_json(sz: SZ.Sizing, load) -> dict:
                             "z": sw["z"][k].tolist(), "rms_Nm": sw["rms_Nm"][k].tolist(),
                             "peak_Nm": sw["peak_Nm"][k].tolist(), "allowed": sw["allowed"][k].tolist()},
             "candidates": [{"label": c.label, "ok": c.ok, "cost": c.cost, "violation": c.violation,
-                            "screened_out": c.screened_out,
-                            "current_rms_A": c.summary.get("current_rms_A"), "chi": c.summary.get("chi"),
+                            "screened_out": c.screened_out, "current_rms_A": c.summary.get("current_rms_A"),
+                            figure: c.summary.get(figure),
                             "fails": [x["name"] for x in c.checks if not x["ok"]]} for c in sz.candidates],
             "n_candidates": len(sz.candidates), "n_analysed": sum(not c.screened_out for c in sz.candidates),
             "n_feasible": sum(c.ok for c in sz.candidates),
