@@ -41,7 +41,7 @@ import numpy as np
 from . import sizing as SZ
 from . import thermal as TH
 from .model import DriveModel, LoadModel
-from .periodic import NoSteadyState
+from .periodic import NoSteadyState, effective_efficiency
 from .synthesis import constraint
 
 TWO_PI = 2.0 * math.pi
@@ -201,9 +201,7 @@ def steady_state(load: LoadModel, drive: DriveModel, g: ServoGains, law, T_c: fl
                                 f"balance diverged after {it} iterations)")
         relax = max(0.05, 0.5 * relax) if res > res_prev else min(1.0, relax * 1.2)
         res_prev = res
-        X = Treq / drive.z
-        f = np.where(X * wm >= 0.0, 1.0 / drive.eta, drive.eta_back)
-        eta_new = 1.0 / float(np.mean(f))
+        eta_new = effective_efficiency(drive, Treq, wm)
         if abs(eta_new - eta_eff) > 1e-3 * eta_eff:
             eta_eff = eta_new
             H[1:] = loop_operator(jw[1:], drive, M_mean, g, eta_eff)
@@ -431,28 +429,15 @@ TRACKING_FACTOR = 2.0
 
 def checks_of(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float) -> list:
     """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
-    out = []
-
-    def add(name, p, a, t, note=""):
-        rd = (a - p) / abs(p) if p else (math.inf if a else 0.0)
-        out.append({"name": name, "predicted": p, "achieved": a, "rel_diff": rd, "tolerance": t,
-                    "ok": bool(abs(rd) <= t), "note": note})
+    from .pipeline import check_row, drive_checks
 
     hb = "harmonic balance of the reduced model's tracking loop vs the multibody run"
-    for key, name in (("current_rms_A", "motor current RMS [A]"), ("current_peak_A", "motor current peak [A]"),
-                      ("motor_torque_rms_Nm", "motor torque k_m·I RMS [N·m]"),
-                      ("motor_torque_peak_Nm", "motor torque k_m·I peak [N·m]"),
-                      ("gear_torque_rms_Nm", "gearbox output torque RMS [N·m]"),
-                      ("gear_torque_peak_Nm", "gearbox output torque peak [N·m]"),
-                      ("voltage_peak_V", "armature voltage peak [V]")):
-        add(name, pred[key], ach[key], tol, hb)
-    add("tracking error |q_ref − q| RMS [rad]", pred["tracking_rms_rad"], ach["tracking_rms_rad"], TRACKING_FACTOR * tol,
-        hb + "; a small difference of two large signals: twice the current tolerance")
-    add("tracking error |q_ref − q| peak [rad]", pred["tracking_peak_rad"], ach["tracking_peak_rad"],
-        TRACKING_FACTOR * tol, hb + "; a small difference of two large signals: twice the current tolerance")
-    add("winding temperature rise [K] (two-node model)", pred_th["T_winding_C"] - T_amb, ach["T_winding_C"] - T_amb,
-        2.0 * tol, "∝ RMS current²: twice the current tolerance")
-    return out
+    out, temp = drive_checks(pred, ach, pred_th, T_amb, tol, hb)
+    note = hb + "; a small difference of two large signals: twice the current tolerance"
+    for key, name in (("tracking_rms_rad", "tracking error |q_ref − q| RMS [rad]"),
+                      ("tracking_peak_rad", "tracking error |q_ref − q| peak [rad]")):
+        out.append(check_row(name, pred[key], ach[key], TRACKING_FACTOR * tol, note))
+    return out + [temp]
 
 
 # ============================================================================ the command's law branch

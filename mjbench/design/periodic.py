@@ -56,6 +56,14 @@ def loop_operator(s, drive, M_mean, gains, eta_eff=None):
             + drive.k_m * z * s + z * (gains.kp * s + gains.ki + gains.kd * s * s))
 
 
+def effective_efficiency(drive, T_req, w_motor) -> float:
+    """The chord operator's efficiency for an iterate: 1 / mean of the factor dT_m/dT_req, 1/η where
+    the motor drives the gear (T_req·φ̇ ≥ 0) and η_back where the load drives it back."""
+    X = np.asarray(T_req, float) / drive.z
+    f = np.where(X * w_motor >= 0.0, 1.0 / drive.eta, drive.eta_back)
+    return 1.0 / float(np.mean(f))
+
+
 def steady_state(load, drive, gains: Gains, speed: float, n: int = 1024, tol: float = 1e-9, maxit: int = 400) -> dict:
     """The periodic steady state (module doc) → dict of arrays over one cycle (``tau`` [s], ``q``,
     ``qd``, ``qdd``, ``I``, ``dI``, ``V``, ``T_m`` = k_m·I, ``T_crank`` (needed at the crank),
@@ -104,10 +112,7 @@ def steady_state(load, drive, gains: Gains, speed: float, n: int = 1024, tol: fl
         else:
             relax = min(1.0, relax * 1.2)
         res_prev = res
-        # effective efficiency of the chord operator: the mean factor dT_m/dT_req of this iterate
-        X = Treq / drive.z
-        f = np.where(X * wm >= 0.0, 1.0 / drive.eta, drive.eta_back)
-        eta_new = 1.0 / float(np.mean(f))
+        eta_new = effective_efficiency(drive, Treq, wm)
         if abs(eta_new - eta_eff) > 1e-3 * eta_eff:
             eta_eff = eta_new
             H = loop_operator(jw, drive, M_mean, gains, eta_eff)

@@ -196,31 +196,41 @@ def start_up(tr, speed) -> dict:
             "peak_current_A": float(abs(tr.current[i])), "t_peak_current_s": float(tr.t[i])}
 
 
+#: the drive's figures every design verifies: (key in the prediction and in the run's figures, name)
+DRIVE_FIGURES = (("current_rms_A", "motor current RMS [A]"), ("current_peak_A", "motor current peak [A]"),
+                 ("motor_torque_rms_Nm", "motor torque k_m·I RMS [N·m]"),
+                 ("motor_torque_peak_Nm", "motor torque k_m·I peak [N·m]"),
+                 ("gear_torque_rms_Nm", "gearbox output torque RMS [N·m]"),
+                 ("gear_torque_peak_Nm", "gearbox output torque peak [N·m]"),
+                 ("voltage_peak_V", "armature voltage peak [V]"))
+
+
+def check_row(name: str, p, a, t, note: str = "") -> dict:
+    """One entry of design.json's ``checks``: {name, predicted, achieved, rel_diff, tolerance, ok, note}."""
+    rd = (a - p) / abs(p) if p else (math.inf if a else 0.0)
+    return {"name": name, "predicted": p, "achieved": a, "rel_diff": rd, "tolerance": t, "ok": bool(abs(rd) <= t),
+            "note": note}
+
+
+def drive_checks(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float, note: str) -> tuple[list, dict]:
+    """The rows of :data:`DRIVE_FIGURES` (tolerance ``tol``) and, apart, the winding temperature rise's
+    (twice ``tol``: it goes as the RMS current squared)."""
+    rows = [check_row(name, pred[key], ach[key], tol, note) for key, name in DRIVE_FIGURES]
+    temp = check_row("winding temperature rise [K] (two-node model)", pred_th["T_winding_C"] - T_amb,
+                     ach["T_winding_C"] - T_amb, 2.0 * tol, "∝ RMS current²: twice the current tolerance")
+    return rows, temp
+
+
 def checks_of(pred: dict, ach: dict, chi_stmt: dict, pred_th: dict, T_amb: float, tol: float) -> list:
     """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
-    out = []
-
-    def add(name, p, a, t, note=""):
-        rd = (a - p) / abs(p) if p else (math.inf if a else 0.0)
-        out.append({"name": name, "predicted": p, "achieved": a, "rel_diff": rd, "tolerance": t,
-                    "ok": bool(abs(rd) <= t), "note": note})
-
-    for key, name in (("current_rms_A", "motor current RMS [A]"), ("current_peak_A", "motor current peak [A]"),
-                      ("motor_torque_rms_Nm", "motor torque k_m·I RMS [N·m]"),
-                      ("motor_torque_peak_Nm", "motor torque k_m·I peak [N·m]"),
-                      ("gear_torque_rms_Nm", "gearbox output torque RMS [N·m]"),
-                      ("gear_torque_peak_Nm", "gearbox output torque peak [N·m]"),
-                      ("voltage_peak_V", "armature voltage peak [V]")):
-        add(name, pred[key], ach[key], tol, "harmonic balance of the reduced model vs the multibody run")
-    add("speed fluctuation χ (harmonic balance)", pred["chi"], ach["chi"], tol,
-        "periodic steady state of the speed loop")
-    add("largest speed deviation |q̇ − Ω|/Ω", pred["speed_dev_max_rel"], ach["speed_dev_max_rel"], tol)
-    add("speed fluctuation χ (energy method, flywheel sizing)", chi_stmt["chi_energy"], ach["chi"],
-        chi_stmt["tolerance"], f"stated error bound: loop {chi_stmt['error_loop']:.3g} + inertia variation "
-        f"{chi_stmt['error_J']:.3g} + second order {chi_stmt['error_second_order']:.3g}")
-    add("winding temperature rise [K] (two-node model)", pred_th["T_winding_C"] - T_amb, ach["T_winding_C"] - T_amb,
-        2.0 * tol, "∝ RMS current²: twice the current tolerance")
-    return out
+    out, temp = drive_checks(pred, ach, pred_th, T_amb, tol, "harmonic balance of the reduced model vs the multibody run")
+    out.append(check_row("speed fluctuation χ (harmonic balance)", pred["chi"], ach["chi"], tol,
+                         "periodic steady state of the speed loop"))
+    out.append(check_row("largest speed deviation |q̇ − Ω|/Ω", pred["speed_dev_max_rel"], ach["speed_dev_max_rel"], tol))
+    out.append(check_row("speed fluctuation χ (energy method, flywheel sizing)", chi_stmt["chi_energy"], ach["chi"],
+                         chi_stmt["tolerance"], f"stated error bound: loop {chi_stmt['error_loop']:.3g} + inertia "
+                         f"variation {chi_stmt['error_J']:.3g} + second order {chi_stmt['error_second_order']:.3g}"))
+    return out + [temp]
 
 
 # ============================================================================ the command
