@@ -11,18 +11,7 @@ from __future__ import annotations
 
 import importlib as _importlib
 
-from mjbench.registry import GROUPS, Registry
-
-from .base import Controller, Measurement
-
-#: built-in controller types → module
-BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
-           "servo": "controllers.servo",
-           "fmu": "controllers.fmu", "constant": "controllers.constant"}
-
-#: the controller registry (built-ins, plugins of entry-point group ``mjbench.controllers``, registered classes)
-REGISTRY = Registry("controller", Controller, BUILTIN, GROUPS[1], prefix=("modes", "{typ}"),
-                    unknown="controller type = {typ!r}", invalid="invalid controller table")
+from mjbench.control import BUILTIN, REGISTRY, Controller, Measurement
 
 
 def register(cls):

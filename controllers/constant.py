@@ -21,7 +21,7 @@ from mjbench.fields import OptQ, Q, Strict
 
 from . import register
 from .openloop import ramped
-from .base import Controller
+from mjbench.control import Controller
 
 
 class ConstantParams(Strict):
@@ -47,8 +47,8 @@ class ConstantParams(Strict):
 ConstantP = namedtuple("ConstantP", "value t_ramp")
 
 
-@law
-def constant_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+@law(outputs=("u",))
+def constant_law(t, P, S):
     """u = ``value`` (ramped linearly from 0 over ``t_ramp`` s when t_ramp > 0)."""
     return ramped(P.value, t, P.t_ramp)
 
@@ -60,6 +60,7 @@ class ConstantCommand(Controller):
     type_name = "constant"
     Params = ConstantParams
     law = constant_law
+    closed_loop = False
 
     def __init__(self, value, kind="torque", t_ramp=0.0):
         if kind not in ("torque", "speed"):

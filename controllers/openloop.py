@@ -10,7 +10,7 @@ from mjbench.compiled import law
 from mjbench.fields import Q, Strict
 
 from . import register
-from .base import Controller
+from mjbench.control import Controller
 
 
 class OpenParams(Strict):
@@ -32,8 +32,8 @@ def ramped(value, t, tr):
     return value
 
 
-@law
-def open_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+@law(outputs=("u",))
+def open_law(t, P, S):
     """V_a = ``voltage`` (ramped linearly from 0 over ``t_ramp`` s when t_ramp > 0)."""
     return ramped(P.voltage, t, P.t_ramp)
 
@@ -45,6 +45,7 @@ class ConstantVoltage(Controller):
     type_name = "open"
     Params = OpenParams
     law = open_law
+    closed_loop = False
 
     def __init__(self, voltage, t_ramp=0.0):
         self.voltage = voltage

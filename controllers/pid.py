@@ -21,7 +21,7 @@ backend's drive limiter still applies).
 
 State (``STATE``): ``offset`` φ_w [rad], ``epos_prev`` the previous angle error [rad],
 ``started`` (1 once ``epos_prev`` holds a sample).  The law is :func:`pid_law`; its linear
-counterpart (:meth:`PID.linear`) is :func:`mjbench.linear.pid_law` with K_p(t*) frozen.
+counterpart (:meth:`PID.linear`) is :func:`pid_counterpart` with K_p(t*) frozen.
 """
 from __future__ import annotations
 
@@ -38,8 +38,7 @@ from mjbench.errors import ParameterError
 from mjbench.fields import Bool, OptQ, Q, Strict
 
 from . import register
-from .base import Controller
-from .reference import ConstantSpeed
+from mjbench.control import LAW_INPUTS, ConstantSpeed, Controller
 from .references.coupler_speed import CouplerSpeedParams
 from .references.law import LawReferenceParams
 
@@ -75,22 +74,22 @@ class PIDParams(Strict):
 PIDP = namedtuple("PIDP", "kp ki kd ramp t_ramp_max v_limit z")
 
 
-@law
-def pid_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+@law(outputs=("u",))
+def pid_law(t, q, qd, qdd, phi_ref, om_ref, acc_ref, P, S):
     """Eq 16 with K_p(t) (Eqs 14-15), output clip and conditional-integration anti-windup.
 
     Crank-side measurement (× z: the motor side), motor-side reference.  State: S[0] the windup
     offset φ_w [rad], S[1] the previous angle error [rad], S[2] 1 once S[1] is set."""
     z = P.z
-    e = om_r - z * qd
-    epos = phi_r - z * q
+    e = om_ref - z * qd
+    epos = phi_ref - z * q
     prev = S[1] if S[2] != 0.0 else epos
     if P.ramp:
         kp = P.kp * (t if t < P.t_ramp_max else P.t_ramp_max)
     else:
         kp = P.kp
     ki = P.ki
-    u = kp * e + ki * (epos - S[0]) + P.kd * (acc_r - z * qdd)
+    u = kp * e + ki * (epos - S[0]) + P.kd * (acc_ref - z * qdd)
     vl = P.v_limit
     d = epos - prev
     if (u > vl and d > 0.0) or (u < -vl and d < 0.0):  # vl = inf: never
@@ -148,6 +147,11 @@ class PID(Controller):
                     vl, float(z))
 
     @property
+    def time_varying(self) -> bool:
+        """K_p·t (Eq 15) changes with time."""
+        return bool(self.kp_ramp)
+
+    @property
     def offset(self):
         """The windup offset φ_w [rad] (state)."""
         return self.state()["offset"]
@@ -160,11 +164,24 @@ class PID(Controller):
 
     # ------------------------------------------------------------------ capabilities
     def linear(self, machine, op, T, h, angle="state"):
-        """Eq 16 with K_p(t*) frozen at the operating point's time: :func:`mjbench.linear.pid_law`."""
-        from mjbench import linear as LN
+        """Eq 16 with K_p(t*) frozen at the operating point's time (:func:`pid_counterpart`; the
+        generic numerical linearisation of :func:`pid_law` gives the same, tests/test_linearise.py)."""
+        return pid_counterpart(float(np.asarray(self.gain_p(op.t))), float(self.ki), float(self.kd),
+                               float(machine.drive.z), T, h)
 
-        return LN.pid_law(float(np.asarray(self.gain_p(op.t))), float(self.ki), float(self.kd),
-                          float(machine.drive.z), T, h)
+    def frozen(self, t):
+        """A copy with K_p·t frozen at K_p(t) (a constant gain)."""
+        c = super().frozen(t)
+        if self.kp_ramp:
+            c.kp = float(np.asarray(self.gain_p(t)))
+            c.kp_ramp = False
+        return c
+
+    def setpoint(self, machine):
+        sp = super().setpoint(machine)
+        if sp is not None and self.reference is not None and getattr(self.reference, "omega0", None) is not None:
+            sp["source"] = "omega0 (motor-shaft speed set-point)"
+        return sp
 
     def hold_offset(self, machine, op):
         """K_i·z·q_off = V* (the integral term alone holds the point: no speed or acceleration error)."""
@@ -182,3 +199,13 @@ class PID(Controller):
                 f"without bound (Eq 15): past some t it exceeds the stability limit of the loop sampled "
                 f"at h = {h:g} s. Use a smaller step (--set simulation.dt=...) or bound the ramp "
                 f"(--set modes.<mode>.t_ramp_max=...).")
+
+
+def pid_counterpart(kp, ki, kd, z, T, h):
+    """Eq 16 as a DT system at period T: V = K_p·z·(q̇_ref − q̇) + K_i·z·(q_ref − q) +
+    K_d·z·(q̈_ref − (q̇ − qd_prev)/h) (gains on motor-shaft errors; crank-side gains: z = 1)."""
+    import control as ct
+
+    D = float(z) * np.array([[ki, kp, kd, -ki, -kp - kd / h, kd / h, 0.0]], dtype=float)
+    return ct.ss(np.zeros((0, 0)), np.zeros((0, 7)), np.zeros((1, 0)), D, T,
+                 inputs=list(LAW_INPUTS), outputs=["V"], name="pid")

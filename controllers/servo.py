@@ -28,7 +28,7 @@ from mjbench.errors import ParameterError
 from mjbench.fields import OptQ, Q, Strict
 
 from . import register
-from .base import Controller
+from mjbench.control import LAW_INPUTS, Controller
 from .references.law import LawReferenceParams
 
 Auto = Union[Literal["auto"], float]
@@ -53,17 +53,17 @@ class ServoParams(Strict):
 ServoP = namedtuple("ServoP", "kpp kvp kvi kffv kffa v_limit z")
 
 
-@law
-def servo_law(t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+@law(outputs=("u",))
+def servo_law(t, q, qd, phi_ref, om_ref, acc_ref, P, S):
     """Cascade P-position / PI-velocity with feed-forward (module docstring), motor side (φ = z·q).
     S = [integral [V], previous sample time (NaN before the first)]: the rectangle rule over the
     measured sample interval, frozen while the output is clipped (conditional integration)."""
     z = P.z
-    om_cmd = om_r + P.kpp * (phi_r - z * q)
+    om_cmd = om_ref + P.kpp * (phi_ref - z * q)
     e_v = om_cmd - z * qd
     dt = 0.0 if math.isnan(S[1]) else t - S[1]
     S[1] = t
-    u_noint = P.kffv * om_r + P.kffa * acc_r + P.kvp * e_v
+    u_noint = P.kffv * om_ref + P.kffa * acc_ref + P.kvp * e_v
     inc = P.kvi * e_v * dt
     u = u_noint + S[0] + inc
     vl = P.v_limit
@@ -130,7 +130,6 @@ class CascadeServo(Controller):
         + K_vi·T·e_v, s⁺ = s + K_vi·T·e_v (rectangle rule, increment applied at once)."""
         import control as ct
 
-        from mjbench.linear import LAW_INPUTS
 
         z = float(machine.drive.z)
         kpp, kvp, kvi, kffv, kffa = self.kpp, self.kvp, self.kvi, self.kffv, self.kffa

@@ -49,7 +49,7 @@ from mjbench.errors import ParameterError
 from mjbench.fields import Bool, OptQ, Q, Strict
 
 from . import register
-from .base import Controller
+from mjbench.control import FD_Q, LAW_INPUTS, Controller
 
 
 class SMCParams(Strict):
@@ -79,8 +79,8 @@ def no_model(q, qd, t, P):
     return 0.0, 0.0, 0.0, 0.0
 
 
-@law
-def smc_law(MODEL, t, q, qd, qdd, I, phi_r, om_r, acc_r, P, S):
+@law(outputs=("u",))
+def smc_law(MODEL, t, q, qd, qdd, I, P, S):
     """Seed 004 Eq 37 (our reading, module docstring), sampled: crank speed ω = q̇, ω̇ = q̈ (the
     backward difference); MODEL(q, ω, t, P.model) → (ℑ, ½ℑ', E_p', Q_ext) the mechanism's reduced
     model.  S = [switches, sgn_prev, s_last, i_prev, t_prev].  → armature voltage [V]."""
@@ -224,6 +224,11 @@ class SlidingMode(Controller):
     def running_speed(self, machine, q):
         return self.omega_d
 
+    def setpoint(self, machine):
+        z = float(machine.drive.z)
+        return {"input_rad_s": self.omega_d, "motor_rad_s": self.omega_d * z,
+                "source": "omega_d (crank-speed set-point)"}
+
     def linear(self, machine, op, T, h, angle="state"):
         """Inside the boundary layer, |s| < φ: the computed-torque part linearised at the point
         (ℑ, ℑ', ℑ'' and Q₀ from the mechanism's closed forms by central differences) plus the
@@ -232,7 +237,6 @@ class SlidingMode(Controller):
         ``boundary = 0`` (sign) there is no linear counterpart (ParameterError)."""
         import control as ct
 
-        from mjbench.linear import FD_Q, LAW_INPUTS
 
         if self.boundary <= 0.0:
             raise ParameterError("SMC with boundary = 0 switches (sign(s)): it has no linear counterpart; set "

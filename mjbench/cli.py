@@ -17,7 +17,7 @@ COMMAND_MODULES = {
     "analyze": "analyze", "calibrate": "calibrate", "demand": "check_reference", "demo": "demo",
     "design": "design", "identify": "identify", "linearize": "linearize", "optimize-law": "optimize_law",
     "render": "render", "reproduce": "reproduce", "run": "run", "list": "run", "sweep": "sweep", "tune": "tune",
-    "export-fmu": "export_fmu", "frest": "frest", "paper": "paper",
+    "export-fmu": "export_fmu", "frest": "frest", "paper": "paper", "check": "check",
 }
 
 

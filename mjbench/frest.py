@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from controllers.base import Controller
+from .control import Controller
 
 from .errors import ParameterError
 
@@ -299,26 +299,14 @@ def design_lines(T, qd, orders, rate, settle, n_lines, band=None, period=None, r
 
 # ============================================================================ operating point
 def hold_machine(mach, op, h):
-    """The machine held at ``op``: K_p·t frozen at t*, the reference replaced by a constant speed
-    q̇* through q* (offset so the controller outputs V* there, as :func:`mjbench.linear.step_check`),
-    started in the operating point's state."""
-    from controllers.reference import ConstantSpeed
-
-    ctrl = copy.copy(mach.controller)
-    z = float(mach.drive.z)
-    tn = getattr(ctrl, "type_name", "")
-    if getattr(ctrl, "kp_ramp", False):
-        ctrl.kp = float(np.asarray(ctrl.gain_p(op.t)))
-        ctrl.kp_ramp = False
-    if getattr(ctrl, "reference", None) is not None:
-        q_off = 0.0
-        if tn == "pid" and float(ctrl.ki):
-            q_off = op.V / (float(ctrl.ki) * z)
-        elif tn == "servo":
-            rest = op.V - float(ctrl.kffv) * z * op.qd
-            q_off = rest / (float(ctrl.kvp) * float(ctrl.kpp) * z) if rest else 0.0
-        ctrl.reference = ConstantSpeed(z * op.qd, phi0=z * (op.q + q_off))
-    ctrl.reset()
+    """The machine held at ``op``: the controller's own :meth:`~mjbench.control.Controller.hold`
+    (time-varying gains frozen at t*, the reference replaced by a constant speed q̇* through q* and
+    the offset at which the law outputs V*, as :func:`mjbench.linear.step_check`), started in the
+    operating point's state."""
+    ctrl = mach.controller.hold(mach, op) if mach.controller.closed_loop else mach.controller
+    if ctrl is mach.controller:
+        ctrl = copy.copy(ctrl)
+        ctrl.reset()
     return dataclasses.replace(mach, controller=ctrl, q0=op.q, qd0=op.qd, I0=op.I, x0=op.x or None,
                                xd0=op.xd or None)
 
@@ -415,7 +403,7 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     if ex.notes_period:
         pt.notes.append(ex.notes_period)
     omega = 2 * np.pi * ex.f0 * np.asarray(ex.lines, dtype=float)
-    closed = pt.tn != "open"
+    closed = pt.closed
     Sm = meas.V / meas.D
     Pm = meas.Y / meas.V
     Lm = 1.0 / Sm - 1.0 if closed else None
@@ -454,7 +442,7 @@ def _operating_point(scn, mode, q, qd, I, t):
     ctrl = mach.controller
     h = float(scn.simulation.dt)
     N_every = control_every(ctrl, h)
-    ramp = bool(getattr(ctrl, "kp_ramp", False))
+    ramp = bool(ctrl.time_varying)  # a gain that changes with time (K_p·t): the point's time is the run's end
     if t is None:
         t = float(scn.simulation.t_end) if ramp else 0.0
     q = float(scn.initial.q0) if q is None else float(q)
@@ -470,7 +458,8 @@ def _operating_point(scn, mode, q, qd, I, t):
     op = LN.operating_point(mach_lin, q, qd, I, t)
     notes = [f"linearisation of the ideal drive: drive.{', drive.'.join(train)} have no linear model"] if train else []
     return SimpleNamespace(mode=mode, mach=mach, h=h, N_every=N_every, T=N_every * h,
-                           tn=getattr(ctrl, "type_name", ""), op=op, held=hold_machine(mach, op, h),
+                           tn=getattr(ctrl, "type_name", "") or type(ctrl).__name__, closed=bool(ctrl.closed_loop),
+                           op=op, held=hold_machine(mach, op, h),
                            held_lin=hold_machine(mach_lin, op, h), notes=notes)
 
 
@@ -486,7 +475,7 @@ def _linearisation(pt, scn, backend) -> dict:
         p_h = (LN.reduced_plant(pt.held_lin, op, h, angle=angle) if backend == "reduced" else
                LN.multibody_plant(pt.held_lin, op, scn.multibody_options(), h, coordinates="input", angle=angle))
         lin["plant"] = LN.sample(p_h, pt.N_every)
-        if pt.tn != "open":
+        if pt.closed:
             lp, mg = LN.analyse(pt.held_lin, op, h, backend, scn.multibody_options(), angle=angle)
             lin["loop"], lin["margins"] = lp, mg
     except ParameterError as e:

@@ -164,6 +164,171 @@ def chi_per_cycle(t, q, omega, average="mean"):
     return cyc, vals
 
 
+# ============================================================================ from every co-step
+# A run's trajectory carries interval statistics (mjbench.kernel.layout): per record row, the
+# extremes of the motor speed, the current, the applied voltage and torque over every co-step since
+# the previous row, and when they occurred.  The functions below compute extremes and crossings from
+# them and from cubic interpolation of the recorded angle and speed (Hermite: the speed is the
+# angle's exact derivative), so they do not depend on how densely the run was recorded.  A
+# trajectory without statistics (read from a CSV) falls back to its samples.
+
+
+def _hermite_cross(t, q, qd, i, target):
+    """Time in [t_i, t_{i+1}] at which the cubic Hermite interpolant of the angle (values q, slopes
+    q̇ at both ends) reaches ``target`` (Newton from the linear guess; q monotone there)."""
+    h = t[i + 1] - t[i]
+    q0, q1, d0, d1 = q[i], q[i + 1], qd[i] * h, qd[i + 1] * h
+    s = (target - q0) / (q1 - q0) if q1 != q0 else 0.0
+    for _ in range(20):
+        s2, s3 = s * s, s * s * s
+        f = (2 * s3 - 3 * s2 + 1) * q0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * q1 + (s3 - s2) * d1 - target
+        df = (6 * s2 - 6 * s) * q0 + (3 * s2 - 4 * s + 1) * d0 + (-6 * s2 + 6 * s) * q1 + (3 * s2 - 2 * s) * d1
+        if df == 0:
+            break
+        step = f / df
+        s = min(1.0, max(0.0, s - step))
+        if abs(step) < 1e-15:
+            break
+    return float(t[i] + s * h)
+
+
+def crossing_times(traj, targets_rel):
+    """Times at which the unwrapped crank angle, measured from its first sample in the direction of
+    net rotation, first reaches each of ``targets_rel`` [rad] (Hermite interpolation)."""
+    t, q, qd = traj.t, np.asarray(traj.q, dtype=float), np.asarray(traj.qd, dtype=float)
+    sgn = 1.0 if q[-1] >= q[0] else -1.0
+    u, ud = sgn * (q - q[0]), sgn * qd
+    umax = np.maximum.accumulate(u)
+    out = []
+    for tg in targets_rel:
+        j = int(np.searchsorted(umax, tg, side="left"))
+        if j == 0 or j >= len(u):
+            out.append(float(t[min(j, len(t) - 1)]))
+            continue
+        out.append(_hermite_cross(t, u, ud, j - 1, tg))
+    return np.array(out)
+
+
+def cycles_of(traj):
+    """:func:`cycles` of a run, the boundaries by Hermite interpolation of the angle (grid-free)."""
+    q = np.asarray(traj.q, dtype=float)
+    s = 1.0 if q[-1] >= q[0] else -1.0
+    n = int(np.floor(s * (q[-1] - q[0]) / (2 * np.pi)))
+    if n < 2:
+        return np.empty((0, 2))
+    times = crossing_times(traj, 2 * np.pi * np.arange(1, n + 1))
+    return np.column_stack([times[:-1], times[1:]])
+
+
+def last_turn_of(traj):
+    """:func:`last_turn` of a run: the last 2π of crank travel to t_end, its start by Hermite
+    interpolation (the latest instant the angle was 2π behind its final value)."""
+    t, q, qd = traj.t, np.asarray(traj.q, dtype=float), np.asarray(traj.qd, dtype=float)
+    s = 1.0 if q[-1] >= q[0] else -1.0
+    u = s * (q - q[0])
+    target = u[-1] - 2 * np.pi
+    below = np.flatnonzero(u[:-1] <= target)
+    if target < 0 or below.size == 0:
+        return None
+    i = int(below[-1])
+    return _hermite_cross(t, u, s * qd, i, target), float(t[-1])
+
+
+def value_at(t, x, tt: float) -> float:
+    """x at time tt by the cubic through the four nearest samples (a sample itself when tt is one)."""
+    j = int(np.searchsorted(t, tt))
+    if j < len(t) and abs(t[j] - tt) <= 1e-12 * max(1.0, abs(tt)):
+        return float(x[j])
+    lo = max(0, min(j - 2, len(t) - 4))
+    ts, xs = t[lo:lo + 4], x[lo:lo + 4]
+    v = 0.0
+    for a in range(len(ts)):
+        w = 1.0
+        for b in range(len(ts)):
+            if b != a:
+                w *= (tt - ts[b]) / (ts[a] - ts[b])
+        v += w * xs[a]
+    return float(v)
+
+
+def window_extrema(traj, column: str, t0=None, t1=None):
+    """(max, min) of a recorded quantity over [t0, t1] from every co-step (the interval statistics
+    ``column:max`` … of :mod:`mjbench.kernel.layout`): rows inside the window contribute their
+    interval's extremes; an interval cut by the window's edge its extreme when it occurred inside,
+    and the value at the edge (interpolated) otherwise.  Without statistics: the samples."""
+    t = traj.t
+    t0 = float(t[0]) if t0 is None else float(t0)
+    t1 = float(t[-1]) if t1 is None else float(t1)
+    mx = traj.stat(f"{column}:max")
+    if mx is None:
+        x = traj[column]
+        sel = _window(t, t0, t1)
+        return float(np.max(x[sel])), float(np.min(x[sel]))
+    tmx, mn, tmn = (traj.stat(f"{column}:{k}") for k in ("t_max", "min", "t_min"))
+    eps = 1e-12 * max(1.0, abs(t1))
+    a, b = t[:-1], t[1:]  # interval of row i ≥ 1: [t_{i-1}, t_i]
+    X, Tx, N, Tn = mx[1:], tmx[1:], mn[1:], tmn[1:]
+    touch = (b >= t0 - eps) & (a <= t1 + eps)
+    inside = touch & (a >= t0 - eps) & (b <= t1 + eps)
+    edge = touch & ~inside
+    fin_x, fin_n = np.isfinite(X), np.isfinite(N)
+    cand_x = np.concatenate([X[inside & fin_x], X[edge & fin_x & (Tx >= t0 - eps) & (Tx <= t1 + eps)]])
+    cand_n = np.concatenate([N[inside & fin_n], N[edge & fin_n & (Tn >= t0 - eps) & (Tn <= t1 + eps)]])
+    if traj.has(column):  # the window's own edges (a sample, or the interpolated value)
+        x = traj[column]
+        ends = [value_at(t, x, t0), value_at(t, x, t1)]
+        cand_x = np.concatenate([cand_x, ends])
+        cand_n = np.concatenate([cand_n, ends])
+    if not cand_x.size:
+        raise ParameterError(f"window [{t0}, {t1}] s holds no co-step of the run (t = {t[0]:.4g} .. {t[-1]:.4g} s)")
+    return float(np.max(cand_x)), float(np.min(cand_n))
+
+
+def motor_angle(traj):
+    """The motor-shaft angle φ [rad] of a run's samples: z·(q + δ) (δ the compliant gear's deflection,
+    when recorded); None when the gear ratio is not in the run's meta."""
+    z = traj.meta.get("z")
+    if z is None:
+        return None
+    phi = float(z) * np.asarray(traj.q, dtype=float)
+    if traj.has("gear_deflection_rad"):
+        phi = phi + float(z) * traj["gear_deflection_rad"]
+    return phi
+
+
+def chi_of(traj, t0=None, t1=None, average="mean"):
+    """χ of Eq 22 of a run over [t0, t1] from every co-step: max − min of the motor speed from the
+    interval statistics (:func:`window_extrema`), the time mean from the motor angle, Δφ/Δt (exact;
+    the angle at a window edge by cubic interpolation); ``average = "midrange"``: (max + min)/2.
+    Without statistics: :func:`chi` of the samples."""
+    if traj.stat("motor_speed_rad_s:max") is None:
+        return chi(traj.t, traj.omega, t0, t1, average)
+    t = traj.t
+    t0 = float(t[0]) if t0 is None else float(t0)
+    t1 = float(t[-1]) if t1 is None else float(t1)
+    wmax, wmin = window_extrema(traj, "motor_speed_rad_s", t0, t1)
+    if average == "mean":
+        phi = motor_angle(traj)
+        if phi is None:
+            sel = _window(t, t0, t1)
+            av = time_mean(t[sel], traj.omega[sel])
+        else:
+            av = (value_at(t, phi, t1) - value_at(t, phi, t0)) / (t1 - t0)
+    elif average == "midrange":
+        av = 0.5 * (wmax + wmin)
+    else:
+        raise ParameterError(f"metrics.chi_average = {average!r}: choose 'mean' or 'midrange'")
+    if av == 0:
+        raise ParameterError("χ undefined: zero average speed in the window")
+    return (wmax - wmin) / av
+
+
+def peak_abs(traj, column: str, t0=None, t1=None) -> float:
+    """max |x| of a recorded quantity over [t0, t1] from every co-step (:func:`window_extrema`)."""
+    mx, mn = window_extrema(traj, column, t0, t1)
+    return float(max(abs(mx), abs(mn)))
+
+
 def rel_difference(t_ref, x_ref, t_other, x_other, t0=None, t1=None):
     """Max and RMS of |x_other − x_ref| / max|x_ref| on the reference samples (x_other linearly
     interpolated).  Normalised by the peak of the reference: a relative error that stays meaningful
@@ -201,8 +366,8 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
         "steady_from_s": float(steady_from),
         "mean_motor_speed_rad_s": time_mean(t[t >= steady_from], om[t >= steady_from]),
         "mean_crank_speed_rad_s": time_mean(t[t >= steady_from], traj.qd[t >= steady_from]),
-        "peak_voltage_V": float(np.max(np.abs(traj.voltage))),
-        "peak_current_A": float(np.max(np.abs(traj.current))),
+        "peak_voltage_V": _peak_voltage(traj),
+        "peak_current_A": peak_abs(traj, "current_A") if np.any(np.isfinite(traj.current)) else float("nan"),
         "peak_power_elec_W": float(np.max(traj.p_elec)),
         "peak_power_mech_W": float(np.max(traj.p_mech)),
         "energy_elec_J": energy(t, traj.p_elec),
@@ -210,7 +375,8 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
         "max_closure_error_m": float(np.max(traj.closure)),
     }
     out.update(end_state(traj, band_rel))
-    cyc, vals = chi_per_cycle(t, traj.q, om, average)
+    cyc = cycles_of(traj)
+    vals = np.array([chi_of(traj, a, b, average) for a, b in cyc])
     # two readings of "χ over the last cycle" (docs/validation.md): the last complete cycle
     # counted from α(0) (cycles() — it may end up to one period before t_end), and the last
     # 2π of crank travel ending at t_end
@@ -224,20 +390,28 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
         out["n_cycles"] = int(len(vals))
         out["chi_cycles"] = [{"t_start_s": float(a), "t_end_s": float(b), "chi": float(v)}
                              for (a, b), v in zip(cyc, vals)]
-    turn = last_turn(t, traj.q)
+    turn = last_turn_of(traj)
     if turn is not None:
-        out["chi_last_turn"] = chi(t, om, turn[0], turn[1], average)
+        out["chi_last_turn"] = chi_of(traj, turn[0], turn[1], average)
         out["last_turn_start_s"], out["last_turn_end_s"] = turn
     if chi_window is not None:
         t0, t1 = chi_window
         if t[-1] >= t1 - 1e-9:
-            out["chi_window"] = chi(t, om, t0, t1, average)
+            out["chi_window"] = chi_of(traj, t0, t1, average)
             out["chi_window_s"] = [float(t0), float(t1)]
-    if any(k.startswith("chi") for k in out):
-        # χ is max − min of the *recorded* samples: it depends on the record's grid (module doc),
-        # so every χ is labelled with it
+    if any(k.startswith("chi") for k in out) and traj.stat("motor_speed_rad_s:max") is None:
+        # a run read back from a CSV has no interval statistics: its χ is max − min of the recorded
+        # samples and depends on their interval, so it is labelled with it
         out["chi_sampling_s"] = sampling_interval(t)
     return out
+
+
+def _peak_voltage(traj) -> float:
+    """max |V| applied over any co-step (the statistics of the applied voltage; without them, the
+    recorded samples of voltage_V)."""
+    if traj.stat("voltage_applied_V:max") is None:
+        return float(np.max(np.abs(traj.voltage)))
+    return peak_abs(traj, "voltage_applied_V")
 
 
 #: the trajectory columns whose last value is an end-state metric (``final_<column>``)

@@ -26,13 +26,14 @@ def backend_options(scn, backend: str) -> dict:
             **joints}
 
 
-def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False) -> dict:
-    """Simulate one mode on the given backends: {backend: Trajectory}."""
+def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False, machine=None) -> dict:
+    """Simulate one mode on the given backends: {backend: Trajectory}.  ``machine``: the mode's
+    machine, built once by the caller (each run starts its components afresh)."""
     t_end = float(t_end if t_end is not None else scn.simulation.t_end)
     record_dt = scn.simulation.record_dt
+    machine = machine if machine is not None else S.make_machine(scn, mode)
     out = {}
     for b in backends:
-        machine = S.make_machine(scn, mode)
         bar = None
         if progress:
             from tqdm import tqdm
@@ -61,50 +62,49 @@ def mujoco_derived(scn) -> bool:
     return reduced_source(scn).startswith("MuJoCo-derived")
 
 
-def mode_metrics(scn, mode: str, trajs: dict) -> dict:
-    """Metrics of every backend, their cross-comparison and the paper comparison rows."""
-    mt = scn.metrics
-    res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
+def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduced_model: str = "") -> dict:
+    """The one metrics path (scenarios and machines built in code): every backend's metrics
+    (:func:`mjbench.metrics.summary` with the ``[metrics]`` settings ``config``), the loop each ran,
+    the metric families the controller adds (its :meth:`~mjbench.control.Controller.metrics`: the
+    coupler-speed tracking, the residual vibration after a move …), the backends' comparison, the
+    reduced model against MuJoCo's own mass matrix and bias (the model check, whenever both backends
+    ran) and the per-step plausibility check."""
+    from .schema import Metrics
+
+    mt = config if config is not None else Metrics()
+    res = {"mode": None, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
                                                    steady_from=mt.steady_start, band_rel=mt.band_rel)
                                       for b, tr in trajs.items()}}
-    res["reduced_model"] = reduced_source(scn)
+    res["reduced_model"] = reduced_model or getattr(type(machine.mechanism), "reduced_source", "")
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
                    for b, tr in trajs.items()}
-    if scn.law is not None and S.make_mechanism(scn).internal:
-        # a motion law run by a real motor + servo (seeds 001/003 machines): residual vibration
-        from .vibration import residual_from_trajectory
-
-        mech, law = S.make_mechanism(scn), scn.law.build()
-        after = max(0.0, float(next(iter(trajs.values())).t[-1]) - law.T)
-        for b, tr in trajs.items():
-            if after > 0:
-                r = residual_from_trajectory(tr, mech.oscillator(), law.T, after)
-                r["max_tracking_error_rad"] = float(abs(law.position(tr.t) - tr.q).max())
-                res["backends"][b]["residual_vibration"] = r
-    ref = getattr(scn.modes.get(mode), "reference", None)
-    if ref is not None and getattr(ref, "type", None) == "coupler_speed":
-        # the controller tracks a coupler-point speed: its tracking metrics (metrics.coupler_tracking)
-        mach = S.make_machine(scn, mode)
-        cfg = {"settle_time": mt.settle_time, "band_rel": mt.band_rel, "rise_fraction": mt.rise_fraction,
-               "crank_error_band": mt.crank_error_band}
-        for b, tr in trajs.items():
-            res["backends"][b]["coupler_speed"] = M.coupler_tracking(tr, mach.mechanism, mach.controller.reference, **cfg)
+    for b, tr in trajs.items():  # the families the controller (and its reference) add
+        res["backends"][b].update(machine.controller.metrics(tr, machine, mt) or {})
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"], mt.backend_tolerance)
         # the reduced model against MuJoCo's own mass matrix and bias forces: controller-independent
         try:
-            res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(S.make_mechanism(scn), scn.multibody_options())
+            res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(machine.mechanism, multibody_options or {})
         except Exception as e:  # noqa: BLE001 - a diagnostic must not lose the run: reported instead
             res["plausibility"]["model"] = {"applicable": False, "models_agree": None,
                                             "note": f"not compared: {type(e).__name__}: {e}"}
-        if mujoco_derived(scn):
+        if str(res["reduced_model"]).startswith("MuJoCo-derived"):
             res["multibody_vs_reduced"]["note"] = ("reduced model MuJoCo-derived (from the same MJCF): "
                                                    "not an independent check")
     # a step too coarse for the motion (per-step input-angle bound)
     res.setdefault("plausibility", {})["step"] = {
-        b: plausibility.step_check(tr, float(tr.meta.get("dt", scn.simulation.dt))) for b, tr in trajs.items()}
+        b: plausibility.step_check(tr, float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
+    return res
+
+
+def mode_metrics(scn, mode: str, trajs: dict, machine=None) -> dict:
+    """A scenario mode's metrics: :func:`run_metrics` of its machine with the scenario's settings,
+    then the paper comparison rows."""
+    machine = machine if machine is not None else S.make_machine(scn, mode)
+    res = run_metrics(machine, trajs, scn.metrics, scn.multibody_options(), reduced_source(scn))
+    res["mode"] = mode
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
 
@@ -155,13 +155,16 @@ def backends_of(backend: str) -> tuple:
     return backends
 
 
-def simulate_mode(scn, mode: str, backend: str = "both", t_end=None, progress=False) -> tuple:
+def simulate_mode(scn, mode: str, backend: str = "both", t_end=None, progress=False, machine=None) -> tuple:
     """Simulate ``mode`` on the backends of ``backend`` and compute what ``metrics.json`` holds:
-    ({backend: Trajectory}, metrics dict).  The computing half of :func:`run`."""
+    ({backend: Trajectory}, metrics dict).  The computing half of :func:`run`; the machine is built
+    once (here, unless given) and flows one way: machine → runs → trajectories → metrics."""
     backends = backends_of(backend)
-    trajs = run_mode(scn, mode, backends, t_end, progress)
-    res = mode_metrics(scn, mode, trajs)
+    machine = machine if machine is not None else S.make_machine(scn, mode)
+    trajs = run_mode(scn, mode, backends, t_end, progress, machine)
+    res = mode_metrics(scn, mode, trajs, machine)
     res["scenario"] = scn.name
+    res["setpoint_motor_rad_s"] = setpoint(scn, mode, machine)
     return trajs, res
 
 
@@ -185,7 +188,8 @@ def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, arg
         from .plots import fig4
         chi_txt = chi_text(res)
         tag = " [reduced model MuJoCo-derived]" if mujoco_derived(scn) and "reduced" in trajs else ""
-        fig4({mode: trajs}, out / "fig4.png", setpoint=setpoint(scn, mode),
+        sp = res["setpoint_motor_rad_s"] if "setpoint_motor_rad_s" in res else setpoint(scn, mode)
+        fig4({mode: trajs}, out / "fig4.png", setpoint=sp,
              title=f"{scn.scenario.title or scn.name} — {mode}{tag}",
              chi={mode: chi_txt} if chi_txt else None)
 
@@ -200,13 +204,12 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
     return res
 
 
-def setpoint(scn, mode):
-    """Motor-speed set-point drawn on the speed plot (PID ``omega0``, SMC ``omega_d`` × z)."""
-    p = scn.modes.get(mode)
-    v = getattr(p, "omega0", None)
-    if v is None and getattr(p, "omega_d", None) is not None:
-        v = float(p.omega_d) * float(scn.drive.z)
-    return float(v) if v is not None else None
+def setpoint(scn, mode, machine=None):
+    """Motor-speed set-point drawn on the speed plot: the controller's own
+    :meth:`~mjbench.control.Controller.setpoint` (PID ``omega0``, SMC ``omega_d`` × z), None without one."""
+    machine = machine if machine is not None else S.make_machine(scn, mode)
+    sp = machine.controller.setpoint(machine)
+    return None if sp is None else float(sp["motor_rad_s"])
 
 
 def chi_text(res):
@@ -285,3 +288,46 @@ def summary_text(res: dict) -> str:
         lines.append(f"  paper: {row['name']}: {row['paper_text']}{unit}   ours {ours}\n"
                      f"         verdict: {row['verdict']['text']}")
     return "\n".join(lines)
+
+
+# ============================================================================ mjbench check
+def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[dict]:
+    """The law contract of a mode's components, checked the way a run uses them (``mjbench check``):
+    per backend, the run is composed (every control law's contract and signals: a broken law is a
+    ParameterError naming it), each control law is listed with the signals it reads and writes,
+    then ``t_end`` s run in CPython and — when every law compiles — in the compiled loop with every
+    array access bounds-checked (``MJBENCH_JIT=check``); the two must give the same bits.  Returns
+    one row per backend: {backend, laws [(component, law, reads, writes)], compiled, reason, agree}."""
+    import numpy as np
+
+    from .backends import multibody as MB
+    from .backends import reduced as RD
+    from .backends import simulate
+    from .kernel import Program, machine_every
+
+    rows = []
+    for b in backends:
+        mc = S.make_machine(scn, mode)
+        o = backend_options(scn, b)
+        plant = MB.MultibodyPlant(mc, o) if b == "multibody" else RD.ReducedPlant(
+            mc, o["timestep"], o["method"], o["rtol"], o["atol"], o["model"])
+        plant.start()
+        h = float(plant.h)
+        pr = Program.build(plant, mc, h, machine_every(mc, h))
+        getattr(plant, "finish", lambda: None)()
+        laws = []
+        for slot, (form, w) in sorted(pr.wired.items()):
+            if w is None:
+                continue
+            laws.append((form.what or slot, f"{getattr(form.law, '__module__', '?')}.{getattr(form.law, '__qualname__', '?')}",
+                         list(w.names), list(w.outputs)))
+        row = {"backend": b, "laws": laws, "compiled": pr.compiled, "reason": "; ".join(pr.reasons), "agree": None}
+        py = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="python")
+        if pr.compiled:
+            from .compiled import jit
+
+            if jit.available():
+                ck = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="check")
+                row["agree"] = bool(py.columns == ck.columns and np.array_equal(py.data, ck.data, equal_nan=True))
+        rows.append(row)
+    return rows

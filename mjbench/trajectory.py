@@ -59,6 +59,7 @@ class Trajectory:
         self.n = 0
         self.backend = backend
         self.meta = dict(meta or {})
+        self.stats, self.stat_columns = None, ()
 
     @classmethod
     def from_record(cls, rec, backend: str, i: int | None = None) -> "Trajectory":
@@ -69,6 +70,9 @@ class Trajectory:
         n = int(rec.nrows[0 if i is None else i])
         tr.data = (rec.data if i is None else rec.data[i])[:n]
         tr.n = n
+        st = getattr(rec, "stats", None)
+        tr.stats = None if st is None else (st if i is None else st[i])[:n]
+        tr.stat_columns = tuple(getattr(rec, "stat_columns", ()))
         tr.backend = backend
         tr.meta = dict(rec.meta)
         if i is not None:
@@ -95,6 +99,14 @@ class Trajectory:
 
     def has(self, name) -> bool:
         return name in self.index
+
+    def stat(self, name):
+        """A column of the interval statistics (``"crank_speed_rad_s:max"`` …; :mod:`mjbench.kernel.layout`):
+        per record row, the extreme over every co-step since the previous row.  None when the run
+        has none (a trajectory read from CSV)."""
+        if self.stats is None or name not in self.stat_columns:
+            return None
+        return self.stats[: self.n, self.stat_columns.index(name)]
 
     t = property(lambda s: s["t_s"])
     q = property(lambda s: s["crank_angle_rad"])

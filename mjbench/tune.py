@@ -191,14 +191,9 @@ class Problem:
         if backend == "reduced":
             self.options["method"] = "rk4"  # the batched reduced model's integrator
         self.nthread, self.batch_size = nthread, batch_size
-        drive = S.make_drive(scn)
-        table = self.base_params
-        if getattr(table, "omega0", None) is not None:
-            self.setpoint = float(table.omega0) / float(drive.z)  # crank side [rad/s]
-        elif getattr(table, "omega_d", None) is not None:
-            self.setpoint = float(table.omega_d)
-        else:
-            self.setpoint = None
+        base = S.make_machine(scn, self.mode)
+        sp = base.controller.setpoint(base)  # the controller's capability: its speed on both shafts
+        self.setpoint = None if sp is None else float(sp["input_rad_s"])  # crank side [rad/s]
         self.limits = dict(limits or {})
         self.nfev = 0
         self._plant = None

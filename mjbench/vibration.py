@@ -186,8 +186,8 @@ def residual_state(law, osc, t_end=None):
 
 
 def energy_from_state(psi, psid, osc, motor_speed=0.0):
-    """E = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] [J] (seed 001 Eq 25)."""
-    return 0.5 * osc.J * ((psid + osc.ratio * motor_speed) ** 2 + osc.omega_n ** 2 * psi ** 2)
+    """E = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] [J] (seed 001 Eq 25): :meth:`Oscillator.energy`."""
+    return osc.energy(psi, psid, motor_speed)
 
 
 def residual_energy(law, osc, t_end=None) -> float:
@@ -210,10 +210,9 @@ def residual_peak(law, osc, window: float = PEAK_WINDOW, n: int = 20001) -> floa
 
 
 def residual_envelope(psi, psid, osc) -> float:
-    """Envelope [rad, platform] at T of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
-    that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²).  An envelope, not a
-    peak actually reached: the damped motion stays below it (:func:`residual_peak` is the peak)."""
-    return float(math.hypot(psi, (psid + osc.xi * osc.omega_n * psi) / osc.omega_d))
+    """Envelope [rad, platform] at T of the free vibration that starts from (ψ, ψ̇) when the motor
+    stops (:meth:`Oscillator.envelope`; :func:`residual_peak` is the peak actually reached)."""
+    return osc.envelope(psi, psid)
 
 
 residual_amplitude = residual_envelope  # the former name (it computes the envelope above)
@@ -731,23 +730,8 @@ def servo_machine(scn, mode, law):
 
 
 def residual_from_trajectory(tr, osc, T, t_after):
-    """Residual-vibration figures of a machine run (columns deflection_rad, deflection_rate_rad_s):
-    E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (Incerti belt Eq 25, with the actual
-    motor speed), the free-vibration envelope at T (``residual_envelope_at_T_rad``), the actual peak |ψ|
-    over [T, T + t_after] (``residual_peak_after_T_rad``, window in ``residual_peak_window_s``;
-    cut at the end of the run), the energy at the end of the run."""
-    t = tr.t
-    iT = int(np.argmin(np.abs(t - T)))
-    psi, psid, om = tr["deflection_rad"], tr["deflection_rate_rad_s"], tr.qd
-    E_T = float(energy_from_state(psi[iT], psid[iT], osc, om[iT]))
-    E_end = float(energy_from_state(psi[-1], psid[-1], osc, om[-1]))
-    after = (t >= T - 1e-12) & (t <= T + t_after + 1e-12)
-    return {"E_T_J": E_T, "E_end_J": E_end,
-            "residual_envelope_at_T_rad": residual_envelope(float(psi[iT]), float(psid[iT]), osc),
-            "residual_peak_after_T_rad": float(np.max(np.abs(psi[after]))),
-            "residual_peak_window_s": float(min(t_after, t[-1] - T)),
-            "peak_current_A": float(np.max(np.abs(tr.current))),
-            "peak_voltage_V": float(np.max(np.abs(tr.voltage)))}
+    """Residual-vibration figures of a machine run: :meth:`Oscillator.residual_metrics`."""
+    return osc.residual_metrics(tr, T, t_after)
 
 
 def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced", peak_window=PEAK_WINDOW) -> dict:

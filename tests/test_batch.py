@@ -104,9 +104,9 @@ def test_per_run_parameters_limits_and_drives():
         progs.append(Program.build(pl, mc, h, control_every(mc.controller, h)))
         pl.finish()
     assert progs[0].key == progs[1].key  # one compiled loop serves both
-    (P0, S0), (P1, S1) = ((p.forms["ctrl"].P, p.forms["ctrl"].state()) for p in progs)
+    (P0, S0), (P1, S1) = ((p.forms["ctrl_0"].P, p.forms["ctrl_0"].state()) for p in progs)
     assert (P0.v_limit, P1.v_limit) == (10.0, 48.0) and S0 is not S1
-    assert progs[0].forms["ctrl"].state() is not progs[0].forms["ctrl"].state()
+    assert progs[0].forms["ctrl_0"].state() is not progs[0].forms["ctrl_0"].state()
 
 
 def test_model_based_smc_per_simulation_mechanisms():

@@ -110,7 +110,7 @@ def test_progress_advances_in_chunks_from_the_compiled_loop():
     mc = _machine()
     plant = multibody.MultibodyPlant(mc)
     st = kernel.Stepper(plant, mc, 1e-4, 30000, 5, "compiled")
-    kernel._run_one(st, bar, compiled=True)
+    kernel.running._run_one(st, bar, compiled=True)
     assert sum(bar.updates) == 30001 and len(bar.updates) >= 2
 
 

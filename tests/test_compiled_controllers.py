@@ -317,6 +317,14 @@ def test_a_controller_defined_in_a_test_file_runs_compiled():
     assert np.max(np.abs(tr.voltage)) < 48.0  # not clipped: the filter is all there is
     m = make()
     assert replay(m.controller, tr, m.drive.z, m.drive.v_max) == tr.n
-    with pytest.raises(ParameterError, match="linear counterpart"):  # no capability: said so
-        m = make()
-        LN.controller_counterpart(m, LN.operating_point(m, 0.0, 3.0), H)
+    # no linear() written: the counterpart comes from the law itself (mjbench.linearise), equal to the
+    # Tustin transfer function of the difference equation, (b0 + b1·z⁻¹)/(1 + a1·z⁻¹) on z·(q̇_ref − q̇)
+    import control as ct
+
+    m = make()
+    C = m.controller.linear(m, LN.operating_point(m, 0.0, 3.0), H, H)
+    w = np.logspace(0, np.log10(0.9 * np.pi / H), 40)
+    want = float(m.drive.z) * np.asarray(ct.frequency_response(ct.tf([b0, b1], [1.0, a1], H), w).complex).ravel()
+    got = np.asarray(ct.frequency_response(C[0, LN.LAW_INPUTS.index("qd_ref")], w).complex).ravel()
+    np.testing.assert_allclose(got, want, rtol=1e-6)
+    assert list(C.state_labels) == ["e_prev", "u_prev"]  # the direct form's two states, named by STATE

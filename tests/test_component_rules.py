@@ -95,7 +95,8 @@ def test_a_batch_cannot_share_a_value_derived_from_parameters(backend):
 def test_the_controller_learns_its_sample_period(dt, period, T):
     ctrl = Derived(1.0, period)
     m = _machine(1.0, ctrl, dt)
-    from mjbench.kernel import controller_form, control_every
+    from mjbench.control import controller_form
+    from mjbench.kernel import control_every
 
     every = control_every(ctrl, dt)
     assert controller_form(ctrl, dt, every, m).P.T == pytest.approx(T, rel=1e-12)
@@ -190,20 +191,50 @@ def test_a_broken_plugin_is_named(tmp_path, monkeypatch):
 
 # ----------------------------------------------------------------------------- the documented example
 def test_the_contributing_toy_controller_runs():
-    """The toy controller of docs/CONTRIBUTING.md, executed as written: a scenario mode of its type
-    runs in the CPython and the compiled loop with the same bits, and records u = K·(ω₀ − φ̇) with
-    K = k_crank/z derived per run."""
+    """The toy PI of docs/CONTRIBUTING.md, executed as written: a scenario mode of its type runs in
+    the CPython and the compiled loop with the same bits; unsaturated, its voltages are the PI's
+    difference equation on the recorded speed error (u_k = K_p·e_k + T·K_i·Σ_{j≤k} e_j, the anti-windup
+    term zero while the drive applies what it is told); with an amplifier current limit the integral
+    is corrected by the voltage actually applied (it stays below the plain PI's); and its margins
+    come from its law (no linear() written)."""
     from pathlib import Path
+
+    from mjbench import linear as LN
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "CONTRIBUTING.md").read_text()
     block = text.split("### A controller", 1)[1].split("```python\n", 1)[1].split("```", 1)[0]
     exec(compile(block, "docs/CONTRIBUTING.md", "exec"), {"__name__": "contributing_toy"})
-    scn = S.load("incerti2012", ['modes.p.type="toy-p"', "modes.p.k_crank=20.0", 'modes.p.omega0="300 rpm"',
-                                 "drive.v_max=1e3"])
-    runs = {loop: simulate(S.make_machine(scn, "p"), "reduced", 0.05, record_dt=1e-4, loop=loop)
+    sets = ['modes.p.type="toy-pi"', "modes.p.kp_crank=20.0", "modes.p.ki_crank=200.0", 'modes.p.omega0="300 rpm"',
+            "modes.p.period=1e-3"]
+    scn = S.load("incerti2012", sets + ["drive.v_max=1e3"])
+    runs = {loop: simulate(S.make_machine(scn, "p"), "reduced", 0.05, record_dt=1e-3, loop=loop)
             for loop in ("python", "compiled")}
     assert runs["compiled"].meta["loop"] == "compiled", runs["compiled"].meta["loop_reason"]
     np.testing.assert_array_equal(runs["python"].data, runs["compiled"].data)
     tr = runs["compiled"]
     z = float(scn.drive.z)
-    np.testing.assert_allclose(tr.voltage, 20.0 / z * (10 * math.pi - tr.omega), rtol=1e-12, atol=1e-12)
+    e = 10 * math.pi - tr.omega
+    want = 20.0 / z * e + 1e-3 * 200.0 / z * np.cumsum(e)
+    np.testing.assert_allclose(tr.voltage, want, rtol=1e-9, atol=1e-9)
+    # with an amplifier current limit the law reads the voltage applied over the last co-step (the
+    # record's voltage_V of the row before each sample, every co-step recorded): replayed here, the
+    # law's commands through the drive's own limit law give the recorded voltages exactly
+    from mjbench.drive import drive_voltage
+
+    scl = S.load("incerti2012", sets + ["drive.i_max=2", "modes.p.kaw=50"])
+    mc = S.make_machine(scl, "p")
+    lim = simulate(mc, "reduced", 0.1, record_dt=1e-4, loop="python")
+    Pd = mc.drive.step_params(1e-4)
+    integ, u_prev, limited = 0.0, 0.0, 0
+    for k in range(0, lim.n, 10):
+        e_k = 10 * math.pi - lim.omega[k]
+        V_last = lim.voltage[k - 1] if k else 0.0
+        integ += 1e-3 * (200.0 / z * e_k + 50.0 * (V_last - u_prev))
+        u_prev = 20.0 / z * e_k + integ
+        cmd = min(max(u_prev, -float(mc.drive.v_max)), float(mc.drive.v_max))
+        assert lim.voltage[k] == drive_voltage(lim.current[k], cmd, lim.omega[k], Pd), k
+        limited += lim.voltage[k] < cmd - 1e-9
+    assert limited > 20 and np.max(np.abs(lim.current)) <= 2.0 + 1e-9
+    m = S.make_machine(scn, "p")
+    _, mg = LN.analyse(m, LN.operating_point(m, 0.0, 10 * math.pi / z), 1e-4, "reduced")
+    assert mg.stable and math.isfinite(mg.phase_margin_deg) and mg.Ms >= 1.0

@@ -90,7 +90,7 @@ def test_every_name_the_docs_mention_exists(doc):
 def test_the_check_sees_names():
     """The patterns find what the docs write (else the test above would pass on nothing)."""
     m = mentions(ROOT / "README.md")
-    assert "mjbench/kernel.py" in m["paths"] and "mjbench/mechanisms/" in m["paths"]
+    assert "mjbench/kernel/" in m["paths"] and "mjbench/mechanisms/" in m["paths"]
     assert any(d.startswith("mjbench.") for d in m["dotted"]) and m["pyfiles"]
     fake = ROOT / "docs" / "CONTRIBUTING.md"
     assert not _exists("mjbench/no_such_module.py", fake) and not _resolves("mjbench.no_such_module")

@@ -184,6 +184,7 @@ def test_controller_objects_run_their_law_with_their_own_state():
     ``parameters(T, z)`` and a fresh state, bit for bit, and two objects share nothing (the batch
     of the old array controllers is now independent runs: tests/test_compiled_controllers.py)."""
     from controllers.pid import pid_law
+    from mjbench.control import call_law
 
     y = Measurement(z=1.5)
     a = PID(50.0, 32.0, 0.015, omega0=30.0, kp_ramp=True, v_limit=48.0)
@@ -194,8 +195,10 @@ def test_controller_objects_run_their_law_with_their_own_state():
     for n in range(50):
         t = n * 1e-3
         y.set(t, 0.2 * n, 20.0 + n, 3.0, 0.0)
-        ref = type(a.reference).law(t, y.q, y.qd, y.qdd, y.current, a.reference.parameters(0.0, 1.5), Sref)
-        assert a(t, y) == pid_law(t, y.q, y.qd, y.qdd, y.current, *ref, P, S)
+        sig = {**y.signals(), "t": t}
+        ref = call_law(type(a.reference).law, sig, a.reference.parameters(0.0, 1.5), Sref)
+        sig.update(zip(("phi_ref", "om_ref", "acc_ref"), ref))
+        assert a(t, y) == call_law(pid_law, sig, P, S)
         b(t, y)
     np.testing.assert_array_equal(a._S, S)
     assert a.state() != b.state()  # saturated differently: each keeps its own windup offset

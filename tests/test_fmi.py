@@ -82,7 +82,7 @@ def test_exported_plant_validates_with_units(plant_fmu):
         assert var[name].find("Real").get("unit") == unit and unit in units, name
     assert var["drive.R"].get("causality") == "parameter" and float(var["drive.R"].find("Real").get("start")) == 2.0
     assert var["points.P.x"].get("causality") == "output"
-    assert {"resources/mjbench_fmu.json", "resources/requirements.txt", "resources/mjbench/kernel.py",
+    assert {"resources/mjbench_fmu.json", "resources/requirements.txt", "resources/mjbench/kernel/loop.py",
             "binaries/linux64/incerti2012_plant_voltage.so"} <= names
     req = zipfile.ZipFile(plant_fmu).read("resources/requirements.txt").decode()
     assert "mujoco" in req and "numpy" in req
@@ -161,7 +161,7 @@ def test_torque_input_is_an_ideal_current_source():
     scn = S.load("incerti2012")
     ps = PlantSession(scn, "torque", "reduced")
     ps.start()
-    Pd = ps.program.drive
+    Pd = ps.program.drive_P[0]
     T = 1.3
     ps.set_input(T)
     errs = []

@@ -76,8 +76,9 @@ def test_plant_closure_law_equals_the_constraint_residual(name, mode, npairs, la
         assert f.compiled and f.laws["closure"].__name__ == law
         step, closure, P, St = f.bound(), f.laws["closure"], C.python_view(f.P), f.state()
         worst, seen = 0.0, 0.0
+        QO = np.zeros(4)
         for n in range(400):
-            step(5.0 if n < 200 else -5.0, n * plant.h, P, St)
+            step(np.array([5.0 if n < 200 else -5.0]), n * plant.h, P, St, QO)
             e = np.asarray(plant.data.efc_pos[:3 * npairs]).reshape(npairs, 3)
             ref = float(np.max(np.abs(e)) if law == "site_pairs_closure" else np.max(np.sqrt(np.sum(e * e, axis=1))))
             worst = max(worst, abs(closure(P, St) - ref))

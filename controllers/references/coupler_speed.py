@@ -58,13 +58,14 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from mjbench import metrics as M
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
 from mjbench.mechanisms.fourbar import arc_length_law
 from mjbench.mechanisms.linkage_kin import ptable_channel
 from mjbench.fields import Bool, Q, Strict
 
-from ..reference import Reference
+from mjbench.control import REF_INPUTS, REF_OUTPUTS, Reference
 
 PROFILES = ("constant", "piecewise", "table")
 DERIVATIVES = ("difference", "analytic", "zero")
@@ -144,8 +145,8 @@ def coupler_target(PROFILE, t, q, P):
 CouplerRefP = namedtuple("CouplerRefP", "z derivative kick target")
 
 
-@law
-def coupler_speed_law(TARGET, t, q, qd, qdd, I, P, S):
+@law(outputs=("phi_ref", "om_ref", "acc_ref"))
+def coupler_speed_law(TARGET, t, q, qd, P, S):
     """(φ_ref, ω_ref, ω̇_ref) motor side (module docstring).  S = [t_last (NaN: no sample yet),
     φ_ref, q̇_trj at t_last, the derivative memory, the last ω̇_ref/z]."""
     qdt, V, dV, Sq, dS, ramp = TARGET(t, q, P.target)
@@ -323,6 +324,13 @@ class CouplerSpeed(Reference):
         return self.form(T, z).P
 
     # ------------------------------------------------------------------ capabilities
+    def metrics(self, tr, machine, config) -> dict:
+        """The coupler-point speed tracking metrics (:func:`mjbench.metrics.coupler_tracking`,
+        ``coupler_speed``), judged with the scenario's ``[metrics]`` settings."""
+        cfg = {k: getattr(config, k, None) for k in ("settle_time", "band_rel", "rise_fraction", "crank_error_band")}
+        cfg = {k: v for k, v in cfg.items() if v is not None}
+        return {"coupler_speed": M.coupler_tracking(tr, machine.mechanism, self, **cfg)}
+
     def crank_speed_at(self, machine, q):
         return float(self.crank_speed(float(q)))
 
@@ -335,7 +343,6 @@ class CouplerSpeed(Reference):
         differentiated; analytic: g·δq̇ + g'·q̇*·δq; zero)."""
         import control as ct
 
-        from mjbench.linear import REF_INPUTS, REF_OUTPUTS
 
         e = 1e-4
         c0, cp, cm = (float(self.crank_speed(op.q + s)) for s in (0.0, e, -e))

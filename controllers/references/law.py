@@ -22,7 +22,7 @@ from mjbench.compiled import law
 from mjbench.errors import ParameterError
 from mjbench.fields import OptQ, Q, Strict
 
-from ..reference import Reference
+from mjbench.control import Reference
 
 
 class LawReferenceParams(Strict):
@@ -47,8 +47,8 @@ def from_params(p, drive=None, mechanism=None, scenario=None):
 LawRefP = namedtuple("LawRefP", "scale t0 motion")
 
 
-@law
-def law_reference(MOTION, t, q, qd, qdd, I, P, S):
+@law(outputs=("phi_ref", "om_ref", "acc_ref"))
+def law_reference(MOTION, t, P, S):
     """(φ, φ̇, φ̈) of the motion law at t − t0, times ``scale`` (at rest before and after the move)."""
     p, v, a, j = MOTION(t - P.t0, 2, P.motion)
     s = P.scale
@@ -79,11 +79,26 @@ class LawReference(Reference):
         """The law's mean input speed Φ/(T·z) [rad/s]."""
         return float(self.motion.Phi) / float(self.motion.T) / float(machine.drive.z)
 
+    def metrics(self, tr, machine, config) -> dict:
+        """On a machine with an internal oscillator (the platforms of seeds 001/003): the residual
+        vibration after the move (:meth:`~mjbench.mechanisms.platform.Oscillator.residual_metrics`) and
+        the largest tracking error of the motor angle (``residual_vibration``)."""
+        mech = machine.mechanism
+        osc = getattr(mech, "oscillator", None)
+        T = self.t0 + float(self.motion.T)
+        after = float(tr.t[-1]) - T
+        if not mech.internal or osc is None or after <= 0:
+            return {}
+        r = osc().residual_metrics(tr, T, after)
+        pos = self.scale * np.asarray(self.motion.position(np.maximum(tr.t - self.t0, 0.0)), dtype=float)
+        r["max_tracking_error_rad"] = float(np.max(np.abs(pos - tr.q)))
+        return {"residual_vibration": r}
+
     def reference_angle(self, t):
         """φ_ref [rad, motor side] at times t [s] (array): the reference's own law, called once per
         time (what a run's tracking error is measured against)."""
         f = self.form(0.0, 1.0)
         fn, P, S = f.bound(), f.P, f.state()
         ta = np.asarray(t, dtype=float)
-        out = np.array([fn(x, 0.0, 0.0, 0.0, 0.0, P, S)[0] for x in ta.ravel().tolist()], dtype=float)
+        out = np.array([fn(x, P, S)[0] for x in ta.ravel().tolist()], dtype=float)
         return out.reshape(ta.shape)

@@ -29,8 +29,8 @@ from .law import LawReference
 PeriodicLawP = namedtuple("PeriodicLawP", "scale t0 period Phi motion")
 
 
-@law
-def periodic_law_reference(MOTION, t, q, qd, qdd, I, P, S):
+@law(outputs=("phi_ref", "om_ref", "acc_ref"))
+def periodic_law_reference(MOTION, t, P, S):
     """(φ, φ̇, φ̈) of the motion law repeated every ``period`` with +Φ per cycle, times ``scale``
     (at rest at 0 before t0)."""
     tau = t - P.t0
@@ -67,6 +67,10 @@ class PeriodicLawReference(LawReference):
         return C.Form(periodic_law_reference,
                       PeriodicLawP(self.scale, self.t0, self.period, float(self.motion.Phi), mf.P),
                       self.initial_state(), fn_args=(mf,))
+
+    def metrics(self, tr, machine, config) -> dict:
+        """None: a repeated move has no rest after it to measure a residual vibration in."""
+        return {}
 
     def crank_speed_at(self, machine, q):
         """The mean input speed Φ/(period·z) [rad/s]."""

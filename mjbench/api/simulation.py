@@ -155,27 +155,20 @@ def _simulate_machine(machine: Machine, backend: str, t_end: float, record_dt: f
     for b in runner.backends_of(backend):
         with _bar(progress, t_end / dt, b) as bar:
             trajs[b] = run_backend(machine, b, t_end, record_dt=record_dt, options=options[b], progress=bar)
-    metrics = machine_metrics(trajs)
+    metrics = machine_metrics(trajs, machine, options.get("multibody"))
     res = Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend,
                  machine=machine)
     warn(res.warnings)
     return res
 
 
-def machine_metrics(trajs: dict[str, Any]) -> dict[str, Any]:
-    """Metrics of runs without a scenario: per backend, their comparison, the step check."""
-    from .. import metrics as M
-    from .. import plausibility
+def machine_metrics(trajs: dict[str, Any], machine: Machine, options: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Metrics of runs of a machine built in code: the one metrics path of scenarios
+    (:func:`mjbench.runner.run_metrics`: the controller's families and the reduced-model check
+    included) with the default ``[metrics]`` settings."""
+    from .. import runner
 
-    res: dict[str, Any] = {"mode": None, "backends": {b: M.summary(tr) for b, tr in trajs.items()}}
-    res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
-                   for b, tr in trajs.items()}
-    if "multibody" in trajs and "reduced" in trajs:
-        res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
-        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
-    res.setdefault("plausibility", {})["step"] = {
-        b: plausibility.step_check(tr, float(tr.meta.get("dt", MACHINE_DT))) for b, tr in trajs.items()}
-    return res
+    return runner.run_metrics(machine, trajs, None, options)
 
 
 class _bar:
@@ -292,7 +285,8 @@ def _many_machines(machines: list[Machine], backends: tuple, backend: str, t_end
             runs[i][b] = tr
     out = []
     for mach, trajs in zip(machines, runs):
-        metrics = _guarded(lambda trajs=trajs: machine_metrics(trajs), trajs, None)
+        metrics = _guarded(lambda trajs=trajs, mach=mach: machine_metrics(trajs, mach, machine_options(dt)["multibody"]),
+                           trajs, None)
         out.append(Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend,
                           machine=mach))
     warn(w for r in out for w in r.warnings)

@@ -47,7 +47,6 @@ def accuracy_note(integrator: str) -> str:
             f"(0.1 ms, 2 s) against the reduced model: crank-speed error {a['pid']:.2g} of peak with PID "
             f"(RK4 {r['pid']:.2g}), {a['open']:.2g} open loop (RK4 {r['open']:.2g}), loop closure "
             f"{a['closure_m']:.2g} m (RK4 {r['closure_m']:.2g} m)")
-MAX_SPEED, MAX_CURRENT = kernel.MAX_SPEED, kernel.MAX_CURRENT
 
 
 def build_model(machine, options=None, native_dcmotor=False):
@@ -197,29 +196,34 @@ def _motor_offset(P, q, qd):
 
 
 @C.law
-def mujoco_read(P, S):
+def mujoco_read(P, S, QO):
+    """The state (q, q̇, δ, δ̇) of the input coordinate into ``QO[0:4]`` (δ: a compliant gear's
+    motor offset, else 0)."""
     q = P.qpos[P.qa]
     qd = P.qvel[P.va]
     dm, dmd = _motor_offset(P, q, qd)
-    return q, qd, dm, dmd
+    QO[0] = q
+    QO[1] = qd
+    QO[2] = dm
+    QO[3] = dmd
 
 
 @C.law
-def mujoco_step(tau, t, P, S):
-    """The held drive torque on its dof, one ``mj_step``; → (q, q̇, δ, δ̇) at the step's end."""
-    P.qfrc[P.vd] = tau
+def mujoco_step(TAU, t, P, S, QO):
+    """The held drive torque on its dof, one ``mj_step``; the state at the step's end into ``QO``."""
+    P.qfrc[P.vd] = TAU[0]
     mj_step_at(P.step, P.m, P.d)
-    return mujoco_read(P, S)
+    mujoco_read(P, S, QO)
 
 
 @C.law
-def mujoco_step_load(LOAD, tau, t, P, S):
+def mujoco_step_load(LOAD, TAU, t, P, S, QO):
     """:func:`mujoco_step` with the mechanism's own loads written first (``LOAD(t, P_load)``, which
     adds to the drive torque on the input dof)."""
-    P.qfrc[P.vd] = tau
+    P.qfrc[P.vd] = TAU[0]
     LOAD(t, P.load)
     mj_step_at(P.step, P.m, P.d)
-    return mujoco_read(P, S)
+    mujoco_read(P, S, QO)
 
 
 @C.law

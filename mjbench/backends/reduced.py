@@ -139,12 +139,13 @@ class ReducedPlant:
         def offset():
             return (plant.x[-1], plant.xd[-1]) if compliant else (0.0, 0.0)
 
-        def step(tau, t, P, S):
-            plant._advance_ivp(tau, t)
-            return (plant.q, plant.qd, *offset())
+        def read(P, S, QO):
+            QO[0], QO[1] = plant.q, plant.qd
+            QO[2], QO[3] = offset()
 
-        def read(P, S):
-            return (plant.q, plant.qd, *offset())
+        def step(TAU, t, P, S, QO):
+            plant._advance_ivp(TAU[0], t)
+            read(P, S, QO)
 
         def write(out, b, P, S):
             n = plant._nx
@@ -208,9 +209,10 @@ InternalP = namedtuple("InternalP", "h Ja c n idefl acc")
 
 
 @C.law
-def rk4_rigid(MODEL, tau, t, P, S):
-    """One classical RK4 step of α̈ = [τ − c·α̇ + Q_ext − E_p' − ½J'·α̇²] / (J_eq + J) with τ held
-    (S = [α, α̇]); MODEL(q, q̇, t, P.model) → (J, ½J', E_p', Q_ext).  → (α, α̇, 0, 0)."""
+def rk4_rigid(MODEL, TAU, t, P, S, QO):
+    """One classical RK4 step of α̈ = [τ − c·α̇ + Q_ext − E_p' − ½J'·α̇²] / (J_eq + J) with τ = TAU[0]
+    held (S = [α, α̇]); MODEL(q, q̇, t, P.model) → (J, ½J', E_p', Q_ext).  (α, α̇, 0, 0) into QO."""
+    tau = TAU[0]
     h = P.h
     h2 = 0.5 * h
     h6 = h / 6.0
@@ -234,12 +236,18 @@ def rk4_rigid(MODEL, tau, t, P, S):
     qd1 = qd + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
     S[0] = q1
     S[1] = qd1
-    return q1, qd1, 0.0, 0.0
+    QO[0] = q1
+    QO[1] = qd1
+    QO[2] = 0.0
+    QO[3] = 0.0
 
 
 @C.law
-def reduced_read(P, S):
-    return S[0], S[1], 0.0, 0.0
+def reduced_read(P, S, QO):
+    QO[0] = S[0]
+    QO[1] = S[1]
+    QO[2] = 0.0
+    QO[3] = 0.0
 
 
 @C.law
@@ -295,14 +303,15 @@ def internal_state_size(n: int) -> int:
 
 
 @C.law
-def rk4_internal(ACCEL, tau, t, P, S):
+def rk4_internal(ACCEL, TAU, t, P, S, QO):
     """One classical RK4 step of a mechanism with n = P.n internal coordinates, τ held.
 
     State S[0:m] = (q, q̇, x₁, ẋ₁, …, xₙ, ẋₙ) (m = 2n + 2; coordinate j at S[2j], its rate at
     S[2j+1]); the rest of S is the step's work space (:func:`internal_state_size`).  ACCEL(t, S, iy,
     ia, τ, J_eq, c, P.acc) reads a state at S[iy:iy+m] and writes the accelerations (q̈, ẍ₁, …, ẍₙ)
-    to S[ia:ia+n+1].  → (q, q̇, δ, δ̇) at the step's end (δ: the compliant gear's deflection,
-    coordinate P.idefl, else 0)."""
+    to S[ia:ia+n+1].  (q, q̇, δ, δ̇) at the step's end into QO (δ: the compliant gear's deflection,
+    coordinate P.idefl, else 0); τ = TAU[0]."""
+    tau = TAU[0]
     h = P.h
     h2 = 0.5 * h
     h6 = h / 6.0
@@ -340,16 +349,21 @@ def rk4_internal(ACCEL, tau, t, P, S):
         v = S[2 * j + 1]
         S[2 * j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
         S[2 * j + 1] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
-    return internal_read(P, S)
+    internal_read(P, S, QO)
 
 
 @C.law
-def internal_read(P, S):
-    """(q, q̇, δ, δ̇) of :func:`rk4_internal`'s state (δ = 0 without a compliant gear)."""
+def internal_read(P, S, QO):
+    """(q, q̇, δ, δ̇) of :func:`rk4_internal`'s state into QO (δ = 0 without a compliant gear)."""
+    QO[0] = S[0]
+    QO[1] = S[1]
     if P.idefl < 0:
-        return S[0], S[1], 0.0, 0.0
-    k = 2 + 2 * P.idefl
-    return S[0], S[1], S[k], S[k + 1]
+        QO[2] = 0.0
+        QO[3] = 0.0
+    else:
+        k = 2 + 2 * P.idefl
+        QO[2] = S[k]
+        QO[3] = S[k + 1]
 
 
 @C.law

@@ -36,12 +36,19 @@ BRIDGES: list = []
 _jit_ready = False
 
 
-def law(fn: Callable) -> Callable:
+def law(fn: Callable | None = None, *, outputs: tuple | None = None) -> Callable:
     """Mark ``fn`` as a law: a pure scalar function numba can compile (see the module docstring).
 
-    The function itself is returned unchanged (Python calls it directly); when the compiled loop
-    is first used every law is registered with numba so that laws can call each other by name."""
+    ``@law`` or ``@law(outputs=("u",))``: a control law (a controller's, a reference's) names the
+    signals it reads by its parameters and declares the signals it writes (:mod:`mjbench.signals`;
+    a controller's default ``("u",)``, a reference's its three references).  The function itself is
+    returned unchanged (Python calls it directly); when the compiled loop is first used every law
+    is registered with numba so that laws can call each other by name."""
+    if fn is None:
+        return lambda f: law(f, outputs=outputs)
     fn.__mjbench_law__ = True
+    if outputs is not None:
+        fn.__mjbench_outputs__ = tuple(outputs)
     LAWS.append(fn)
     if _jit_ready:  # a law defined after the JIT started (a plugin imported late)
         from . import jit
@@ -90,6 +97,8 @@ class Form:
     reason: str = ""
     children: dict = field(default_factory=dict)
     fn_args: tuple = ()
+    outputs: tuple = ()
+    what: str = ""
 
     def __post_init__(self):
         self.S0 = np.ascontiguousarray(self.S0, dtype=np.float64).reshape(-1)

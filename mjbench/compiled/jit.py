@@ -104,26 +104,30 @@ def _importable(fn) -> bool:
     return m is not None and getattr(m, qual, None) is fn and getattr(m, "__file__", None) is not None
 
 
+def _package_hash(pkg) -> str:
+    """Hash of every source file of a package (laws call helpers of their package by name)."""
+    h = hashlib.sha256()
+    root = os.path.dirname(pkg.__file__)
+    for dirpath, dirnames, files in os.walk(root):
+        dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
+        for f in sorted(files):
+            if f.endswith(".py"):
+                p = os.path.join(dirpath, f)
+                h.update(p[len(root):].encode())
+                with open(p, "rb") as fh:
+                    h.update(fh.read())
+    return h.hexdigest()
+
+
 def _fingerprint() -> str:
-    """Hash of every source file of mjbench and controllers (laws call helpers by name)."""
+    """Hash of every source file of mjbench, numba's and Python's versions."""
     global _FINGERPRINT
     if _FINGERPRINT is None:
-        import mjbench
-        import controllers
-
-        h = hashlib.sha256()
-        for pkg in (mjbench, controllers):
-            root = os.path.dirname(pkg.__file__)
-            for dirpath, dirnames, files in os.walk(root):
-                dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
-                for f in sorted(files):
-                    if f.endswith(".py"):
-                        p = os.path.join(dirpath, f)
-                        h.update(p[len(root):].encode())
-                        with open(p, "rb") as fh:
-                            h.update(fh.read())
         import numba
 
+        import mjbench
+
+        h = hashlib.sha256(_package_hash(mjbench).encode())
         h.update(numba.__version__.encode())
         h.update(sys.version.encode())
         _FINGERPRINT = h.hexdigest()
@@ -131,30 +135,128 @@ def _fingerprint() -> str:
 
 
 def _module_hash(modname: str) -> str:
-    m = sys.modules.get(modname)
+    """Hash of the package a law's module belongs to (a module of mjbench: in the fingerprint), or
+    of the module alone when it is not in a package; read at every build (an edited law is a new
+    composition: its module's text is part of the kernel's name)."""
+    top = modname.split(".")[0]
+    if top == "mjbench":
+        return ""
+    m = sys.modules.get(top)
     f = getattr(m, "__file__", None)
-    if not f or modname.split(".")[0] in ("mjbench", "controllers"):
-        return ""
     try:
-        with open(f, "rb") as fh:
-            return hashlib.sha256(fh.read()).hexdigest()
+        if f and os.path.basename(f) == "__init__.py":
+            return _package_hash(m)
+        if f:
+            with open(f, "rb") as fh:
+                return hashlib.sha256(fh.read()).hexdigest()
     except OSError:
-        return ""
+        pass
+    return ""
 
 
-def loop_for(program, loop_fn, loop_source: str | None = None):
-    """The compiled loop of ``program``'s composition (generated, cached, loaded on first use)."""
+def loop_for(program, loop_source: str, check: bool = False):
+    """The compiled loop of ``program``'s composition (generated, cached, loaded on first use).
+    ``check``: every array access bounds-checked (``MJBENCH_JIT=check``: a law writing past its
+    state raises instead of corrupting memory)."""
     init()
-    key = program.key
+    key = (program.key, bool(check))
     fn = _LOOPS.get(key)
     if fn is not None:
         return fn
     with _LOCK:
         fn = _LOOPS.get(key)
         if fn is None:
-            fn = _LOOPS[key] = _build(program, loop_source or inspect.getsource(loop_fn))
-            _KEEP.append(dict(program.slots))  # the key holds the laws' ids: keep them alive
+            fn = _LOOPS[key] = _Guarded(program, _build(program, loop_source, check), key, check)
+            _KEEP.append((dict(program.slots), dict(program.wired)))  # the key holds the laws' ids: keep them alive
     return fn
+
+
+#: compositions whose laws numba refused in this process: key → the one-line reason
+_FAILED: dict = {}
+
+
+def law_failure(program) -> str:
+    """Why numba refused this composition's laws earlier in this process ('' if it did not)."""
+    return _FAILED.get(program.key, "")
+
+
+class LawCompileError(Exception):
+    """numba refused a law of the composition (``reason``: one line naming the component and the law)."""
+
+    def __init__(self, reason):
+        super().__init__(reason)
+        self.reason = reason
+
+
+class _Guarded:
+    """The compiled loop; its first call compiles it (numba compiles on first use): a law numba
+    refuses becomes :class:`LawCompileError` naming the component and the law, and a corrupted
+    cache entry is rebuilt once (``NOTES``)."""
+
+    def __init__(self, program, dispatcher, key, check=False):
+        self.program, self.fn, self.key, self.ok, self.check = program, dispatcher, key, False, check
+
+    def __call__(self, n0, n1, K, X):
+        if self.ok:
+            return self.fn(n0, n1, K, X)
+        from numba.core import config
+
+        before = config.BOUNDSCHECK
+        if self.check:  # every array access of the loop and its inlined laws is bounds-checked
+            config.BOUNDSCHECK = 1
+        try:
+            r = self.fn(n0, n1, K, X)
+        except Exception as e:  # noqa: BLE001 - numba's errors become one line
+            import numba
+
+            if isinstance(e, (numba.core.errors.TypingError, numba.core.errors.LoweringError,
+                              numba.core.errors.UnsupportedError)):
+                reason = _explain(self.program, e)
+                _FAILED[self.program.key] = reason
+                _LOOPS.pop(self.key, None)
+                raise LawCompileError(reason) from None
+            name = getattr(self.fn, "_mjbench_module", None)
+            if name is None or isinstance(e, (IndexError, ZeroDivisionError, ArithmeticError)):
+                raise
+            _cache.purge(name)  # a corrupted cache entry (numba's index or data): rebuild once
+            _cache.note(f"compiled kernel {name}: its cache entry could not be loaded ({type(e).__name__}); rebuilt")
+            sys.modules.pop(name, None)
+            self.fn = _build(self.program, getattr(self.fn, "_mjbench_source"), getattr(self.fn, "_mjbench_check"))
+            r = self.fn(n0, n1, K, X)
+        finally:
+            config.BOUNDSCHECK = before
+        self.ok = True
+        return r
+
+
+def _explain(program, e) -> str:
+    """One line naming the component and the law numba refused, the line and numba's first words."""
+    import re
+
+    text = str(e)
+    forms = []
+    for s, f in program.slots.items():
+        forms.append((s, f))
+    for s, (f, w) in program.wired.items():
+        forms.append((s, f))
+    where, comp = "", "a component"
+    for s, f in forms:
+        laws = [f.law] + [g.law for g in f.fn_args]
+        for fn in laws:
+            code = getattr(fn, "__code__", None)
+            if code is None:
+                continue
+            m = re.search(re.escape(code.co_filename) + r'", line (\d+)', text)
+            if m:
+                comp = f.what or s.split("_")[0].lower()
+                where = f"law {fn.__module__}.{fn.__qualname__} (line {m.group(1)})"
+                break
+        if where:
+            break
+    first = next((ln.strip() for ln in text.splitlines() if ln.strip() and not ln.startswith("During")), text[:200])
+    first = re.sub(r"\x1b\[[0-9;]*m", "", first)
+    return (f"{comp}: {where or 'a law'} cannot be compiled by numba: {first[:300]} "
+            f"(a law uses floats, math and other laws only: docs/CONTRIBUTING.md)")
 
 
 def _bind_text(name, form, lines, mods, inmemory):
@@ -233,19 +335,29 @@ def _specialise(name, fn, argn, mods):
     return imports + ["", "", f"@register_jitable({_LAW_OPTIONS_TEXT})", ast.unparse(fdef), ""]
 
 
-def _build(program, loop_source: str):
+def _build(program, loop_source: str, check: bool = False):
     flags = program.flags
-    header = ["import numba", "from numba.extending import register_jitable",
-              "from mjbench.kernel import MAX_SPEED, MAX_CURRENT",
+    header = ["import math", "import numba", "from numba.extending import register_jitable",
+              "from mjbench.kernel.loop import MAX_SPEED, MAX_CURRENT",
               "from mjbench.compiled import clip, isfinite", ""]
     header += [f"{f} = {flags[f]!r}" for f in sorted(flags)]
     inmemory = {}
     mods = set()
     for s in sorted(program.slots):
         _bind_text(s, program.slots[s], header, mods, inmemory)
-    src = "\n".join(header) + "\n\n\n" + loop_source + \
-        "\n\nrun = numba.njit(cache=True, nogil=True, _nrt=False)(_loop)\n"
-    if inmemory:  # a law numba cannot import by name: compile in memory (no disk cache)
+    for s in sorted(program.wired):
+        form, w = program.wired[s]
+        if w is None:  # an absent control slot
+            _bind_text(s, form, header, mods, inmemory)
+            continue
+        _bind_text(f"_law_{s}", form, header, mods, inmemory)
+        from ..kernel.wiring import adapter_source
+
+        header += ["", f"@register_jitable({_LAW_OPTIONS_TEXT})", adapter_source(s, f"_law_{s}", w)]
+    opts = "cache=True, nogil=True, _nrt=False" + (", boundscheck=True" if check else "")
+    src = "\n".join(header) + "\n\n\n" + loop_source + f"\n\nrun = numba.njit({opts})(_loop)\n"
+    folder = None if inmemory else _cache.kernels()
+    if folder is None:  # a law numba cannot import by name, or no writable cache: compile in memory
         env = {"__name__": "mjbench_kernel_inmemory", **inmemory}
         src = src.replace("cache=True", "cache=False")
         src = "\n".join(ln for ln in src.split("\n")
@@ -257,11 +369,36 @@ def _build(program, loop_source: str):
     for m in sorted(mods):
         h.update(_module_hash(m).encode())
     name = "mjbench_loop_" + h.hexdigest()[:20]
-    folder = _cache.kernels()
     path = folder / f"{name}.py"
+    if path.exists() and not _cache.intact(path):
+        _cache.purge(name)
+        _cache.note(f"compiled kernel {name}: its cache entry was corrupted (checksum); rebuilt")
     if not path.exists():
         tmp = folder / f".{name}.{os.getpid()}.tmp"
-        tmp.write_text(src, encoding="utf-8")
-        os.replace(tmp, path)
-    mod = importlib.import_module(name)
-    return mod.run
+        try:
+            tmp.write_text(_cache.stamp(src), encoding="utf-8")
+            os.replace(tmp, path)
+        except OSError as e:  # the disk filled: compile in memory, leave nothing half-written
+            try:
+                tmp.unlink()
+            except OSError:
+                pass
+            _cache.note(f"compiled kernel {name} not cached ({e.strerror}): built in memory")
+            env = {"__name__": "mjbench_kernel_inmemory"}
+            exec(compile(src.replace("cache=True", "cache=False"), "<mjbench compiled loop>", "exec"), env)  # noqa: S102
+            return env["run"]
+    try:
+        mod = importlib.import_module(name)
+    except Exception as e:  # noqa: BLE001 - a module that cannot be loaded: rebuilt once
+        sys.modules.pop(name, None)
+        _cache.purge(name)
+        _cache.note(f"compiled kernel {name}: its cache entry could not be loaded ({type(e).__name__}); rebuilt")
+        path.write_text(_cache.stamp(src), encoding="utf-8")
+        importlib.invalidate_caches()
+        mod = importlib.import_module(name)
+    run = mod.run
+    try:
+        run._mjbench_module, run._mjbench_source, run._mjbench_check = name, loop_source, check
+    except AttributeError:  # pragma: no cover - a dispatcher without a __dict__
+        pass
+    return run

@@ -267,9 +267,7 @@ class SpeedDrive(_Ideal):
 
     def diagnose(self, machine, h: float) -> str:
         """A loop too stiff for the step: h·k_v/J_min beyond RK4's stability limit on the real axis."""
-        from ..kernel import input_inertia
-
-        jmin, _ = input_inertia(machine)
+        jmin, _ = machine.input_inertia()
         x = h * float(self.k_v) / jmin if jmin > 0 else math.inf
         if x > 2.5:
             return (f" Likely cause: the speed loop is too stiff for the step: h·k_v/(J_eq + J(q)) = {x:.3g} "

@@ -239,7 +239,7 @@ class PlantSession:
         self.plant, self.machine, self.program = plant, mc, pr
         self._write = pr.slots["PWRITE"].bound() if pr.flags["NEXTRA"] else None
         self._extra = np.zeros(max(1, pr.flags["NEXTRA"]))
-        self._pd = pr.drive
+        self._pd = pr.drive_P[0]
         self.set_input(self.input)
         self._update()
 
@@ -247,7 +247,7 @@ class PlantSession:
         """The input held from now on (voltage [V] or motor torque [N·m])."""
         self.input = float(value)
         if self.stepper is not None:
-            self.stepper.parts.ctrl_S[0] = self.input
+            self.stepper.parts.ctrl_S[0][0] = self.input
 
     @property
     def n(self) -> int:

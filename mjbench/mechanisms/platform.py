@@ -77,6 +77,36 @@ class Oscillator:
         """Pole −ξω_n + iω_d [1/s]."""
         return complex(-self.xi * self.omega_n, self.omega_d)
 
+    def energy(self, psi, psid, motor_speed=0.0):
+        """E = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] [J] (seed 001 Eq 25)."""
+        return 0.5 * self.J * ((psid + self.ratio * motor_speed) ** 2 + self.omega_n ** 2 * psi ** 2)
+
+    def envelope(self, psi, psid) -> float:
+        """Envelope [rad, platform] at T of the free vibration ψ(t) = e^{−ξω_n t'}(A cos ω_d t' + B sin ω_d t')
+        that starts from (ψ, ψ̇) when the motor stops: √(ψ² + ((ψ̇ + ξω_nψ)/ω_d)²).  An envelope, not a
+        peak actually reached: the damped motion stays below it."""
+        return float(math.hypot(psi, (psid + self.xi * self.omega_n * psi) / self.omega_d))
+
+    def residual_metrics(self, tr, T, t_after) -> dict:
+        """Residual-vibration figures of a machine run (columns deflection_rad, deflection_rate_rad_s):
+        E(T) = ½J[(ψ̇ + ρφ̇)² + ω_n²ψ²] at the end of the move (Incerti belt Eq 25, with the actual
+        motor speed), the free-vibration envelope at T (``residual_envelope_at_T_rad``), the actual peak
+        |ψ| over [T, T + t_after] (``residual_peak_after_T_rad``, window in ``residual_peak_window_s``;
+        cut at the end of the run), the energy at the end of the run."""
+        import numpy as np
+
+        t = tr.t
+        iT = int(np.argmin(np.abs(t - T)))
+        psi, psid, om = tr["deflection_rad"], tr["deflection_rate_rad_s"], tr.qd
+        after = (t >= T - 1e-12) & (t <= T + t_after + 1e-12)
+        return {"E_T_J": float(self.energy(psi[iT], psid[iT], om[iT])),
+                "E_end_J": float(self.energy(psi[-1], psid[-1], om[-1])),
+                "residual_envelope_at_T_rad": self.envelope(float(psi[iT]), float(psid[iT])),
+                "residual_peak_after_T_rad": float(np.max(np.abs(psi[after]))),
+                "residual_peak_window_s": float(min(t_after, t[-1] - T)),
+                "peak_current_A": float(np.max(np.abs(tr.current))),
+                "peak_voltage_V": float(np.max(np.abs(tr.voltage)))}
+
     def scaled(self, omega_factor: float, keep: str = "xi"):
         """The same oscillator with ω_n × ``omega_factor`` (k × f²); ``keep="xi"`` scales c by f so
         ξ is unchanged, ``keep="c"`` keeps c (ξ / f)."""

@@ -1,0 +1,495 @@
+"""Running composed programs: one run advanced in chunks (:class:`Stepper`), jobs of N runs
+(:func:`run_many`), the choice of loop (CPython or compiled) and the record they fill.
+
+**When compiled** (:func:`choose_loop`): numba installed and every component compiles, and the
+job is large enough to pay numba's start-up (≈ 0.35 s of CPU to import numba and load a cached
+kernel, against ≈ 2–3 µs saved per co-step: :data:`mjbench.kernel.program.MIN_STEPS`), or numba
+is already loaded, or ``MJBENCH_JIT=1``.  ``MJBENCH_JIT=0`` always runs CPython; ``MJBENCH_JIT=check``
+runs the compiled loop with every array access bounds-checked (a law writing past its state is
+then an error naming it, never a crash).  The reason for the choice is recorded (``meta["loop"]``,
+``meta["loop_reason"]``).
+
+**Chunks.**  The loop runs a range of steps and keeps its state in arrays, so a run is executed in
+chunks of ≈ 0.05 s (:data:`CHUNK_S`): progress bars advance, Ctrl-C and SIGTERM stop a compiled run
+within a chunk.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+import types
+
+import numpy as np
+
+from .. import compiled as C
+from .. import signals as SIG
+from ..errors import ParameterError, SimulationDiverged
+from . import checks as CK
+from . import layout as LY
+from . import loop as LP
+from .program import Program, Run
+
+#: wall time a chunk of a compiled run aims at (progress, signals)
+CHUNK_S = 0.05
+#: the values ``MJBENCH_JIT`` may take
+JIT_MODES = {"": "", "0": "python", "python": "python", "1": "compiled", "compiled": "compiled", "check": "check"}
+
+
+class Record:
+    """Samples of one run (``data`` (nrec, ncol)) or of N runs (``data`` (nsim, nrec, ncol)) in
+    ``columns`` order; ``nrows`` valid rows per run; divergence flags, times and messages; the
+    interval statistics ``stats`` (same leading shape, ``stat_columns``)."""
+
+    def __init__(self, data, columns, nrows, diverged, t_diverged, messages, meta, stats=None, stat_columns=()):
+        self.data, self.columns, self.nrows = data, columns, nrows
+        self.diverged, self.t_diverged, self.messages, self.meta = diverged, t_diverged, messages, meta
+        self.stats, self.stat_columns = stats, tuple(stat_columns)
+
+
+class Stepper:
+    """One run of the kernel advanced in chunks: the composed program, the loop (CPython or
+    compiled), the per-run parameters and state, the record.  :func:`run_many` drives one per run;
+    a caller that needs the run between chunks (an FMU's ``doStep``, a frequency-response
+    measurement) drives its own with :meth:`advance`.
+
+    ``out``/``stats``: the flat record and statistics to fill, default allocated; ``mode``:
+    "python", "compiled" or "check" (:func:`choose_loop`)."""
+
+    def __init__(self, plant, machine, h: float, nsteps: int, decim: int, mode: str = "python", program=None,
+                 out=None, fn=None, stats=None, strict: bool = False):
+        self.plant, self.machine, self.h, self.nsteps, self.decim, self.mode = plant, machine, h, nsteps, decim, mode
+        self.strict = strict  # the compiled loop was asked for: a law numba refuses is an error, not a fallback
+        self.fallback = ""
+        self.every = CK.machine_every(machine, h)
+        if program is None:
+            plant.start()
+            program = Program.build(plant, machine, h, self.every)
+        self.program = pr = program
+        self.columns = pr.columns
+        self.ncol = ncol = len(pr.columns)
+        self.nstat = nstat = len(pr.stat_columns)
+        self.nrec = nsteps // decim + 1
+        if out is None:
+            out = np.full(self.nrec * ncol, np.nan)
+        if stats is None:  # one statistics row per record row
+            stats = np.full((len(out) // max(ncol, 1)) * nstat, np.nan)
+        self.out, self.stats = out, stats
+        python = mode == "python"
+        self.fn = fn if fn is not None else loop_function(pr, mode)
+        self.parts = X = pr.parts(python)
+        nax = pr.naxes
+        self.ks = ks = np.zeros(LY.ks_size(nax))
+        self.qo = qo = np.zeros(4 * nax)
+        pr.read(X.plant_P, X.plant_S, qo)
+        I0 = _per_axis(machine.I0, nax)
+        for a in range(nax):
+            q, qd, dm, dmd = (float(v) for v in qo[4 * a:4 * a + 4])
+            w = float(X.drive[a].z) * (qd + dmd)
+            for name, v in (("q", q), ("qd", qd), ("qd_prev", qd), ("I", I0[a]), ("dm", dm), ("dmd", dmd),
+                            ("qm", q), ("qdm", qd), ("w_max", w), ("w_min", w), ("w_t_max", 0.0),
+                            ("w_t_min", 0.0), ("I_max", I0[a]), ("I_min", I0[a]), ("I_t_max", 0.0),
+                            ("I_t_min", 0.0), ("Vb_max", -math.inf), ("Vb_min", math.inf), ("tq_max", -math.inf),
+                            ("tq_min", math.inf), ("Vb_t_max", math.nan), ("Vb_t_min", math.nan),
+                            ("tq_t_max", math.nan), ("tq_t_min", math.nan)):
+                ks[LY.ks_index(name, a)] = v
+        self.div = np.zeros(len(LY.DIV_FIELDS))
+        self.y = pr.signals0.copy()
+        self.tau = np.zeros(nax)
+        self._bind(python)
+        self.n = 0
+
+    def _bind(self, python: bool):
+        view = memoryview if python else (lambda a: a)
+        self.run = Run(self.h, self.nsteps, self.decim, self.every, view(self.ks), view(self.out), view(self.stats),
+                       self.ncol, self.nstat, view(self.div), view(self.y), view(self.tau), view(self.qo))
+
+    @property
+    def diverged(self) -> bool:
+        return bool(self.div[0])
+
+    @property
+    def done(self) -> bool:
+        return self.diverged or self.n > self.nsteps
+
+    @property
+    def nrows(self) -> int:
+        return int(self.ks[LY.ks_index("k")])
+
+    def state(self, axis: int = 0) -> dict:
+        """The run's state now: t [s], q [rad], q̇ [rad/s], I [A], u (the held controller output)."""
+        ks = self.ks
+
+        def g(name):
+            return float(ks[LY.ks_index(name, axis)])
+
+        return {"t": self.n * self.h, "q": g("q"), "qd": g("qd"), "I": g("I"), "u": g("u"),
+                "deflection": g("dm"), "deflection_rate": g("dmd"), "V_applied": g("Vb"), "torque": g("tq")}
+
+    def signals(self) -> dict:
+        """The signal array at the last control sample, by name (axis 0 unsuffixed)."""
+        out = {}
+        for a in range(self.program.naxes):
+            for n in SIG.AXIS:
+                out[n if a == 0 else f"{n}_{a}"] = float(self.y[SIG.index(n, a)])
+        out["t"] = float(self.y[SIG.index("t")])
+        return out
+
+    def advance(self, n_to: int) -> int:
+        """Run co-steps up to ``n_to`` (exclusive; at most nsteps + 1) or a divergence → the step reached.
+
+        A law that numba refuses (first call of a compiled loop) makes the run continue in CPython,
+        saying why (:attr:`fallback`), unless the compiled loop was asked for (then a ParameterError
+        naming the law); a law that fails while running is a ParameterError naming the component,
+        the law and the line."""
+        if self.done:
+            return self.n
+        n1 = min(int(n_to), self.nsteps + 1)
+        try:
+            self.n = self.fn(self.n, n1, self.run, self.parts)
+        except (ParameterError, SimulationDiverged, KeyboardInterrupt, SystemExit, MemoryError):
+            raise
+        except Exception as e:  # noqa: BLE001 - a law's failure becomes one line naming it
+            reason = getattr(e, "reason", None)
+            if reason is not None:  # numba refused a law (jit.LawCompileError): nothing ran yet
+                if self.strict:
+                    raise ParameterError(reason) from None
+                self.fallback = f"{reason}; the CPython loop ran instead"
+                self.mode = "python"
+                self.fn = python_loop(self.program)
+                self.parts = self.program.parts(True)
+                self._bind(True)
+                self.n = self.fn(self.n, n1, self.run, self.parts)
+                return self.n
+            msg = law_failure_message(self.program, e, self.n * self.h)
+            if msg is None and self.mode == "check" and isinstance(e, IndexError):
+                msg = self._locate() or (f"an array was read or written past its end in the compiled loop "
+                                         f"(MJBENCH_JIT=check) between t = {self.n * self.h:.6g} s and "
+                                         f"{n1 * self.h:.6g} s: {e}")
+            if msg is None:
+                raise
+            raise ParameterError(msg) from None
+        return self.n
+
+    def _locate(self) -> str:
+        """The law that failed in the bounds-checked compiled loop: the run replayed in CPython from
+        its start (fresh states) until it fails there, naming the law and the line."""
+        try:
+            self.plant.start()
+            pr = Program.build(self.plant, self.machine, self.h, self.every)
+            st = Stepper(self.plant, self.machine, self.h, self.nsteps, self.decim, "python", pr)
+            while not st.done:
+                st.advance(st.n + 4000)
+        except ParameterError as e:
+            return str(e)
+        return ""
+
+    def message(self, backend: str = "") -> str:
+        """The divergence message: time and state, then the likely cause (:func:`diagnose`), else
+        the controller's own hint (``divergence_hint``, e.g. the K_p·t ramp)."""
+        d = self.div
+        cause = CK.diagnose(self.machine, self.h)
+        if not cause:
+            hint_fn = getattr(self.machine.controller, "divergence_hint", None)
+            cause = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
+        return CK.divergence_message(backend, *d[1:6], cause)
+
+
+def law_failure_message(program, exc, t: float) -> str | None:
+    """One line naming the component, the law and the line where ``exc`` was raised inside a law of
+    ``program`` (None when it was not raised in a law)."""
+    frames = program.law_frames()
+    tb, hit = exc.__traceback__, None
+    while tb is not None:
+        if tb.tb_frame.f_code in frames:
+            hit = (frames[tb.tb_frame.f_code], tb.tb_lineno)
+        tb = tb.tb_next
+    if hit is None:
+        return None
+    (what, name), line = hit
+    extra = ""
+    if isinstance(exc, IndexError):
+        extra = " (an index past an array: its state S has the entries of STATE; MJBENCH_JIT=check bounds-checks " \
+                "the compiled loop too)"
+    return f"{what}: law {name} failed at line {line} (t = {t:.6g} s): {type(exc).__name__}: {exc}{extra}"
+
+
+def _per_axis(v, n):
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [float(x) for x in v]
+    return [float(v)] * n
+
+
+def run(plant, machine, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
+        loop: str | None = None) -> Record:
+    """Co-simulate ``machine`` on ``plant`` for ``t_end`` s; one :class:`Record` (single run).
+
+    Raises :class:`SimulationDiverged` (time and state in the message) when the run diverges."""
+    rec = run_many([plant], [machine], t_end, record_dt, progress, backend, loop)
+    state = rec.meta.pop("div_state", None)
+    if rec.diverged[0]:
+        raise SimulationDiverged(rec.messages[0], t=float(rec.t_diverged[0]), state=state)
+    return Record(rec.data[0], rec.columns, rec.nrows, rec.diverged, rec.t_diverged, rec.messages,
+                  {k: v for k, v in rec.meta.items() if k != "nsim"}, rec.stats[0], rec.stat_columns)
+
+
+def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=None, backend: str = "",
+             loop: str | None = None, threads: int | None = None, consume=None) -> Record:
+    """Co-simulate N machines, each on its own plant → an (N, nrec, ncol) :class:`Record`.
+
+    Runs are independent (a batch equals N single runs, bit for bit); a diverged run is flagged
+    with its time and message, its rows stop there.  All runs must have the same step.  Compiled
+    runs of a batch run on ``threads`` threads (default: the CPUs; the compiled loop releases the
+    GIL).  Progress: co-steps of a single run, finished runs of a batch.
+
+    ``consume(i, record)``: called with each run's own one-run :class:`Record` as soon as it ends;
+    its records are then not kept (a sweep that needs only metrics holds one record per thread):
+    the returned Record has ``data = None`` and ``results`` = the values ``consume`` returned."""
+    plants, machines = list(plants), list(machines)
+    h = float(plants[0].h)
+    CK.check_times(t_end, h, record_dt)
+    nsteps = int(round(t_end / h))
+    decim = max(1, int(round(record_dt / h)))
+    nrec = nsteps // decim + 1
+    N = len(machines)
+    progs = _programs(plants, machines, h)
+    cols, scols = progs[0].columns, progs[0].stat_columns
+    ncol, nstat = len(cols), len(scols)
+    mode, why = _job_loop(progs, N * nsteps, loop)
+    strict = jit_mode(loop) in ("compiled", "check")
+    nthreads = min(N, threads or os.cpu_count() or 1) if mode != "python" and N > 1 else 1
+    CK.check_record(nsteps, decim, ncol + nstat, nthreads if consume is not None else N, h, record_dt)
+    data = None if consume is not None else np.full((N, nrec * ncol), np.nan)
+    stats = None if consume is not None else np.full((N, nrec * nstat), np.nan)
+    fns = {}
+    for pr in progs:
+        if pr.key not in fns:
+            fns[pr.key] = loop_function(pr, mode)
+    meta = _job_meta(plants[0], machines[0], h, decim, mode, why)
+    nrows = np.zeros(N, dtype=int)
+    diverged = np.zeros(N, dtype=bool)
+    t_div = np.full(N, np.nan)
+    messages = [""] * N
+    results = [None] * N
+    div_state = [None]
+
+    def task(i, prog, stop=None):
+        pr = progs[i]
+        st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, None if data is None else data[i],
+                     fns[pr.key], None if stats is None else stats[i], strict=strict)
+        _run_one(st, prog, mode != "python", stop)
+        if st.fallback:
+            meta["loop"], meta["loop_reason"] = "python", st.fallback
+        nrows[i], diverged[i] = st.nrows, st.diverged
+        if st.diverged:
+            d = st.div
+            t_div[i], messages[i] = d[1], st.message(backend)
+            div_state[0] = {"q": float(d[2]), "qd": float(d[3]), "I": float(d[4]), "V": float(d[5])}
+        if consume is not None:
+            one = Record(st.out.reshape(nrec, ncol), cols, nrows[i:i + 1], diverged[i:i + 1], t_div[i:i + 1],
+                         messages[i:i + 1], meta, st.stats.reshape(nrec, nstat), scols)
+            results[i] = consume(i, one)
+
+    if mode == "check":
+        meta["loop_reason"] += "; every array access bounds-checked"
+    if nthreads > 1:
+        _run_threaded(task, N, nthreads, progress)
+    else:
+        for i in range(N):
+            task(i, progress if N == 1 else None)
+            if progress is not None and N > 1:
+                progress.update(1)
+    meta = {**meta, "nsim": N, "div_state": div_state[0]}
+    rec = Record(None if data is None else data.reshape(N, nrec, ncol), cols, nrows, diverged, t_div, messages,
+                 meta, None if stats is None else stats.reshape(N, nrec, nstat), scols)
+    rec.results = results if consume is not None else None
+    return rec
+
+
+def _programs(plants, machines, h: float) -> list:
+    """Each run's :class:`Program` (its plant started), after the checks of a job: every machine
+    (once per mechanism and drive inertia in this process), one step for all, the same recorded
+    columns."""
+    from ..backends.table import composing
+
+    with composing():
+        progs = []
+        for pl, mc in zip(plants, machines):
+            CK.check_machine(mc)
+            if abs(float(pl.h) - h) > 1e-15 * h:
+                raise ParameterError(f"simulation.dt: the runs of one batch need the same step ({pl.h:g} s vs {h:g} s)")
+            pl.start()
+            progs.append(Program.build(pl, mc, h, CK.machine_every(mc, h)))
+    cols = progs[0].columns
+    if any(p.columns != cols for p in progs):
+        raise ParameterError("the runs of one batch must record the same columns (same drive-train elements and "
+                             "mechanism family)")
+    return progs
+
+
+def _job_loop(progs, steps: int, loop: str | None) -> tuple:
+    """(mode, reason): one loop for the whole job — CPython as soon as one run needs it (the same
+    numbers either way)."""
+    mode, why = "python", ""
+    for p in progs:
+        mode, why = choose_loop(p, steps, loop)
+        if mode == "python":
+            break
+    return mode, why
+
+
+def _job_meta(plant, machine, h: float, decim: int, mode: str, why: str) -> dict:
+    """The job's meta: steps, control period, the plant's meta, the loop and the drive train."""
+    meta = {"dt": h, "record_dt": decim * h, "control_period": CK.machine_every(machine, h) * h,
+            "z": float(machine.drive.z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
+            "loop_reason": why}
+    train = getattr(machine.drive, "train", None)
+    if train is not None:
+        meta["drivetrain"] = train.describe()
+    return meta
+
+
+def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
+    """Advance one run to its end in chunks of ≈ CHUNK_S (progress, signals between chunks)."""
+    chunk = 20000 if compiled else 4000
+    while not st.done:
+        if stop is not None and stop.is_set():
+            return
+        t0 = time.perf_counter()
+        n0 = st.n
+        n_to = n0 + chunk
+        if st.nsteps + 1 - n_to <= chunk // 4:  # a short tail (a run's last step): in this call
+            n_to = st.nsteps + 1
+        st.advance(n_to)
+        if progress is not None:
+            progress.update(st.n - n0)
+        dt = time.perf_counter() - t0
+        if compiled and dt > 0 and st.n > n0:
+            chunk = int(max(1000, min(5_000_000, (st.n - n0) * CHUNK_S / dt)))
+
+
+def _run_threaded(task, N: int, nthreads: int, progress) -> None:
+    """``task(i, None, stop)`` for every run on a thread pool (the compiled loop releases the GIL);
+    Ctrl-C/SIGTERM reach the main thread, which stops the workers at their next chunk and re-raises."""
+    import threading
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    stop = threading.Event()
+    with ThreadPoolExecutor(max_workers=nthreads, thread_name_prefix="mjbench-run") as ex:
+        pending = {ex.submit(task, i, None, stop) for i in range(N)}
+        try:
+            while pending:
+                done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                for f in done:
+                    f.result()
+                    if progress is not None:
+                        progress.update(1)
+        except BaseException:
+            stop.set()
+            raise
+
+
+# =============================================================================== the loops
+_PY_CODE: dict = {}
+_PY_LOOPS: dict = {}
+
+
+def loop_env() -> dict:
+    """What every loop module holds besides a composition's slots and constants."""
+    return {"math": math, "clip": C.clip, "isfinite": C.isfinite, "MAX_SPEED": LP.MAX_SPEED,
+            "MAX_CURRENT": LP.MAX_CURRENT}
+
+
+def python_loop(program: Program):
+    """The loop executed by CPython for this composition (the unrolled template's code)."""
+    key = program.key
+    fn = _PY_LOOPS.get(key) if program.compiled else None
+    if fn is None:
+        shape = (program.naxes, program.nctrl)
+        code = _PY_CODE.get(shape)
+        if code is None:
+            src = LP.source(*shape)
+            mod = compile(src, f"<mjbench loop {shape[0]} axis(es), {shape[1]} controller(s)>", "exec")
+            code = _PY_CODE[shape] = next(c for c in mod.co_consts if isinstance(c, types.CodeType))
+        env = {**loop_env(), **program.env()}
+        fn = types.FunctionType(code, env, "_loop")
+        if program.compiled:
+            _PY_LOOPS[key] = fn  # (its globals hold the laws: their ids in the key stay unique)
+    return fn
+
+
+def loop_function(program: Program, mode: str):
+    """The loop of ``mode`` ("python", "compiled", "check") for this composition."""
+    if mode == "python":
+        return python_loop(program)
+    from ..compiled import jit
+
+    return jit.loop_for(program, LP.source(program.naxes, program.nctrl), check=mode == "check")
+
+
+def jit_mode(loop: str | None = None) -> str:
+    """The loop asked for: ``loop`` or ``MJBENCH_JIT`` → "", "python", "compiled" or "check"
+    (ParameterError naming the value otherwise)."""
+    if loop is not None:
+        v = str(loop).lower()
+        if v not in JIT_MODES:
+            raise ParameterError(f"loop = {loop!r}: choose python, compiled or check")
+        return JIT_MODES[v]
+    env = os.environ.get("MJBENCH_JIT", "")
+    v = env.strip().lower()
+    if v not in JIT_MODES:
+        raise ParameterError(f"MJBENCH_JIT = {env!r}: choose 0 (python), 1 (compiled) or check (compiled, "
+                             f"bounds-checked), or leave it unset (chosen by the job's size)")
+    return JIT_MODES[v]
+
+
+def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> tuple[str, str]:
+    """("compiled" | "check" | "python", why) for a job of ``run_steps`` co-steps (all runs together)."""
+    from ..compiled import jit
+
+    mode = jit_mode(loop)
+    if mode == "python":
+        return "python", "CPython loop requested (MJBENCH_JIT=0 / loop='python')"
+    if not program.compiled:
+        if mode in ("compiled", "check") and program.broken:  # a law that breaks the contract: say so
+            raise ParameterError("the compiled loop was requested but " + "; ".join(program.broken))
+        return "python", "; ".join(program.reasons)  # (a component without a law: CPython, said why)
+    if mode == "check":
+        why = "compiled loop with bounds checks requested (MJBENCH_JIT=check)"
+    elif mode == "compiled":
+        why = "compiled loop requested (MJBENCH_JIT=1 / loop='compiled')"
+    elif jit.loaded():
+        why = "numba already loaded"
+    elif run_steps >= program.min_steps:
+        why = f"{int(run_steps):,} co-steps ≥ {int(program.min_steps):,} (pays numba's start-up)"
+    else:
+        return "python", (f"{int(run_steps):,} co-steps < {int(program.min_steps):,}: numba's start-up would cost more "
+                          f"than it saves")
+    if not jit.available():
+        if mode in ("compiled", "check"):
+            raise ParameterError("the compiled loop was requested (MJBENCH_JIT / loop) but numba is not installed")
+        return "python", "numba is not installed"
+    failure = jit.law_failure(program)  # a law numba refused earlier in this process (contract)
+    if failure:
+        if mode in ("compiled", "check"):
+            raise ParameterError(failure)
+        return "python", failure
+    return ("check" if mode == "check" else "compiled"), why
+
+
+def preload(run_steps: float) -> bool:
+    """Load numba now when a design loop plans ``run_steps`` co-steps over all its runs and that
+    pays for the start-up (then every later run of the process is compiled); → whether loaded."""
+    from ..compiled import jit
+    from .program import MIN_STEPS
+
+    if jit_mode() == "python" or not jit.available():
+        return False
+    if jit.loaded() or run_steps >= MIN_STEPS:
+        jit.init()
+        return True
+    return False
+
+
+__all__ = ["Record", "Stepper", "run", "run_many", "choose_loop", "preload", "python_loop", "loop_function",
+           "jit_mode", "CHUNK_S", "JIT_MODES"]
