@@ -99,13 +99,19 @@ _NAMES: dict = {}
 
 
 def _names(fn, nfn):
-    key = (id(fn), nfn)
+    """The signal names ``fn`` reads (cached per law; a partial — a law with its function arguments
+    bound — by its law and the number of bound arguments)."""
+    import functools
+    import inspect
+
+    base, skip = fn, nfn
+    if isinstance(fn, functools.partial):
+        base, skip = fn.func, nfn + len(fn.args)
+    key = (base, skip)
     n = _NAMES.get(key)
     if n is None:
-        import inspect
-
-        params = list(inspect.signature(fn).parameters)
-        n = _NAMES[key] = params[nfn:-2]
+        params = list(inspect.signature(base).parameters)
+        n = _NAMES[key] = params[skip:-2]
     return n
 
 
