@@ -41,8 +41,10 @@ from . import register
 from mjbench.control import LAW_INPUTS, ConstantSpeed, Controller
 from .references.coupler_speed import CouplerSpeedParams
 from .references.law import LawReferenceParams
+from mjbench.taskpath import PathReferenceParams
 
-ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams], Field(discriminator="type")]
+ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams, PathReferenceParams],
+                            Field(discriminator="type")]
 
 
 class PIDParams(Strict):

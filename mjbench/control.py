@@ -172,7 +172,7 @@ class Controller(abc.ABC):
         ``__call__`` in a Python adapter)."""
         if self.law is None:
             return None
-        z = float(machine.drive.z) if machine is not None else 1.0
+        z = float(machine.drives[self.axis].z) if machine is not None else 1.0
         return C.Form(type(self).law, self.parameters(T, z), self.initial_state(), children=self._children(T, z),
                       what=f"controller {self.type_name or type(self).__name__!r}")
 
@@ -449,7 +449,7 @@ def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
     if reset is not None:  # a plain Python controller keeps its state in itself: start it afresh
         reset()
     axis = int(getattr(ctrl, "axis", 0) or 0)
-    y = Measurement(z=machine.drive.z)
+    y = Measurement(z=machine.drives[axis].z)
     idx = {n: SIG.index(n, axis) for n in SIG.AXIS}
     it = SIG.index("t")
     takes = _takes_signals(ctrl)
@@ -575,7 +575,8 @@ def _plain(v):
 #: built-in controller types → the module that registers them (imported on first use, by name: the
 #: engine finds controllers through this registry, never by importing them)
 BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
-           "servo": "controllers.servo", "fmu": "controllers.fmu", "constant": "controllers.constant"}
+           "servo": "controllers.servo", "fmu": "controllers.fmu", "constant": "controllers.constant",
+           "computed_torque": "controllers.computed_torque"}
 
 #: the controller registry (built-ins, plugins of entry-point group ``mjbench.controllers``, registered classes)
 REGISTRY = Registry("controller", Controller, BUILTIN, GROUPS[1], prefix=("modes", "{typ}"),

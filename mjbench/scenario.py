@@ -19,6 +19,8 @@ import os
 import tomllib
 import warnings
 
+import numpy as np
+
 from . import mechanisms
 from .errors import ScenarioError
 from .registry import GROUPS, PluginWarning, entry_points
@@ -199,10 +201,28 @@ def make_machine(scn: Scenario, mode: str | None = None):
 
     mode = scn.mode(mode)
     mech = make_mechanism(scn)
-    drive = make_drive(scn)
-    ctrl = controllers.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
     init = scn.initial
-    return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
+    n = int(getattr(mech, "n_inputs", 1) or 1)
+    if n == 1:
+        drive = make_drive(scn)
+        ctrl = controllers.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
+        return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
+    # several inputs: a drive per input ([drives.JOINT] over [drive]); one controller per axis with
+    # its axis's reference, or one controller for all axes (a class that says multi_axis)
+    drives = [(scn.drives.get(name) or scn.drive).build() for name in mech.input_joints]
+    cls = controllers.get(scn.modes[mode].type)
+    if getattr(cls, "multi_axis", False):
+        ctrl = controllers.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
+    else:
+        ctrl = []
+        for k, d in enumerate(drives):
+            c = controllers.build(scn.modes[mode], drive=d, mechanism=mech, scenario=scn)
+            ref = getattr(c, "reference", None)
+            if hasattr(ref, "for_axis"):  # the joint trajectories of every axis: this axis's
+                c.reference = ref.for_axis(k)
+            ctrl.append(c)
+    q0 = init.q0 if np.ndim(init.q0) else mech.stated_inputs
+    return Machine(mech, drives, ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
 
 
 def get(scn: Scenario, key: str, default=None):

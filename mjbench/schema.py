@@ -36,6 +36,7 @@ from pydantic_core import PydanticCustomError
 
 from .errors import ScenarioError
 from .fields import Bool, OptQ, Q, Strict, UnitMeta, format_errors, jsonable
+from .taskpath import PathParams
 
 __all__ = ["Q", "OptQ", "Bool", "Strict", "UnitMeta", "format_errors", "Scenario", "ScenarioMeta", "Initial",
            "Simulation", "MultibodyOptions", "ReducedOptions", "Metrics", "LawParams", "OptimizeParams",
@@ -54,11 +55,12 @@ class ScenarioMeta(Strict):
 
 
 class Initial(Strict):
-    """``[initial]``: state at t = 0.  Default: at rest at q = 0 with no current."""
+    """``[initial]``: state at t = 0.  Default: at rest at q = 0 with no current.  A machine with
+    several inputs: one value per input (a list), or one for all."""
 
-    q0: Q("angle") = 0.0
-    qd0: Q("angular_velocity", plausible=False) = 0.0
-    I0: Q("current", plausible=False) = 0.0
+    q0: Q("angle") | list[Q("angle")] = 0.0
+    qd0: Q("angular_velocity", plausible=False) | list[Q("angular_velocity", plausible=False)] = 0.0
+    I0: Q("current", plausible=False) | list[Q("current", plausible=False)] = 0.0
 
 
 class Simulation(Strict):
@@ -211,6 +213,9 @@ class Scenario(Strict):
     modes: dict[str, Any] = Field(default_factory=dict)
     metrics: Metrics = Field(default_factory=Metrics)
     law: LawParams | None = None
+    path: PathParams | None = None
+    drives: dict[str, Any] = Field(default_factory=dict, description="per-axis drives of a machine with several "
+                                   "inputs: [drives.JOINT] keys over [drive]")
     optimize: OptimizeParams | None = None
     check: CheckParams | None = None
     paper: dict[str, Any] = Field(default_factory=dict, description="the paper's reported figures (free form)")

@@ -85,6 +85,8 @@ def diagnose(machine, h: float) -> str:
     an initial current beyond the amplifier's limit; a mechanical time constant J·R/(z·k_m)²
     (J the smallest input inertia) below 2·h, i.e. an inertia too small for the step (or a unit
     slip in the inertias)."""
+    if len(machine.drives) > 1:
+        return ""  # (the causes below are stated for one axis)
     drive = machine.drive
     own = getattr(drive, "diagnose", None)  # a drive type with its own causes (mjbench.drives)
     if own is not None:

@@ -340,10 +340,14 @@ def _job_loop(progs, steps: int, loop: str | None) -> tuple:
 
 def _job_meta(plant, machine, h: float, decim: int, mode: str, why: str) -> dict:
     """The job's meta: steps, control period, the plant's meta, the loop and the drive train."""
+    drives = machine.drives
     meta = {"dt": h, "record_dt": decim * h, "control_period": CK.machine_every(machine, h) * h,
-            "z": float(machine.drive.z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
+            "z": float(drives[0].z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
             "loop_reason": why}
-    train = getattr(machine.drive, "train", None)
+    if len(drives) > 1:
+        meta["axes"] = list(machine.axis_labels)
+        meta["z_axes"] = [float(d.z) for d in drives]
+    train = getattr(drives[0], "train", None) if len(drives) == 1 else None
     if train is not None:
         meta["drivetrain"] = train.describe()
     return meta

@@ -199,8 +199,15 @@ class LinkageParams(Strict):
     ground: dict[str, Point] = Field(default_factory=dict, description="named frame points [m]")
     links: dict[str, LinkSpec]
     joints: list[JointSpec]
-    input: str = Field(description="name of the driven joint (revolute, ground → input link)")
+    input: str | None = Field(None, description="name of the driven joint (revolute, ground → input link)")
     input_angle: Q("angle") = Field(0.0, description="input angle q of the stated pose (link angles)")
+    inputs: list[str] | None = Field(None, description="the driven joints of a machine with several motors (revolute; "
+                                                       "instead of input): one axis each, in this order")
+    input_angles: list[Q("angle")] | None = Field(None, description="each input's coordinate in the stated pose "
+                                                                    "(a joint's relative angle; default 0)")
+    input_ranges: list[tuple[Q("angle"), Q("angle")]] | None = Field(
+        None, description="several inputs: the range of each input the reduced model is tabulated over "
+                          "(default: a full turn, periodic)")
     gravity: tuple[Q("acceleration", plausible=False), Q("acceleration", plausible=False)] = Field(
         (0.0, -9.81), description="gravity in the plane [m/s²] ((0, 0): plane horizontal)")
     springs: list[SpringSpec] = Field(default_factory=list)
@@ -217,6 +224,32 @@ class LinkageParams(Strict):
             if not k or any(ch in k for ch in ". /"):
                 raise PydanticCustomError("mjbench_value", "link name {k!r}: no '.', '/' or spaces", {"k": k})
         return v
+
+    @model_validator(mode="after")
+    def _inputs(self):
+        if (self.input is None) == (self.inputs is None):
+            raise PydanticCustomError("mjbench_value", "give input = \"JOINT\" (one motor) or inputs = [\"J1\", "
+                                      "\"J2\", …] (one motor per joint), not both")
+        if self.inputs is not None:
+            if not self.inputs or len(set(self.inputs)) != len(self.inputs):
+                raise PydanticCustomError("mjbench_value", "inputs = {i}: name each driven joint once",
+                                          {"i": list(self.inputs)})
+            n = len(self.inputs)
+            for key in ("input_angles", "input_ranges"):
+                v = getattr(self, key)
+                if v is not None and len(v) != n:
+                    raise PydanticCustomError("mjbench_value", "{k}: {m} values for {n} inputs",
+                                              {"k": key, "m": len(v), "n": n})
+            for lo, hi in self.input_ranges or ():
+                if not hi > lo:
+                    raise PydanticCustomError("mjbench_value", "input_ranges: [{a}, {b}] needs lo < hi [rad]",
+                                              {"a": lo, "b": hi})
+        return self
+
+    @property
+    def input_list(self) -> list:
+        """The driven joints, in axis order (one: ``[input]``)."""
+        return list(self.inputs) if self.inputs is not None else [self.input]
 
     @model_validator(mode="after")
     def _topology(self):

@@ -45,8 +45,24 @@ class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, Mechanism):
         self._mb = None
 
     @classmethod
+    def accepts(cls, p) -> bool:
+        """Whether this class builds the description ``p`` (one input)."""
+        return p.inputs is None
+
+    @classmethod
     def from_params(cls, p):
-        return cls(p)
+        """The linkage of a description: this class, or the subclass that declares it accepts it
+        (several inputs: :class:`.multi_mechanism.MultiLinkage`)."""
+        if cls.accepts(p):
+            return cls(p)
+        for sub in cls.__subclasses__():
+            if sub.accepts(p):
+                return sub.from_params(p)
+        raise ValueError(f"no linkage class accepts {p.name!r}")
+
+    def _stated_z(self):
+        """Body coordinates (1, 3n) of the stated pose."""
+        return self.c.exact([self.c.q0])[0]
 
     # ------------------------------------------------------------------ reduced model
     def reduced(self, q):
