@@ -119,6 +119,12 @@ class ComputedTorque(Controller):
         """The per-axis references the kernel wires into each axis's REF slot."""
         return [self.references.for_axis(k) for k in range(n)]
 
+    def metrics(self, tr, machine, config) -> dict:
+        return self.references.metrics(tr, machine, config)
+
+    def setpoint(self, machine):
+        return None
+
     def linear(self, machine, op, T, h, angle="state"):
         raise ParameterError("computed_torque: its linear counterpart is the multi-axis loop's (mjbench linearize on "
                              "a machine with several inputs)")

@@ -439,6 +439,7 @@ def _operating_point(scn, mode, q, qd, I, t):
 
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
+    mach.require_one_axis("frest")
     ctrl = mach.controller
     h = float(scn.simulation.dt)
     N_every = control_every(ctrl, h)

@@ -94,6 +94,13 @@ class Machine:
         for c, _ in self.controllers:
             c.reset()
 
+    def require_one_axis(self, what: str) -> None:
+        """One line when ``what`` (a command, an analysis) is asked of a machine with several axes."""
+        if self.naxes > 1:
+            raise OneAxisOnly(f"{what}: the machine has {self.naxes} axes ({', '.join(self.axis_labels)}); {what} is "
+                              f"one-axis only so far (run, render, sweep, analyze and the API work on it; "
+                              f"docs/linkages.md §8)")
+
     # ------------------------------------------------------------------ what the kernel reads
     @property
     def naxes(self) -> int:

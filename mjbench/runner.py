@@ -72,6 +72,9 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     from .schema import Metrics
 
     mt = config if config is not None else Metrics()
+    first = next(iter(trajs.values()))
+    if first.axes:  # several motors: every axis's metrics, then the machine's
+        return _multi_axis_metrics(machine, trajs, mt, multibody_options, reduced_model)
     res = {"mode": None, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
                                                    steady_from=mt.steady_start, band_rel=mt.band_rel)
                                       for b, tr in trajs.items()}}
@@ -96,6 +99,36 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     # a step too coarse for the motion (per-step input-angle bound)
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
+    return res
+
+
+def _multi_axis_metrics(machine, trajs, mt, multibody_options, reduced_model) -> dict:
+    """:func:`run_metrics` of a machine with several motors: per backend ``axes`` {label: the one-axis
+    metrics of that axis}, the families its controllers add once (the end effector's tracking of a
+    path …); the backends compared per axis (``multibody_vs_reduced``: the worst axis, and each);
+    the n-input model check."""
+    labels = next(iter(trajs.values())).axes
+    res = {"mode": None, "axes": list(labels), "backends": {}}
+    for b, tr in trajs.items():
+        res["backends"][b] = {"axes": {lab: M.summary(tr.axis(lab), steady_from=mt.steady_start, band_rel=mt.band_rel)
+                                       for lab in labels}}
+        for c, _ in machine.controllers:
+            res["backends"][b].update(c.metrics(tr, machine, mt) or {})
+    res["reduced_model"] = reduced_model or getattr(type(machine.mechanism), "reduced_source", "")
+    res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
+                   for b, tr in trajs.items()}
+    if "multibody" in trajs and "reduced" in trajs:
+        per = {lab: M.compare(trajs["reduced"].axis(lab), trajs["multibody"].axis(lab)) for lab in labels}
+        worst = max(per, key=lambda k: per[k]["max_rel_diff"])
+        res["multibody_vs_reduced"] = {**per[worst], "axis": worst, "axes": per}
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"], mt.backend_tolerance)
+        try:
+            res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(machine.mechanism, multibody_options or {})
+        except Exception as e:  # noqa: BLE001 - a diagnostic must not lose the run: reported instead
+            res["plausibility"]["model"] = {"applicable": False, "models_agree": None,
+                                            "note": f"not compared: {type(e).__name__}: {e}"}
+    res.setdefault("plausibility", {})["step"] = {
+        b: plausibility.step_check(tr.axis(labels[0]), float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
     return res
 
 
@@ -184,7 +217,11 @@ def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, arg
                                                             "reduced_model": res["reduced_model"],
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
-    if figure:
+    if figure and "axes" in res:  # several motors: one row of plots per axis
+        from .plots import fig4
+        views = {f"{mode}, axis {lab}": {b: tr.axis(lab) for b, tr in trajs.items()} for lab in res["axes"]}
+        fig4(views, out / "fig4.png", setpoint=None, title=f"{scn.scenario.title or scn.name} — {mode}")
+    elif figure:
         from .plots import fig4
         chi_txt = chi_text(res)
         tag = " [reduced model MuJoCo-derived]" if mujoco_derived(scn) and "reduced" in trajs else ""
@@ -206,8 +243,11 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
 
 def setpoint(scn, mode, machine=None):
     """Motor-speed set-point drawn on the speed plot: the controller's own
-    :meth:`~mjbench.control.Controller.setpoint` (PID ``omega0``, SMC ``omega_d`` × z), None without one."""
+    :meth:`~mjbench.control.Controller.setpoint` (PID ``omega0``, SMC ``omega_d`` × z), None without one
+    (or with several axes)."""
     machine = machine if machine is not None else S.make_machine(scn, mode)
+    if machine.naxes > 1:
+        return None
     sp = machine.controller.setpoint(machine)
     return None if sp is None else float(sp["motor_rad_s"])
 
@@ -249,6 +289,8 @@ def chi_text(res):
 
 def summary_text(res: dict) -> str:
     """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
+    if "axes" in res:
+        return _multi_axis_summary(res)
     lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
     keys = [("mean_motor_speed_rad_s", "mean motor speed (2nd half) [rad/s]", "{:.3f}"),
             ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),
@@ -331,3 +373,28 @@ def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[d
                 row["agree"] = bool(py.columns == ck.columns and np.array_equal(py.data, ck.data, equal_nan=True))
         rows.append(row)
     return rows
+
+
+def _multi_axis_summary(res: dict) -> str:
+    """:func:`summary_text` of a machine with several motors: per axis the speed, voltage and current
+    peaks, the end effector's tracking, the backends and the model check."""
+    lines = [f"scenario {res['scenario']}, mode {res['mode']} ({len(res['axes'])} axes: {', '.join(res['axes'])})"]
+    for lab in res["axes"]:
+        for key, label, fmt in (("peak_voltage_V", "peak |voltage| [V]", "{:.2f}"),
+                                ("peak_current_A", "peak |current| [A]", "{:.2f}")):
+            vals = [f"{b}: " + fmt.format(m["axes"][lab][key]) for b, m in res["backends"].items()
+                    if key in m["axes"][lab]]
+            lines.append(f"  axis {lab}: {label:<34s} " + "   ".join(vals))
+    for b, m in res["backends"].items():
+        ee = m.get("end_effector")
+        if ee:
+            lines.append(f"  end effector ({b}): max |error| {1e3 * ee['max_error_m']:.4f} mm, RMS "
+                         f"{1e3 * ee['rms_error_m']:.4f} mm (after {ee['from_s']:g} s)")
+    if "multibody_vs_reduced" in res:
+        c = res["multibody_vs_reduced"]
+        lines.append(f"  {'multibody vs reduced input speed':<40s} max {c['max_rel_diff']:.2e} (axis {c['axis']}, of peak)")
+    mdl = res.get("plausibility", {}).get("model", {})
+    if mdl.get("applicable"):
+        lines.append(f"  {'reduced model vs MuJoCo (M̄, bias, inverse dynamics)':<40s} {mdl['M_rel_err']:.1e}, "
+                     f"{mdl['bias_rel_err']:.1e}, {mdl['inverse_dynamics_rel_err']:.1e}")
+    return "\n".join(lines)

@@ -233,6 +233,11 @@ class PathReference(Reference):
     def setpoint(self, machine):
         return None
 
+    def metrics(self, tr, machine, config) -> dict:
+        """The end effector's tracking of the path (:meth:`PathReferences.metrics`)."""
+        src = getattr(self, "source", None)
+        return src.metrics(tr, machine, config) if src is not None else {}
+
 
 _TRAJ: dict = {}
 
@@ -255,7 +260,28 @@ class PathReferences:
         """(A per-axis reference holds the state; this set has none.)"""
 
     def for_axis(self, k: int) -> PathReference:
-        return PathReference(self.t, self.Q[:, k], self.Qd[:, k], self.Qdd[:, k], self.period)
+        r = PathReference(self.t, self.Q[:, k], self.Qd[:, k], self.Qdd[:, k], self.period)
+        r.source = self
+        return r
+
+    def metrics(self, tr, machine, config) -> dict:
+        """``end_effector``: the distance between where the end effector is (the mechanism's kinematics at
+        the recorded inputs) and where the path puts it, max and RMS over t ≥ ``settle_time`` (the
+        scenario's ``[metrics]``; default 0), and the same over the last cycle of a repeated path."""
+        labels = tr.axes
+        q = np.stack([tr[f"{lab}:crank_angle_rad"] for lab in labels], axis=1)
+        pts = machine.mechanism.points(q)[self.path.p.point]
+        actual = np.stack([pts[0], pts[1]], axis=1)
+        plan = self.path.at(tr.t)[0]
+        err = np.linalg.norm(actual - plan, axis=1)
+        t0 = float(getattr(config, "settle_time", None) or 0.0)
+        sel = tr.t >= t0 - 1e-12
+        out = {"point": self.path.p.point, "from_s": t0, "max_error_m": float(np.max(err[sel])),
+               "rms_error_m": float(np.sqrt(np.mean(err[sel] ** 2)))}
+        if self.period > 0 and tr.t[-1] >= self.period:
+            last = tr.t >= tr.t[-1] - self.period - 1e-12
+            out["max_error_last_cycle_m"] = float(np.max(err[last]))
+        return {"end_effector": out}
 
     def end_effector(self, t):
         """The planned end-effector position (B, 2) at times t."""

@@ -100,6 +100,37 @@ class Trajectory:
     def has(self, name) -> bool:
         return name in self.index
 
+    @property
+    def axes(self) -> tuple:
+        """The axis labels of a run of a machine with several motors (columns ``label:name``); ()
+        for one axis."""
+        return tuple(self.meta.get("axes") or ())
+
+    def axis(self, label: str) -> "Trajectory":
+        """One axis of a multi-axis run as a one-axis trajectory (a view: its ``label:`` columns under
+        their one-axis names, with t_s and the closure; its statistics likewise)."""
+        pre = f"{label}:"
+        if not any(c.startswith(pre) for c in self.columns):
+            raise KeyError(f"trajectory has no axis {label!r}; axes: {', '.join(self.axes) or 'one (unlabelled)'}")
+        keep = [i for i, c in enumerate(self.columns) if c.startswith(pre) or ":" not in c]
+        tr = Trajectory.__new__(Trajectory)
+        tr.columns = tuple(self.columns[i][len(pre):] if self.columns[i].startswith(pre) else self.columns[i]
+                           for i in keep)
+        tr.index = {c: j for j, c in enumerate(tr.columns)}
+        tr.data = self.data[:self.n][:, keep]
+        tr.n, tr.backend = self.n, self.backend
+        tr.meta = {k: v for k, v in self.meta.items() if k not in ("axes",)}
+        zs = self.meta.get("z_axes")
+        if zs is not None and label in self.axes:
+            tr.meta["z"] = zs[self.axes.index(label)]
+        if self.stats is not None:
+            sk = [i for i, c in enumerate(self.stat_columns) if c.startswith(pre)]
+            tr.stats = self.stats[:self.n][:, sk]
+            tr.stat_columns = tuple(self.stat_columns[i][len(pre):] for i in sk)
+        else:
+            tr.stats, tr.stat_columns = None, ()
+        return tr
+
     def stat(self, name):
         """A column of the interval statistics (``"crank_speed_rad_s:max"`` …; :mod:`mjbench.kernel.layout`):
         per record row, the extreme over every co-step since the previous row.  None when the run

@@ -422,7 +422,7 @@ def multi_state_size(n: int, channels: int) -> int:
     return multi_work(n) + n * n + n + channels + n * n + n
 
 
-@C.law
+@C.law(inline=False)
 def multi_accel(MODEL, t, S, iy, ia, TAU, P):
     """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
     then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias by Gaussian elimination with partial pivoting."""

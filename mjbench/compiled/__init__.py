@@ -36,7 +36,7 @@ BRIDGES: list = []
 _jit_ready = False
 
 
-def law(fn: Callable | None = None, *, outputs: tuple | None = None) -> Callable:
+def law(fn: Callable | None = None, *, outputs: tuple | None = None, inline: bool = True) -> Callable:
     """Mark ``fn`` as a law: a pure scalar function numba can compile (see the module docstring).
 
     ``@law`` or ``@law(outputs=("u",))``: a control law (a controller's, a reference's) names the
@@ -45,8 +45,10 @@ def law(fn: Callable | None = None, *, outputs: tuple | None = None) -> Callable
     returned unchanged (Python calls it directly); when the compiled loop is first used every law
     is registered with numba so that laws can call each other by name."""
     if fn is None:
-        return lambda f: law(f, outputs=outputs)
+        return lambda f: law(f, outputs=outputs, inline=inline)
     fn.__mjbench_law__ = True
+    if not inline:  # a large law called in several places: one compiled function (compile time, code size)
+        fn.__mjbench_inline__ = False
     if outputs is not None:
         fn.__mjbench_outputs__ = tuple(outputs)
     LAWS.append(fn)

@@ -84,8 +84,16 @@ def register(fn):
         return
     from numba.extending import register_jitable
 
-    register_jitable(**LAW_OPTIONS)(fn)
+    register_jitable(**law_options(fn))(fn)
     _REGISTERED.add(id(fn))
+
+
+def law_options(fn) -> dict:
+    """numba's options for a law: :data:`LAW_OPTIONS`, without forced inlining for a law that asks
+    (``@law(inline=False)``: a large law called from several places, compiled once)."""
+    if getattr(fn, "__mjbench_inline__", True):
+        return dict(LAW_OPTIONS)
+    return {**LAW_OPTIONS, "forceinline": False}
 
 
 def register_bridge(fn, impl_name):
@@ -332,7 +340,8 @@ def _specialise(name, fn, argn, mods):
 
     Rename().visit(fdef)
     mods.add(fn.__module__)
-    return imports + ["", "", f"@register_jitable({_LAW_OPTIONS_TEXT})", ast.unparse(fdef), ""]
+    opts = ", ".join(f"{k}={v!r}" for k, v in law_options(fn).items())
+    return imports + ["", "", f"@register_jitable({opts})", ast.unparse(fdef), ""]
 
 
 def _build(program, loop_source: str, check: bool = False):

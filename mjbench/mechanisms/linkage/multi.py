@@ -96,16 +96,36 @@ class MultiCompiled(_Compiled):
     def build(self):
         p, sysm = self.p, self.sys
         q0 = self.q_ref
+        self._mobility_n(self._assemble_free(self.guess_n(q0)))
         z, res = sysm.assemble(self.guess_n(q0), q0)
         if not res < 1e-9:
             raise GeometryError(f"linkage {p.name!r} cannot be assembled at the stated pose (inputs "
                                 f"{', '.join(_deg(x) for x in q0)}): the closest assembly leaves a residual "
                                 f"{res * self.L:.3g} m")
-        self._mobility_n(z)
         self.z_ref = z
         self._grid()
         self._tables_n()
         return self
+
+    def _assemble_free(self, z0):
+        """The joints closed near z0 with every input free (the mobility is counted there)."""
+        from scipy.optimize import least_squares
+
+        sysm = self.sys
+        nj = 2 * len(sysm.joints)
+        if nj == 0:
+            return z0
+        R, Cs = sysm.row_scale[:nj], sysm.col_scale
+        zero = np.zeros((1, self.ninputs))
+
+        def f(x):
+            return sysm.phi((x / Cs)[None], zero)[0][:nj] * R
+
+        def jac(x):
+            return sysm.jac((x / Cs)[None])[0][:nj] * R[:, None] / Cs[None, :]
+
+        x = least_squares(f, z0 * Cs, jac=jac, method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=2000).x
+        return x / Cs
 
     def _mobility_n(self, z):
         p, sysm = self.p, self.sys
@@ -440,7 +460,7 @@ def grid_cell(q, d, T):
     return int(i), s
 
 
-@C.law
+@C.law(inline=False)
 def grid1_eval(q, T, out, o):
     """Every channel of a 1-input grid table at q into out[o:o+k] (NaN outside its range)."""
     i, s = grid_cell(q, 0, T)
@@ -455,7 +475,7 @@ def grid1_eval(q, T, out, o):
         out[o + c] = ((R[c, b] * s + R[c, b + 1]) * s + R[c, b + 2]) * s + R[c, b + 3]
 
 
-@C.law
+@C.law(inline=False)
 def grid2_eval(q0, q1, T, out, o):
     """Every channel of a 2-input grid table at (q0, q1) into out[o:o+k] (NaN outside its ranges):
     Horner in the second input's coordinate for each power of the first, then in the first's."""
@@ -484,7 +504,7 @@ __all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval
 MultiModelP = namedtuple("MultiModelP", "n table")
 
 
-@C.law
+@C.law(inline=False)
 def multi_model(S, iy, t, P, W, iw):
     """The reduced model of a linkage with n = P.n inputs at the state (q, q̇) = S[iy:iy+2n]: the mass
     matrix M̄ (n×n, row-major) into W[iw:iw+n²] and the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇ into

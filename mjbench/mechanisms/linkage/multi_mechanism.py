@@ -164,7 +164,7 @@ class MultiLinkage(Linkage):
             raise ParameterError(f"path.point = {point!r}: no such point (links: {', '.join(self.c.links)})")
         return self.c._body_point(link, pt)
 
-    def inverse_kinematics(self, point: str, X, Vx, Ax, times=None, tol=1e-9):
+    def inverse_kinematics(self, point: str, X, Vx, Ax, times=None, tol=1e-6):
         """Inputs q, q̇, q̈ (B, n) that put ``point`` at X (B, 2) with velocity Vx and acceleration Ax,
         following the stated pose's assembly branch from the first sample: sequential Newton on a
         coarse subsequence (each from the previous solution), then every sample at once from the
