@@ -20,6 +20,7 @@ import os
 import sys
 import threading
 
+from .. import compiled as C
 from . import BRIDGES, LAWS
 from . import cache as _cache
 
@@ -53,13 +54,13 @@ def init():
         _cache.configure_numba()
         import numba  # noqa: F401
 
-        from . import _numba  # noqa: F401 - the bridges' compiled implementations
-        from .. import compiled as C
+        from . import _numba  # noqa: F401 - the bridges' compiled implementations (imports numba)
 
         for fn in list(LAWS):
             register(fn)
         for fn, impl in list(BRIDGES):
             register_bridge(fn, impl)
+        C._JIT_HOOKS = (register, register_bridge)
         C._jit_ready = True
         _READY = True
 
@@ -125,9 +126,7 @@ def _fingerprint() -> str:
     if _FINGERPRINT is None:
         import numba
 
-        import mjbench
-
-        h = hashlib.sha256(_package_hash(mjbench).encode())
+        h = hashlib.sha256(_package_hash(sys.modules["mjbench"]).encode())  # (our root package: always loaded)
         h.update(numba.__version__.encode())
         h.update(sys.version.encode())
         _FINGERPRINT = h.hexdigest()
