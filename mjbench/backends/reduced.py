@@ -41,6 +41,7 @@ from .. import compiled as C
 from .. import kernel
 from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
+from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
 from .joints import table_joints
 from .multibody import _extra_names
@@ -280,19 +281,6 @@ def _joint_table(machine, h):
                 _JOINT_TABLES.clear()
             _JOINT_TABLES[key] = hit
     return hit
-
-
-@C.law
-def rigid_accel(MODEL, t, S, iy, ia, tau, Ja, c, P):
-    """The rigid Eksergian acceleration as an acceleration law (the inner mechanism of a compliant
-    gear): q̈ = [τ − c·q̇ + Q_ext − E_p' − ½J'·q̇²] / (J_eq + J) at (q, q̇) = (S[iy], S[iy+1]) into
-    S[ia]; MODEL(q, q̇, t, P) its model law.  → q̈."""
-    q = S[iy]
-    qd = S[iy + 1]
-    J, H, E, Q = MODEL(q, qd, t, P)
-    qdd = (tau - c * qd + Q - E - H * qd * qd) / (Ja + J)
-    S[ia] = qdd
-    return qdd
 
 
 def internal_state_size(n: int) -> int:

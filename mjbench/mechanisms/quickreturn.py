@@ -44,7 +44,7 @@ from typing import Literal
 from pydantic import Field
 
 from .. import compiled as C
-from ..backends.table import table_model
+from .table import table_model
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..fields import OptQ, Q, Strict
