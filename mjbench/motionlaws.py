@@ -26,7 +26,7 @@ exponents γ for the pseudo-polynomial law, the interior ordinates normalised by
 ``MOTION(t, order, P) → (φ, φ̇, φ̈, φ⃛)`` (:func:`pseudopoly_motion`, :func:`bezier_motion`; derivatives
 above ``order`` are 0) from coefficient arrays in ``P`` (:meth:`MotionLaw.motion_form`).  The
 methods ``evaluate``/``position``/``velocity``/… apply it elementwise to arrays; the servo's
-reference (:class:`controllers.references.law.LawReference`) calls the same law in the co-step
+reference (:class:`mjbench.law_reference.LawReference`) calls the same law in the co-step
 kernel, compiled or not.  The Bezier curves are evaluated in the Bernstein basis by a Horner
 scheme in λ/(1 − λ) (or (1 − λ)/λ past the middle), the derivative curves from the derivative
 polygons (Eq 13).
@@ -42,6 +42,7 @@ from scipy.special import comb
 
 from .compiled import law
 from .errors import ParameterError
+from .law_reference import LawReference
 
 #: two exponents closer than this (relative) make Z̄ numerically singular
 GAMMA_TOL = 1e-9
@@ -117,10 +118,8 @@ class MotionLaw:
                 "jerk": float(np.max(np.abs(j[1:-1])))}
 
     def as_reference(self, scale: float = 1.0, t0: float = 0.0):
-        """A motor-side reference (:class:`controllers.references.law.LawReference`) tracking this
+        """A motor-side reference (:class:`mjbench.law_reference.LawReference`) tracking this
         law (times ``scale``), starting at ``t0`` [s]."""
-        from controllers.references.law import LawReference
-
         return LawReference(self, scale, t0)
 
 

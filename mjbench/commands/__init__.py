@@ -16,6 +16,7 @@ is silenced while a command runs (:func:`cli_command`): the command prints the s
 import argparse
 import functools
 import math
+import sys
 import warnings
 
 from ..api.video import MAX_HEIGHT, MAX_WIDTH, check_frame  # noqa: F401 - the frame limits of render/reproduce
@@ -132,3 +133,9 @@ def parse_numbers(items, option, keys, suffix=""):
                 raise ParameterError(f"{option} {k} is given twice ({k}={out[k]:g} and {part.strip()})")
             out[k] = x
     return out
+
+
+def note(old: str, new: str):
+    """One line on stderr after an old spelling ran."""
+    print(f"mjbench: note: `mjbench {old}` is a paper study, now `mjbench {new}` (the old spelling still works)",
+          file=sys.stderr)

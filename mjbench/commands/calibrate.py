@@ -69,7 +69,7 @@ def cmd_calibrate(args):
     if args.out:
         print(f"results written to {args.out} (calibrate.json, calibrated.toml)")
     if not getattr(args, "paper_study", False):
-        from .paper import note
+        from . import note
         note("calibrate", "paper incerti2012 calibrate")
     return 0
 

@@ -58,6 +58,6 @@ def run(args):
     if args.json:
         print(dumps(results if len(results) > 1 else results[0], indent=1))  # strict JSON (outputs.py)
     if not getattr(args, "paper_study", False):
-        from .paper import note
+        from . import note
         note("demand", "paper hulako2025 demand")
     return 1 if any(r.get("voltage_saturated") for r in results) else 0

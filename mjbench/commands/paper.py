@@ -33,12 +33,6 @@ YIGIT_DEFAULTS = {"starts": 8, "seed": 0, "bounds": (10.0, 500.0), "c4": "max-ab
                   "backend": "reduced", "verify": None, "t_end": None, "fast_multibody": None}
 
 
-def note(old: str, new: str):
-    """One line on stderr after an old spelling ran."""
-    print(f"mjbench: note: `mjbench {old}` is a paper study, now `mjbench {new}` (the old spelling still works)",
-          file=sys.stderr)
-
-
 def add_yigit_options(p, hidden=False):
     """The options of the Yiğit & Şen design study; ``hidden``: accepted but not listed, default
     None (the old spelling ``mjbench design quickreturn`` on the general design command)."""

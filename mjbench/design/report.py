@@ -14,6 +14,7 @@ import numpy as np
 
 from ..outputs import atomic_write, staged_dir, write_json
 from . import build as B
+from .law_figure import figure as law_figure
 
 
 def _fmt(x, unit=""):
@@ -262,8 +263,6 @@ def figure(res, path):
     from ..plots import save
 
     if res.get("duty", {}).get("law"):  # a motion-law duty: over the cycle's time
-        from .law_duty import figure as law_figure
-
         return law_figure(res, path)
     sz = res.get("_sizing")
     tr = (res.get("_trajectories") or {}).get("multibody")

@@ -27,6 +27,7 @@ from ..errors import GeometryError, ParameterError
 from ..fields import Q, Strict
 from . import register
 from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
+from .linkage_kin import _angle_ranges
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
 AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
@@ -729,25 +730,6 @@ def _dof_cache(model):
 #: geometries (a, b, c, h_x, h_y, n) whose crank makes the full turn, found by :meth:`FourBar.check`
 #: (its scan of n crank angles costs ≈ 0.15 ms: done once per geometry and process)
 _TURNS_FULL: set = set()
-
-
-def _angle_ranges(alpha, mask):
-    """Contiguous [lo, hi] ranges of alpha where mask is True (wrapping at 2π)."""
-    n = len(alpha)
-    step = alpha[1] - alpha[0]
-    idx = np.flatnonzero(mask)
-    ranges, start, prev = [], idx[0], idx[0]
-    for i in idx[1:]:
-        if i != prev + 1:
-            ranges.append((start, prev))
-            start = i
-        prev = i
-    ranges.append((start, prev))
-    if len(ranges) > 1 and ranges[0][0] == 0 and ranges[-1][1] == n - 1:
-        first = ranges.pop(0)
-        last = ranges.pop()
-        ranges.append((last[0], first[1] + n))
-    return [(alpha[s % n], alpha[s % n] + (e - s) * step) for s, e in ranges]
 
 
 class FourBarParams(Strict):
