@@ -6,6 +6,7 @@ import math
 import time
 
 from . import report as RP
+from . import thermal as TH
 
 
 def accept_tuned(ctl, tuned, cand, how: str):
