@@ -14,7 +14,7 @@ import argparse
 import sys
 
 from ..outputs import add_force_option
-from . import paper
+from . import note, paper
 
 #: the old paper-study spelling `mjbench design quickreturn`
 PAPER_TARGETS = ("quickreturn",)
@@ -46,7 +46,7 @@ def run(args) -> int:
                 refuse_unused("--" + opt.replace("_", "-"), "it belongs to the general design command, not to the "
                                                             "Yiğit & Şen paper study")
         rc = paper.run_yigit_design(args)
-        paper.note("design quickreturn", "paper yigit2023 design")
+        note("design quickreturn", "paper yigit2023 design")
         return rc
     used = paper.yigit_options_given(args)
     if used:
