@@ -11,6 +11,7 @@ import warnings
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any, Union
 
+from .. import api  # the API's face: its functions are loaded on first use (mjbench/api/__init__.py)
 from ..errors import ParameterError
 
 if TYPE_CHECKING:
@@ -147,39 +148,27 @@ class Scenario:
     def simulate(self, mode: str | None = None, backend: str | None = None, t_end: float | str | None = None,
                  **kw: Any) -> Result:
         """Simulate this scenario: :func:`mjbench.simulate` (same arguments)."""
-        from .simulation import simulate
-
-        return simulate(self, mode, backend, t_end, **kw)
+        return api.simulate(self, mode, backend, t_end, **kw)
 
     def sweep(self, grid: Mapping[str, Any] | None = None, **kw: Any) -> SweepResult:
         """Sweep scenario keys: :func:`mjbench.parameter_sweep` (same arguments)."""
-        from .design_loops import parameter_sweep
-
-        return parameter_sweep(self, grid, **kw)
+        return api.parameter_sweep(self, grid, **kw)
 
     def tune(self, controller: str = "pid-tv", objective: str = "chi", **kw: Any) -> TuneResult:
         """Tune the controller's gains: :func:`mjbench.tune_gains` (same arguments)."""
-        from .design_loops import tune_gains
-
-        return tune_gains(self, controller, objective, **kw)
+        return api.tune_gains(self, controller, objective, **kw)
 
     def linearize(self, mode: str | None = None, **kw: Any) -> LinearResult:
         """Linear model, loop and margins: :func:`mjbench.linearize` (same arguments)."""
-        from .analysis import linearize
-
-        return linearize(self, mode, **kw)
+        return api.linearize(self, mode, **kw)
 
     def analyze(self, speeds: Iterable[float | str] | None = None, **kw: Any) -> Analysis:
         """Revolution analysis of the mechanism: :func:`mjbench.analyze_mechanism`."""
-        from .analysis import analyze_mechanism
-
-        return analyze_mechanism(self, speeds, **kw)
+        return api.analyze_mechanism(self, speeds, **kw)
 
     def render(self, path: str | os.PathLike[str], **kw: Any) -> dict[str, Any]:
         """Video of a multibody run: :func:`mjbench.render_video` (same arguments)."""
-        from .video import render_video
-
-        return render_video(self, path, **kw)
+        return api.render_video(self, path, **kw)
 
 
 # ====================================================================== loading
