@@ -7,6 +7,7 @@ import os
 import pkgutil
 import sys
 
+from ._version import __version__
 from .errors import MjbenchError
 
 
@@ -72,7 +73,6 @@ def version() -> str:
     try:
         return _v("mjbench")
     except PackageNotFoundError:
-        from . import __version__
         return __version__
 
 

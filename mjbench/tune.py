@@ -59,6 +59,7 @@ import numpy as np
 
 from . import metrics as M
 from . import scenario as S
+from .control import REGISTRY as CONTROLLERS
 from .errors import MjbenchError, ParameterError, ScenarioError
 
 
@@ -94,20 +95,16 @@ def tunable_controllers() -> dict:
     """{``tune --controller`` name: :class:`TuneSpec`} of every controller type that declares
     tunable gains: the built-in ones (pid, pid-tv, smc, servo) and the plugins' (every
     controller type is imported)."""
-    import controllers
-
     out = {}
-    for typ in controllers.names():
-        out.update(declared_specs(controllers.get(typ)))
+    for typ in CONTROLLERS.names():
+        out.update(declared_specs(CONTROLLERS.get(typ)))
     return out
 
 
 def tune_spec(name: str) -> TuneSpec:
     """The :class:`TuneSpec` of ``tune --controller NAME`` (a type name, or a declared variant such
     as ``pid-tv``); a ParameterError naming the choices otherwise."""
-    import controllers
-
-    cls = controllers.get(name)
+    cls = CONTROLLERS.get(name)
     specs = declared_specs(cls) if cls is not None else {}
     if name in specs:
         return specs[name]
@@ -219,8 +216,6 @@ class Problem:
     # ------------------------------------------------------------------ evaluation
     def machine(self, x, params=None):
         """The scenario's machine with the controller gains x (or the controller ``params``)."""
-        import controllers
-
         from .machine import Machine
 
         if params is None:
@@ -233,7 +228,7 @@ class Problem:
         if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
             self._plant = S.make_mechanism(scn), S.make_drive(scn)
         mech, drive = self._plant
-        ctrl = controllers.build(params, drive=drive, mechanism=mech, scenario=scn)
+        ctrl = CONTROLLERS.build(params, drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
     def metrics(self, tr):

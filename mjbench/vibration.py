@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .control import REGISTRY as CONTROLLERS
 from .errors import ParameterError
 from .metrics import RESIDUAL_METRICS  # noqa: F401 - the names residual_from_trajectory writes
 from .mechanisms.platform import Oscillator, Platform
@@ -717,14 +718,12 @@ def _shaped_laws(rep, law0, osc, shapers, J_motor) -> dict:
 # ====================================================================== real motor and servo
 def servo_machine(scn, mode, law):
     """The scenario's machine in ``mode`` (a servo) tracking ``law`` instead of the [law] table."""
-    import controllers
-
     from .machine import Machine
     from .scenario import make_drive, make_mechanism
 
     mech, drive = make_mechanism(scn), make_drive(scn)
     p = scn.modes[mode]
-    ctrl = controllers.get(p.type).from_params(p, drive=drive, mechanism=mech, scenario=scn,
+    ctrl = CONTROLLERS.get(p.type).from_params(p, drive=drive, mechanism=mech, scenario=scn,
                                                reference=law.as_reference(t0=p.reference.t0))
     return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from .. import control
 from ..errors import MjbenchError, ParameterError, ScenarioError
 
 if TYPE_CHECKING:
-    from controllers.base import Controller
+    from ..control import Controller
 
     from ..drive import DCMotorDrive
     from ..mechanisms.base import Mechanism
@@ -104,9 +105,7 @@ def make_controller(type: str, /, *, drive: DCMotorDrive | None = None, mechanis
     mjbench.errors.ScenarioError
         Unknown type or keys, invalid values (every problem listed).
     """
-    import controllers
-
-    ctrl: Controller = _built(lambda: controllers.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
+    ctrl: Controller = _built(lambda: control.REGISTRY.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
                               f"make_controller({type!r})")
     return ctrl
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .. import control
+
 #: the kinds of components, in listing order
 KINDS = ("mechanism", "controller", "drive")
 
@@ -74,9 +76,7 @@ def _registry(kind: str) -> Any:
 
         return mechanisms.REGISTRY
     if kind == "controller":
-        import controllers
-
-        return controllers.REGISTRY
+        return control.REGISTRY
     from .. import drives
 
     return drives.REGISTRY

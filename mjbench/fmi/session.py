@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controllers.base import Controller, Measurement
+from ..control import REGISTRY as CONTROLLERS
+from ..control import Controller, Measurement
 
 from .. import compiled as C
 from ..errors import ParameterError, SimulationDiverged
@@ -340,13 +341,11 @@ class ControllerSession:
         self.ctrl = None
 
     def start(self) -> None:
-        import controllers
-
         from .. import scenario as S
 
         scn = with_parameters(self.scn0, self.params, self.values)
         drive = S.make_drive(scn)
-        self.ctrl = controllers.build(scn.modes[self.mode], drive=drive, mechanism=S.make_mechanism(scn), scenario=scn)
+        self.ctrl = CONTROLLERS.build(scn.modes[self.mode], drive=drive, mechanism=S.make_mechanism(scn), scenario=scn)
         self.ctrl.reset()
         self.y = Measurement(z=float(drive.z))
         self.u = 0.0

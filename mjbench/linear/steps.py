@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from collections import namedtuple
 
-from controllers.reference import Reference as _Reference
+from ..control import Reference as _Reference
 import numpy as np
 
 from ..compiled import law
