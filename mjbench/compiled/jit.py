@@ -350,9 +350,7 @@ def _build(program, loop_source: str, check: bool = False):
             _bind_text(s, form, header, mods, inmemory)
             continue
         _bind_text(f"_law_{s}", form, header, mods, inmemory)
-        from ..kernel.wiring import adapter_source
-
-        header += ["", f"@register_jitable({_LAW_OPTIONS_TEXT})", adapter_source(s, f"_law_{s}", w)]
+        header += ["", f"@register_jitable({_LAW_OPTIONS_TEXT})", w.source(s, f"_law_{s}")]
     opts = "cache=True, nogil=True, _nrt=False" + (", boundscheck=True" if check else "")
     src = "\n".join(header) + "\n\n\n" + loop_source + f"\n\nrun = numba.njit({opts})(_loop)\n"
     folder = None if inmemory else _cache.kernels()

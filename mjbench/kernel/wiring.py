@@ -31,6 +31,10 @@ class Wiring:
     names: tuple
     outputs: tuple
 
+    def source(self, name: str, target: str) -> str:
+        """The adapter's source (:func:`adapter_source`): what the compiled loop's module holds."""
+        return adapter_source(name, target, self)
+
 
 def wire(form, axis: int, naxes: int, default_outputs: tuple, what: str) -> Wiring:
     """Resolve ``form``'s law's signal names for a component on ``axis``; ParameterError (one line
