@@ -41,6 +41,7 @@ from . import register
 from mjbench.control import LAW_INPUTS, ConstantSpeed, Controller
 from .references.coupler_speed import CouplerSpeedParams
 from .references.law import LawReferenceParams
+from . import references
 
 ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams], Field(discriminator="type")]
 
@@ -136,7 +137,6 @@ class PID(Controller):
             kp, ki, kd = kp / drive.z, ki / drive.z, kd / drive.z
         reference = None
         if p.reference is not None:
-            from . import references
             reference = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)
         return cls(kp, ki, kd, reference=reference, omega0=p.omega0, kp_ramp=p.kp_ramp,
                    t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)

@@ -26,6 +26,7 @@ from .errors import ScenarioError
 from .registry import GROUPS, PluginWarning, entry_points
 from .schema import Scenario
 from .validation import validate
+from .machine import Machine
 
 SCENARIO_DIR = "scenarios"
 
@@ -198,7 +199,6 @@ def set_key(raw: dict, key: str, value):
 
 
 def make_mechanism(scn: Scenario):
-    from . import mechanisms
 
     return mechanisms.build(scn.mechanism)
 
@@ -213,7 +213,6 @@ def modes(scn: Scenario):
 
 def make_machine(scn: Scenario, mode: str | None = None):
     """Scenario → Machine (mechanism + drive + controller of the chosen mode)."""
-    from .machine import Machine
 
     mode = scn.mode(mode)
     mech = make_mechanism(scn)

@@ -6,6 +6,9 @@ from typing import TYPE_CHECKING, Any
 
 from .. import control
 from ..errors import MjbenchError, ParameterError, ScenarioError
+from .. import mechanisms
+from ..drive import DriveParams
+from ..schema import format_errors
 
 if TYPE_CHECKING:
     from ..control import Controller
@@ -39,7 +42,6 @@ def make_mechanism(type: str, /, **params: Any) -> Mechanism:
     mjbench.errors.GeometryError
         A linkage that cannot be assembled or whose input cannot make the full turn.
     """
-    from .. import mechanisms
 
     mech: Mechanism = _built(lambda: mechanisms.from_dict({"type": type, **params}), f"make_mechanism({type!r})")
     return mech
@@ -68,8 +70,6 @@ def make_drive(**params: Any) -> DCMotorDrive:
     """
     from pydantic import ValidationError
 
-    from ..drive import DriveParams
-    from ..schema import format_errors
 
     try:
         p = DriveParams.model_validate(params)

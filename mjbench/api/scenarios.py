@@ -13,6 +13,10 @@ from typing import TYPE_CHECKING, Any, Union
 
 from .. import api  # the API's face: its functions are loaded on first use (mjbench/api/__init__.py)
 from ..errors import ParameterError
+from .. import scenario as S
+from ..outputs import OutputError
+from ..scenario import parse_value
+from ..preflight import check_machine
 
 if TYPE_CHECKING:
     from ..machine import Machine
@@ -132,7 +136,6 @@ class Scenario:
 
     def machine(self, mode: str | None = None) -> Machine:
         """The :class:`~mjbench.Machine` (mechanism + drive + controller) of ``mode``."""
-        from .. import scenario as S
 
         machine: Machine = S.make_machine(self.spec, self.mode(mode))
         return machine
@@ -140,7 +143,6 @@ class Scenario:
     def check(self, mode: str | None = None) -> None:
         """Build the machine of ``mode`` once (milliseconds): a geometry that cannot assemble or a
         controller that cannot be built raises a readable :class:`~mjbench.errors.MjbenchError`."""
-        from ..preflight import check_machine
 
         check_machine(self.spec, self.mode(mode))
 
@@ -205,7 +207,6 @@ def load(source: Source, overrides: Iterable[str] | str = (), /, **values: Any) 
     MjbenchWarning
         For each value outside its plausible range (a likely unit slip).
     """
-    from .. import scenario as S
 
     items = [overrides] if isinstance(overrides, str) else list(overrides)
     items += [f"{k}={set_text(k, v)}" for k, v in values.items()]
@@ -241,7 +242,6 @@ def _manifest_defaults(path: str) -> dict[str, Any]:
 
 def list_scenarios() -> list[str]:
     """Names of the scenarios shipped with mjbench (``mjbench list`` shows their modes)."""
-    from .. import scenario as S
 
     return list(S.builtin_names())
 
@@ -325,7 +325,6 @@ def _table_list(v: Any) -> bool:
 def write_text(path: str | os.PathLike[str], text: str, force: bool = False) -> None:
     """Write a text file whole (a temporary file renamed over it); refuse to replace one unless
     ``force``."""
-    from ..outputs import OutputError
 
     p = os.fspath(path)
     if os.path.isdir(p):
@@ -350,7 +349,6 @@ def write_text(path: str | os.PathLike[str], text: str, force: bool = False) -> 
 def set_text(key: str, value: Any) -> str:
     """``value`` as the ``--set`` text that reads back as the same value (so that a scenario's
     ``overrides`` and ``manifest.json`` record keyword values exactly like ``--set`` items)."""
-    from ..scenario import parse_value
 
     text = _toml(value, top=True)
     want = _plain(value)
@@ -373,7 +371,6 @@ def _plain(value: Any) -> Any:
 
 
 def _toml(value: Any, top: bool = False) -> str:
-    from ..scenario import parse_value
 
     value = _plain(value)
     if isinstance(value, bool):

@@ -45,6 +45,10 @@ from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's o
 from ..trajectory import Trajectory
 from .joints import table_joints
 from .multibody import _extra_names
+from .table import composing
+from .joints import reduced_table
+from .multibody import build_model
+from ..mechanisms.base import _closed_model
 
 
 #: co-steps from which a reduced run pays for loading the compiled loop (≈ 0.21 s of start-up against
@@ -110,7 +114,6 @@ class ReducedPlant:
             if self.model == "table":
                 model = mech.model_form()
             else:
-                from ..mechanisms.base import _closed_model
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
@@ -192,7 +195,6 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    from .table import composing
 
     with composing():  # the mechanism's description key: once for the table and the machine check
         plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
@@ -264,8 +266,6 @@ _JOINT_TABLES: dict = {}
 def _joint_table(machine, h):
     """(JointsP or None, column names, info or why not) of the machine's mechanism from its q0
     (cached by mechanism and q0)."""
-    from .joints import reduced_table
-    from .multibody import build_model
 
     mech = machine.mechanism
     try:

@@ -23,6 +23,7 @@ import threading
 from .. import compiled as C
 from . import BRIDGES, LAWS
 from . import cache as _cache
+from ..errors import MjbenchError
 
 _AVAILABLE = None
 
@@ -54,7 +55,7 @@ def init():
         _cache.configure_numba()
         import numba  # noqa: F401
 
-        from . import _numba  # noqa: F401 - the bridges' compiled implementations (imports numba)
+        from . import _numba  # noqa: F401 - numba's compiled bridges: imports numba, the first compiled run only
 
         for fn in list(LAWS):
             register(fn)
@@ -92,7 +93,7 @@ def register(fn):
 def register_bridge(fn, impl_name):
     from numba.extending import overload
 
-    from . import _numba
+    from . import _numba  # numba's compiled bridges: imports numba, the first compiled run only
 
     overload(fn)(getattr(_numba, impl_name))
 
@@ -296,7 +297,6 @@ def _check_source(fn, tree, fdef) -> None:
 
     same = getattr(fdef, "name", None) == fn.__name__ and len(consts) == 1 and sig(consts[0]) == sig(fn.__code__)
     if not same:
-        from ..errors import MjbenchError
 
         raise MjbenchError(f"law {fn.__module__}.{fn.__qualname__}: its source file changed after it was imported; "
                            "start the command again (the compiled loop is built from the law's source)")

@@ -7,6 +7,7 @@ import time
 
 from . import report as RP
 from . import thermal as TH
+from .. import analyze as A
 
 
 def accept_tuned(ctl, tuned, cand, how: str):
@@ -54,7 +55,6 @@ def _row(name, required, achieved, compare, unit="", source="", ok=None):
 def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
     """Every requirement with the achieved value (kinematics: mjbench.analyze on the machine,
     i.e. mjbench's own position solver; drive: the multibody run) and its margin."""
-    from .. import analyze as A
 
     an = A.analyze(scn, speeds=[req.duty.omega], n=720)
     rows = _kinematic_rows(req, syn, an, syn_json)

@@ -46,6 +46,13 @@ from .law_figure import _cycle, figure  # noqa: F401 - the figure of a motion-la
 from .model import DriveModel, LoadModel
 from .periodic import NoSteadyState, effective_efficiency
 from .synthesis import constraint
+from .. import metrics as M
+from .. import scenario as SC
+from .. import mechanisms as MR
+from ..errors import ParameterError
+from .. import tune as T
+from ..backends import simulate
+from ..runner import backend_options
 
 TWO_PI = 2.0 * math.pi
 #: the design rule: velocity-PI zero and position-loop gain as fractions of the velocity crossover
@@ -381,7 +388,6 @@ def on_grid(t, req, T_c):
 def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
     """Figures of the last complete cycle [t_end − T_c, t_end] of a run (the prediction's
     counterparts); ``ref_angle(t)``: the crank's reference angle [rad]."""
-    from .. import metrics as M
 
     b = float(tr.t[-1])
     a = b - T_c
@@ -443,7 +449,6 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
     """Sizing, control, verification and outputs of a motion-law duty (after the synthesis of
     :func:`mjbench.design.pipeline.design`, whose ``res`` this continues): the stages of the module
     doc, one function each below."""
-    from .. import scenario as SC
 
     law, T_c = law_of(req)
     res["duty"].update(law=describe(req, law, T_c), tracking_error_max_rad=req.duty.tracking_error_max)
@@ -474,8 +479,6 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
     ``stop`` when no candidate is chosen or the chosen one fails at full resolution
     (``res["closest"]``: the best one, its failing checks in ``failures``); ``res`` gets ``sizing``
     and ``_sizing``."""
-    from .. import mechanisms as MR
-    from ..errors import ParameterError
 
     failures = []
     with clock("sizing"):
@@ -530,8 +533,6 @@ def _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl):
     """``mjbench.tune`` (controller ``servo``) from the candidate's gains within ``box`` on the
     reduced backend (``ctl``: ``tune``, ``source``) → the tuned candidate if the harmonic balance
     accepts it, else ``cand``."""
-    from .. import scenario as SC
-    from .. import tune as T
 
     g0 = cand.gains
     t_end, _ = _run_length(cand.drive, M_mean, g0, req, T_c)
@@ -585,11 +586,8 @@ def _verification(req, res, table, final, law, T_c, t_end, scn_doc, scn, clock):
     multibody backend from rest, longer runs (up to MAX_CYCLES) until its last two cycles agree →
     (scenario doc, scenario, achieved figures of the last cycle, {"multibody": trajectory});
     ``res``: ``machine`` (a longer run), ``verification``."""
-    from .. import scenario as SC
 
     with clock("verification"):
-        from ..backends import simulate
-        from ..runner import backend_options
 
         z = float(final.drive.z)
         for attempt in range(ATTEMPTS):

@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from .. import plotstyle as ps
+from ..plots import save
+from .. import scenario as SC
 
 TWO_PI = 2.0 * math.pi
 
@@ -16,8 +19,6 @@ def _cycle(tr, a, b):
 def figure(res, path):
     """Reference and crank angle, tracking error, motor current and gearbox torque over one cycle:
     predicted (harmonic balance) and simulated (multibody, last cycle)."""
-    from .. import plotstyle as ps
-    from ..plots import save
 
     ch = res.get("_final")
     tr = (res.get("_trajectories") or {}).get("multibody")
@@ -37,7 +38,6 @@ def figure(res, path):
                 sel = _cycle(tr, a, b)
                 ts = tr.t[sel] - a
                 z = float(ch.drive.z)
-                from .. import scenario as SC
 
                 ref = SC.make_machine(SC.from_raw(res["machine"], "design")).controller.reference
                 e = tr.q[sel] - ref.reference_angle(tr.t[sel]) / z

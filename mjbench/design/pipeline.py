@@ -41,6 +41,16 @@ from .finish import _clean_metrics, _finish, _row, accept_tuned, requirements_ta
 from .checks import DRIVE_FIGURES, check_row, drive_checks, sizing_common  # noqa: F401 - design.json's shared parts
 from .solver_check import solver_check
 from .synthesis import constraint
+from .. import scenario as SC
+from .. import metrics as M
+from ..outputs import check_out_dir
+from . import law_duty
+from . import catalogue as CAT
+from .requirements import load as load_req
+from .. import mechanisms as MR
+from ..errors import ParameterError
+from ..backends import simulate
+from ..runner import backend_options
 
 TWO_PI = 2.0 * math.pi
 #: longest verification run [cycles]
@@ -71,7 +81,6 @@ def synthesize(req: Requirements):
     m = req.mechanism
     t = m.type
     if t == "given":
-        from .. import scenario as SC
 
         scn = SC.load(req.path(m.scenario) if os.path.exists(req.path(m.scenario)) else m.scenario)
         return None, copy.deepcopy(scn.raw["mechanism"]), None
@@ -148,7 +157,6 @@ def _record_dt(dt, T):
 # ============================================================================ verification
 def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
     """Figures of the last complete crank cycle of a trajectory (the predicted ones' counterparts)."""
-    from .. import metrics as M
 
     t, q, om = tr.t, tr.q, tr.omega
     cyc = M.cycles(t, q)
@@ -178,7 +186,6 @@ def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
 def periodicity(tr) -> float:
     """Relative difference of the RMS current and of the mean speed between the last two complete
     cycles (0: periodic steady state reached)."""
-    from .. import metrics as M
 
     cyc = M.cycles(tr.t, tr.q)
     if len(cyc) < 2:
@@ -220,7 +227,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     t0c, t0w = time.process_time(), time.perf_counter()
     req, cat = _requirements(requirements, clock)
     if out is not None:  # an unusable --out is an error before any work
-        from ..outputs import check_out_dir
         check_out_dir(out, force=force)
     res = _result_head(req, cat)
 
@@ -231,7 +237,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     if failures:
         return finish(failures)
     if req.duty.law is not None:  # the crank follows a motion law per cycle: mjbench/design/law_duty.py
-        from . import law_duty
 
         return law_duty.design(req, res, syn, table, cat, clock, t0c, t0w, out, force, log, verify=verify, tune=tune)
     speed = req.duty.omega
@@ -254,7 +259,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     runs = _RunLength(req, cand.drive, M_mean, t_acc, T)
     final, ctl = _control_stage(req, table, cand, load, speed, runs, req.control.tune if tune is None else tune, clock)
     chi_stmt, init, t_end = _prediction(res, ctl, final, load, sz, speed, M_mean, runs, t_acc)
-    from .. import scenario as SC
 
     scn_doc = machine_scenario(req, table, final, final.gains, init, speed, t_end)
     scn = SC.from_raw(scn_doc, f"design:{req.name}")
@@ -281,8 +285,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
 
 def _requirements(requirements, clock):
     """(Requirements, the catalogue's selected motors and gearboxes): stage "requirements"."""
-    from . import catalogue as CAT
-    from .requirements import load as load_req
 
     with clock("requirements"):
         req = requirements if isinstance(requirements, Requirements) else load_req(str(requirements))
@@ -332,13 +334,11 @@ def _synthesis_stage(req, res, clock):
 def _sizing_stage(req, cat, table, speed, res, clock, log):
     """Stage "sizing" → (load model, Sizing, failures, stop): ``stop`` when no candidate is chosen
     (``res["closest"]``: the closest one, its failing checks in ``failures``)."""
-    from .. import mechanisms as MR
 
     failures = []
     with clock("sizing"):
         mech = MR.from_dict(table)
         if mech.internal or getattr(getattr(mech, "_tab", None), "lo", None) is not None:
-            from ..errors import ParameterError
 
             raise ParameterError(f"mechanism {table.get('type')!r}: the design sizes rigid machines whose input turns "
                                  f"fully (internal elastic coordinates or a slide input are not supported)")
@@ -403,7 +403,6 @@ def _control_stage(req, table, cand, load, speed, runs, do_tune, clock):
 def _tuned(req, table, cand, load, speed, runs, box, ctl):
     """``mjbench.tune`` from the candidate's gains within ``box`` (``ctl``: ``tune``, ``source``) →
     the tuned candidate if the sizing model accepts it, else ``cand``."""
-    from .. import scenario as SC
 
     g0 = cand.gains
     t_end, _ = runs(g0)
@@ -456,9 +455,6 @@ def _verification(req, res, table, final, init, speed, t_end, runs, scn_doc, scn
     backend from the predicted steady state, longer runs (up to MAX_CYCLES) until its last two
     cycles agree → (scenario doc, scenario, achieved figures, {"multibody": trajectory}); ``res``:
     ``machine`` (a longer run), ``verification``."""
-    from .. import scenario as SC
-    from ..backends import simulate
-    from ..runner import backend_options
 
     T = runs.T
     with clock("verification"):

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from .._version import __version__
 from ..errors import ParameterError
+from .session import ControllerSession, PlantSession
 
 #: third-party distributions the FMU's Python code imports at run time (name → import name)
 RUNTIME = (("mujoco", "mujoco"), ("numpy", "numpy"), ("scipy", "scipy"), ("pydantic", "pydantic"), ("pint", "pint"))
@@ -76,7 +77,6 @@ def export_fmu(scn, out, kind: str = "plant", input: str = "voltage", backend: s
     once before anything is written."""
     from pythonfmu.builder import FmuBuilder
 
-    from .session import ControllerSession, PlantSession
 
     out = Path(out)
     if out.suffix != ".fmu":

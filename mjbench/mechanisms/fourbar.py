@@ -28,6 +28,8 @@ from ..fields import Q, Strict
 from . import register
 from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
 from .linkage_kin import _angle_ranges
+from .linkage_kin import PeriodicTable
+from .linkage import Linkage, LinkageParams, table_from_fourbar
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
 AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
@@ -394,7 +396,6 @@ class FourBar(Mechanism):
     def linkage_view(self):
         """The same linkage as a generic :class:`~mjbench.mechanisms.linkage.Linkage` (link lines:
         transmission angles, toggles, velocity ratios for ``mjbench analyze``)."""
-        from .linkage import Linkage, LinkageParams, table_from_fourbar
 
         return Linkage(LinkageParams.model_validate(table_from_fourbar(self)))
 
@@ -555,7 +556,6 @@ def _speed_ratio_table(fb, key, point):
     hit = _RATIO_CACHE.get(key)
     if hit is not None:
         return hit
-    from .linkage_kin import PeriodicTable
 
     for n in (1024, 2048, 4096, 8192, 16384):
         u = np.arange(n) * (2 * np.pi / n)

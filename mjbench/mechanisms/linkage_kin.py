@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..compiled import law
+from ..spline import periodic_cubic
 
 TWO_PI = 2.0 * math.pi
 
@@ -395,7 +396,6 @@ class PeriodicTable:
     """
 
     def __init__(self, q0, values):
-        from ..spline import periodic_cubic
 
         values = np.asarray(values, dtype=float)
         N, k = values.shape
