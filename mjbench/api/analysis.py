@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError, SimulationDiverged
+from ..machine import Machine
+from ..mechanisms.base import Mechanism
 from .results import require_pandas
 from .scenarios import Scenario, as_scenario, warn
 from .. import linear as LN
