@@ -29,7 +29,7 @@ from mjbench.errors import ParameterError
 from mjbench.fields import Q, Strict
 from mjbench.taskpath import PathReferenceParams
 
-from . import register
+from . import references, register
 
 
 class ComputedTorqueParams(Strict):
@@ -95,8 +95,6 @@ class ComputedTorque(Controller):
 
     @classmethod
     def from_params(cls, p, drive=None, mechanism=None, scenario=None):
-        from . import references
-
         refs = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)
         return cls(p.wn, p.zeta, refs, mechanism, p.period)
 

@@ -39,6 +39,7 @@ from mjbench.fields import OptQ, Q, Strict
 
 from . import register
 from .base import Controller, Measurement
+from .reference import ConstantSpeed
 
 #: measurement signals an FMU input may take
 SIGNALS = ("t", "q", "qd", "qdd", "phi", "omega", "omega_dot", "current")
@@ -149,7 +150,6 @@ class FMUController(Controller):
         self._par = list(self.parameters_start.values())
         self.reference = None
         if omega0 is not None:
-            from .reference import ConstantSpeed
 
             self.reference = ConstantSpeed(omega0)
         self._h = _Handle()

@@ -42,6 +42,7 @@ from mjbench.control import LAW_INPUTS, ConstantSpeed, Controller
 from .references.coupler_speed import CouplerSpeedParams
 from .references.law import LawReferenceParams
 from mjbench.taskpath import PathReferenceParams
+from . import references
 
 ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams, PathReferenceParams],
                             Field(discriminator="type")]
@@ -138,7 +139,6 @@ class PID(Controller):
             kp, ki, kd = kp / drive.z, ki / drive.z, kd / drive.z
         reference = None
         if p.reference is not None:
-            from . import references
             reference = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)
         return cls(kp, ki, kd, reference=reference, omega0=p.omega0, kp_ramp=p.kp_ramp,
                    t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)

@@ -7,6 +7,7 @@ import os
 import pkgutil
 import sys
 
+from ._version import __version__
 from .errors import MjbenchError
 
 
@@ -57,7 +58,7 @@ def build_parser(argv=None):
     if cmd in COMMAND_MODULES:
         names = [COMMAND_MODULES[cmd]]
     else:
-        from . import commands
+        from . import commands  # help or an unknown command: every command module (--version imports none)
         names = [i.name for i in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name)]
     for name in names:
         mod = importlib.import_module(f"mjbench.commands.{name}")
@@ -72,7 +73,6 @@ def version() -> str:
     try:
         return _v("mjbench")
     except PackageNotFoundError:
-        from . import __version__
         return __version__
 
 
@@ -81,7 +81,7 @@ def main(argv=None) -> int:
     if argv[:1] == ["--version"]:
         print(f"mjbench {version()}")
         return 0
-    from .render.gl import check_gl_env
+    from .render.gl import check_gl_env  # not for --version, which imports nothing of ours
 
     check_gl_env()  # a MUJOCO_GL typo is replaced (with a warning) before MuJoCo is imported
     cmd = _command_in(argv)
@@ -102,7 +102,7 @@ def main(argv=None) -> int:
             os.environ.pop("MUJOCO_GL", None)
         else:
             os.environ["MUJOCO_GL"] = gl
-    from . import outputs
+    from . import outputs  # NumPy: a parsed command only (not --version, --help, a bad command line)
 
     restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
     try:

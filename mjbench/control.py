@@ -42,10 +42,10 @@ import numpy as np
 from . import compiled as C
 from . import signals as SIG
 from .errors import ParameterError
+from .linearise import LAW_INPUTS, hold_offset, law_counterpart
 from .registry import GROUPS, Registry
+from .signals import call_law, law_signals  # noqa: F401 - part of the component interface
 
-#: inputs of a control law's linear counterpart (the reference's outputs, input side, then the measurements)
-LAW_INPUTS = ("q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I")
 #: inputs and outputs of a reference's linear counterpart
 REF_INPUTS = ("q_set", "qd_set", "q", "qd")
 REF_OUTPUTS = ("q_ref", "qd_ref", "qdd_ref")
@@ -79,40 +79,6 @@ class Measurement:
     def signals(self) -> dict:
         """The measurement as named signals (:mod:`mjbench.signals`)."""
         return {"t": self.t, "q": self.q, "qd": self.qd, "qdd": self.qdd, "I": self.current, "z": self.z}
-
-
-def law_signals(fn, nfn: int = 0) -> list[str]:
-    """The signal names a law reads (its parameters after ``nfn`` function arguments, before P, S)."""
-    from .kernel.wiring import law_parameters
-
-    return law_parameters(fn, nfn)
-
-
-def call_law(fn, values: dict, P, S, nfn: int = 0):
-    """Run a control law outside the kernel with the signals given by name (absent ones: 0; the
-    earlier names ``phi_r`` … are read as ``phi_ref`` …)."""
-    names = _names(fn, nfn)
-    return fn(*[float(values.get(SIG.ALIASES.get(n, n), 0.0)) for n in names], P, S)
-
-
-_NAMES: dict = {}
-
-
-def _names(fn, nfn):
-    """The signal names ``fn`` reads (cached per law; a partial — a law with its function arguments
-    bound — by its law and the number of bound arguments)."""
-    import functools
-    import inspect
-
-    base, skip = fn, nfn
-    if isinstance(fn, functools.partial):
-        base, skip = fn.func, nfn + len(fn.args)
-    key = (base, skip)
-    n = _NAMES.get(key)
-    if n is None:
-        params = list(inspect.signature(base).parameters)
-        n = _NAMES[key] = params[skip:-2]
-    return n
 
 
 class Controller(abc.ABC):
@@ -241,8 +207,6 @@ class Controller(abc.ABC):
         a class may write its own (the tests compare both)."""
         if not self.closed_loop:
             return None
-        from .linearise import law_counterpart
-
         return law_counterpart(self, machine, op, T, h, angle)
 
     def linear_reference(self, machine, op, T: float, h: float, feedback: bool = True):
@@ -275,8 +239,6 @@ class Controller(abc.ABC):
         steady).  Default: found numerically from the law — the offset q_off at which the law,
         fed the point's measurement and a constant-speed reference through q* + q_off, outputs V*
         (a controller whose output does not depend on the angle error raises)."""
-        from .linearise import hold_offset
-
         return hold_offset(self, machine, op)
 
     def hold(self, machine, op):

@@ -42,6 +42,9 @@ from .drivetrain.amplifier import current_limited_voltage
 from .drives import Drive, register
 from .errors import ParameterError
 from .fields import Q, Strict
+from .drivetrain import DriveTrain
+from .drivetrain.params import check_against
+from .drives.ideal import mode_output_problems
 
 
 class DriveParams(Strict):
@@ -72,7 +75,6 @@ class DriveParams(Strict):
     current_loop: CurrentLoopParams | None = Field(None, description="inner PI current loop (mode output = current reference)")
 
     def build(self) -> "DCMotorDrive":
-        from .drivetrain import DriveTrain
 
         d = DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive) if f.name != "train"})
         d.train = DriveTrain.from_params(self, d)
@@ -89,8 +91,6 @@ class DriveParams(Strict):
     def check_against(self, scn) -> list[str]:
         """Cross-checks of the drive-train tables against the scenario's modes and step; a mode
         whose output is not a voltage (``type = "constant"``: a torque or a speed) is refused."""
-        from .drivetrain.params import check_against
-        from .drives.ideal import mode_output_problems
 
         return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 

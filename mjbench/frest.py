@@ -46,6 +46,12 @@ import numpy as np
 from .control import Controller
 
 from .errors import ParameterError
+from .backends import simulate
+from .runner import backend_options
+from .linear import response
+from . import linear as LN
+from . import scenario as S
+from .kernel import control_every
 
 SIGNALS = ("multisine", "sine")
 DRIVETRAIN = ("pwm", "encoder", "sensor", "gear", "friction", "current_loop")
@@ -370,8 +376,6 @@ def compare(G, G_lin, band_mask) -> dict:
 
 # ============================================================================ the measurement
 def _simulate(mach, backend, t_end, h, T, scn):
-    from .backends import simulate
-    from .runner import backend_options
 
     o = backend_options(scn, backend)
     return simulate(mach, backend, t_end, record_dt=T, options=o)
@@ -407,7 +411,6 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     Sm = meas.V / meas.D
     Pm = meas.Y / meas.V
     Lm = 1.0 / Sm - 1.0 if closed else None
-    from .linear import response
 
     P_lin = response(lin["plant"], omega, "qd", "V") if lin["plant"] is not None else None
     L_lin = response(lin["loop"].L, omega) if lin["loop"] is not None else None
@@ -421,7 +424,6 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
         frd["loop"] = ct.frd(Lm, omega, name="L_measured")
     js = _report(scn, pt, backend, signal, ex, meas, omega, Pm, Sm, Lm, rate, band_lo, lin)
     _compare_linear(js, Pm, Lm, P_lin, L_lin, fam, in_band, lin, closed, omega, meas.sides, ex)
-    from . import linear as LN
 
     return {"json": LN.plain(js), "frd": frd, "omega": omega, "P": Pm, "L": Lm, "S": Sm, "P_lin": P_lin,
             "L_lin": L_lin, "coherence": np.minimum(meas.coh_v, meas.coh_y), "family": fam, "in_band": in_band}
@@ -433,9 +435,6 @@ def _operating_point(scn, mode, q, qd, I, t):
     what they change is measured): a namespace of both, the point, h, T and the notes so far."""
     from types import SimpleNamespace
 
-    from . import linear as LN
-    from . import scenario as S
-    from .kernel import control_every
 
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
@@ -467,7 +466,6 @@ def _operating_point(scn, mode, q, qd, I, t):
 def _linearisation(pt, scn, backend) -> dict:
     """The linear machine at the point (the same held machine): its plant lifted to the control
     period and, with feedback, its loop and margins (``note``: why not, when it has none)."""
-    from . import linear as LN
 
     lin = {"loop": None, "plant": None, "family": None, "note": ""}
     op, h = pt.op, pt.h
@@ -501,7 +499,6 @@ def _settle_time(lin, T) -> float:
 def _rotation(scn, pt):
     """(running, inertia rate, rotation orders) of the held machine: a rigid linkage that turns is
     angle-periodic (:func:`rotation_orders`); the rate max|J'·q̇*|/J_tot sets the frozen band."""
-    from . import scenario as S
 
     running = len(S.make_mechanism(scn).internal) == 0 and pt.op.qd != 0.0
     mech, J_eq = pt.held_lin.mechanism, pt.held_lin.drive.J_eq
@@ -601,8 +598,6 @@ def _frozen_family(pt, omega, n_angles, notes, ex=None, meas=None):
     """The frozen-angle family's loops and plants at the lines, and (with the runs ``ex``, ``meas``)
     the family followed along the baseline's turn (:func:`along_turn_prediction`); None, with a note,
     if it cannot be computed.  ``n_angles=None``: enough angles for the inertia's harmonics."""
-    from . import linear as LN
-    from .linear import response
 
     op = pt.op
     if n_angles is None:  # follow the inertia's harmonics along the turn without aliasing

@@ -38,6 +38,8 @@ import math
 import numpy as np
 
 from .errors import ParameterError
+from .trajectory import atomic_write
+from . import plots as P
 
 PARAMS = ("R", "L", "K", "J", "b", "T_c")
 UNITS = {"R": "Ω", "L": "H", "K": "V·s/rad", "J": "kg·m²", "b": "N·m·s/rad", "T_c": "N·m"}
@@ -126,7 +128,6 @@ def synthetic_record(theta: dict, t_end=2.0, dt=1e-3, noise_speed=0.05, noise_cu
 
 
 def write_record(path, rec, current=True):
-    from .trajectory import atomic_write
 
     cols = ["t_s", "voltage_V", "motor_speed_rad_s"] + (["current_A"] if current else [])
     arr = np.column_stack([rec["t"], rec["V"], rec["omega"]] + ([rec["I"]] if current else []))
@@ -396,7 +397,6 @@ def report(res, truth=None) -> str:
 
 
 def plot(rec, res, path):
-    from . import plots as P
     import matplotlib.pyplot as plt
 
     has_i = rec.get("I") is not None

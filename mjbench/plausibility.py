@@ -89,8 +89,6 @@ def reduced_vs_mujoco_n(mech, options=None, n: int = MODEL_ANGLES, seed: int = 0
     Errors relative to max|M̄| (M̄), and to max(|b|, max|M̄|·1 rad/s²) (bias, inverse dynamics)."""
     import mujoco
 
-    from .mechanisms.linkage.multi_mechanism import cbar
-
     nin = int(mech.n_inputs)
     out = {"n_points": int(n), "tolerance": MODEL_TOLERANCE_N,
            "method": "M̄ = Γᵀ M Γ (mj_fullM); bias Γᵀ(qfrc_bias − qfrc_passive + M Γ̇q̇); inverse dynamics "
@@ -111,8 +109,8 @@ def reduced_vs_mujoco_n(mech, options=None, n: int = MODEL_ANGLES, seed: int = 0
     def gamma(q):
         return np.stack([mech.initial_qvel(model, q, np.eye(nin)[k]) for k in range(nin)], axis=1)
 
-    Mr, G, g, D = mech.reduced_n(Q)
-    bias_r = cbar(G, Qd) + g + np.einsum("bij,bj->bi", D, Qd)
+    Mr = mech.reduced_n(Q)[0]
+    bias_r = mech.bias_n(Q, Qd)
     tau_r = np.einsum("bij,bj->bi", Mr, Qdd) + bias_r
     Mm, bm, tm, pos = np.empty_like(Mr), np.empty_like(bias_r), np.empty_like(tau_r), 0.0
     eps = 1e-6

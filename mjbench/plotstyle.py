@@ -14,9 +14,15 @@ from __future__ import annotations
 
 import contextlib
 
-import matplotlib
+from cycler import cycler  # (matplotlib's own dependency; matplotlib itself is imported where a figure is drawn)
 
-matplotlib.use("Agg")
+
+def _matplotlib():
+    """matplotlib with the Agg backend (imported on first use: a run without a figure never loads it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    return matplotlib
 
 RC = {
     "font.family": "DejaVu Sans",
@@ -37,7 +43,7 @@ RC = {
     "savefig.dpi": 130,
     "figure.autolayout": True,  # tight layout at draw time (no "savefig.bbox": "tight": one draw per save)
     "figure.constrained_layout.use": False,
-    "axes.prop_cycle": matplotlib.cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
+    "axes.prop_cycle": cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
                                                 "tab:purple", "tab:brown", "tab:pink", "tab:gray"]),
 }
 
@@ -54,13 +60,13 @@ BAND = dict(color="0.6", alpha=0.25, lw=0)
 
 def use():
     """Apply the mjbench rcParams globally."""
-    matplotlib.rcParams.update(RC)
+    _matplotlib().rcParams.update(RC)
 
 
 @contextlib.contextmanager
 def context():
     """Temporarily apply the mjbench rcParams (``with plotstyle.context(): ...``)."""
-    with matplotlib.rc_context(RC):
+    with _matplotlib().rc_context(RC):
         yield
 
 

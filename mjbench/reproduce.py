@@ -35,6 +35,15 @@ from . import verdicts as V
 from .manifest import json_default as _json_default
 # report.md / report.html: mjbench/report.py (summary, headline numbers, folded tables)
 from .report import GLOSSARY, fmt, headline, write_report  # noqa: F401
+from . import papers
+from . import plotstyle
+from . import runner
+from . import vibration
+from .plots import fig4
+from .runner import chi_text, setpoint
+from . import plotstyle as ps
+from .plots import save
+from . import render
 
 AGREE_REL = V.TOLERANCE  #: relative tolerance of a point value (mjbench.verdicts)
 
@@ -42,7 +51,6 @@ AGREE_REL = V.TOLERANCE  #: relative tolerance of a point value (mjbench.verdict
 # ============================================================================ registry
 def load_cases(scenarios=None) -> list:
     """Every paper case (optionally only those of the given scenario names), by paper then name."""
-    from . import papers
 
     out = [c for c in papers.cases() if scenarios is None or c.scenario in scenarios]
     # within a paper: the order its module lists its cases in
@@ -80,12 +88,10 @@ class CaseRun:
 
 def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, height=None) -> dict:
     """Run one case; write its files into ``out_dir/<case>/``; return its metrics dict."""
-    from . import plotstyle
 
     t0, c0 = time.perf_counter(), time.process_time()
     out = Path(out_dir) / case.name
     out.mkdir(parents=True, exist_ok=True)
-    from . import papers
 
     paper = papers.module(case.paper) if case.paper else None
     if case.kind == "design":  # a requirements file: the paper module runs the design, which writes the machine
@@ -141,7 +147,6 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
 
 
 def _run_kind(ctx: CaseRun, res: dict, progress: bool):
-    from . import runner
 
     case, scn = ctx.case, ctx.scn
     backends = runner.BACKENDS if case.backend == "both" else (case.backend,)
@@ -159,7 +164,6 @@ def _run_kind(ctx: CaseRun, res: dict, progress: bool):
 
 
 def _optimize_law_kind(ctx: CaseRun, res: dict):
-    from . import vibration
 
     st = vibration.study(ctx.scn)
     ctx.extra["study"] = st
@@ -169,8 +173,6 @@ def _optimize_law_kind(ctx: CaseRun, res: dict):
 def default_figures(ctx: CaseRun, name: str = "timeseries.png"):
     """The time series of the case's runs in the Incerti 2012 Fig. 4 layout (one column per mode,
     every backend drawn, set-point dashed), saved as ``name`` (the Incerti 2012 cases: fig4.png)."""
-    from .plots import fig4
-    from .runner import chi_text, setpoint
 
     sp = next((v for v in (setpoint(ctx.scn, m) for m in ctx.case.modes) if v is not None), None)
     chi = {mode: txt for mode, m in ctx.metrics.items() if (txt := chi_text(m))}
@@ -181,8 +183,6 @@ def default_figures(ctx: CaseRun, name: str = "timeseries.png"):
 
 def backend_comparison(trajs: dict, path, title=""):
     """Crank speed of both backends (plotstyle.BACKEND) and their difference, with units."""
-    from . import plotstyle as ps
-    from .plots import save
 
     ref, oth = trajs["reduced"], trajs["multibody"]
     fig, (a0, a1) = ps.new(2, 1, figsize=(8, 5.5), sharex=True)
@@ -204,7 +204,6 @@ def _video(ctx: CaseRun, quick, progress, width=None, height=None):
     figures and numbers come from, when the case recorded one that covers the video (frame k shows
     the recorded sample nearest k/30 s, at most half a record step off); else the scenario run
     again on MuJoCo with every step recorded (``render.render_scenario``)."""
-    from . import render
 
     case = ctx.case
     mode = case.video_mode or case.modes[-1]
@@ -245,7 +244,6 @@ def _recorded_run(ctx: CaseRun, mode, t_vid):
 def _platform_video(ctx: CaseRun, quick, progress, width=None, height=None):
     """Incerti belt / Bezier platforms: the platform driven by the initial, then the optimised law (top view; the
     deflection ψ is shown magnified by a needle, render.PlatformView)."""
-    from . import render
 
     o = ctx.extra["study"]["objects"]
     laws = {k: o["laws"][k] for k in ("initial", "optimised")}

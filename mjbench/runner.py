@@ -11,6 +11,15 @@ from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import copy_model_files, manifest, write_json
+from . import mechanisms
+from .schema import Metrics
+from . import verdicts
+from .errors import ParameterError
+from .plots import fig4
+from .backends import multibody as MB
+from .backends import reduced as RD
+from .kernel import Program, machine_every
+from .compiled import jit
 
 BACKENDS = ("multibody", "reduced")
 
@@ -51,7 +60,6 @@ def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False, mach
 
 def reduced_source(scn) -> str:
     """Where the scenario's reduced model comes from (``Mechanism.reduced_source``)."""
-    from . import mechanisms
 
     cls = mechanisms.get(scn.mechanism.type)
     return getattr(cls, "reduced_source", "") if cls is not None else ""
@@ -69,7 +77,6 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     coupler-speed tracking, the residual vibration after a move …), the backends' comparison, the
     reduced model against MuJoCo's own mass matrix and bias (the model check, whenever both backends
     ran) and the per-step plausibility check."""
-    from .schema import Metrics
 
     mt = config if config is not None else Metrics()
     first = next(iter(trajs.values()))
@@ -159,7 +166,6 @@ def paper_rows(scn, mode: str, backend_metrics: dict) -> list:
     paper_text, verdict, difference, rel_difference, reason}.  Each entry names a ``metric`` of
     the run and states the paper's figure as one of ``value``, ``band``, ``max``, ``min``;
     ``unit = "%"`` shows a fraction (χ, relative errors) in percent."""
-    from . import verdicts
 
     rows = []
     for fig in scn.paper.get("figures", []) or []:
@@ -183,7 +189,6 @@ def backends_of(backend: str) -> tuple:
     backends = BACKENDS if backend == "both" else (backend,)
     for b in backends:
         if b not in BACKENDS:
-            from .errors import ParameterError
             raise ParameterError(f"--backend {b!r}: choose multibody, reduced or both")
     return backends
 
@@ -218,11 +223,9 @@ def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, arg
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
     if figure and "axes" in res:  # several motors: one row of plots per axis
-        from .plots import fig4
         views = {f"{mode}, axis {lab}": {b: tr.axis(lab) for b, tr in trajs.items()} for lab in res["axes"]}
         fig4(views, out / "fig4.png", setpoint=None, title=f"{scn.scenario.title or scn.name} — {mode}")
     elif figure:
-        from .plots import fig4
         chi_txt = chi_text(res)
         tag = " [reduced model MuJoCo-derived]" if mujoco_derived(scn) and "reduced" in trajs else ""
         sp = res["setpoint_motor_rad_s"] if "setpoint_motor_rad_s" in res else setpoint(scn, mode)
@@ -342,10 +345,6 @@ def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[d
     one row per backend: {backend, laws [(component, law, reads, writes)], compiled, reason, agree}."""
     import numpy as np
 
-    from .backends import multibody as MB
-    from .backends import reduced as RD
-    from .backends import simulate
-    from .kernel import Program, machine_every
 
     rows = []
     for b in backends:
@@ -366,7 +365,6 @@ def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[d
         row = {"backend": b, "laws": laws, "compiled": pr.compiled, "reason": "; ".join(pr.reasons), "agree": None}
         py = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="python")
         if pr.compiled:
-            from .compiled import jit
 
             if jit.available():
                 ck = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="check")

@@ -13,6 +13,7 @@ arrays, strings) and falls back to a string, then validated like the file.
 from __future__ import annotations
 
 import copy
+import hashlib
 import importlib.resources
 import json
 import os
@@ -22,12 +23,34 @@ import warnings
 import numpy as np
 
 from . import mechanisms
+from .control import REGISTRY as CONTROLLERS
 from .errors import ScenarioError
 from .registry import GROUPS, PluginWarning, entry_points
 from .schema import Scenario
 from .validation import validate
+from .machine import Machine
 
 SCENARIO_DIR = "scenarios"
+
+
+def check_model_files(man: dict, where: str) -> None:
+    """Refuse to repeat a run whose model file changed (or vanished) since the manifest was
+    written: its results would silently differ.  ``where``: the manifest's path (messages)."""
+    for path, info in (man.get("model_files") or {}).items():
+        want = info.get("sha256") if isinstance(info, dict) else None
+        if not want:
+            continue
+        copy = os.path.join(os.path.dirname(os.path.abspath(where)), info.get("copy", "")) if info.get("copy") else ""
+        keep = f"; the run's copy is {copy}" if copy and os.path.isfile(copy) else ""
+        if not os.path.isfile(path):
+            raise ScenarioError(f"{where}: the model file {path} of that run no longer exists, so the manifest cannot "
+                                f"repeat it{keep}")
+        with open(path, "rb") as f:
+            now = hashlib.sha256(f.read()).hexdigest()
+        if now != want:
+            raise ScenarioError(f"{where}: the model file {path} changed since that run (SHA-256 {want[:12]}… then, "
+                                f"{now[:12]}… now): the manifest would run another model; restore the file{keep}, or "
+                                f"run the scenario TOML to simulate the new model")
 
 
 def builtin_names():
@@ -78,8 +101,6 @@ def read_raw(name_or_path: str) -> tuple[dict, str]:
                 raise ScenarioError(f"{name_or_path}: not valid JSON ({e})") from None
             if not isinstance(man, dict) or not isinstance(man.get("scenario"), dict):
                 raise ScenarioError(f"{name_or_path}: not an mjbench manifest (no 'scenario' table)")
-            from .manifest import check_model_files
-
             check_model_files(man, name_or_path)  # a changed model file would silently run another model
             return copy.deepcopy(man["scenario"]), source
     else:
@@ -180,7 +201,6 @@ def set_key(raw: dict, key: str, value):
 
 
 def make_mechanism(scn: Scenario):
-    from . import mechanisms
 
     return mechanisms.build(scn.mechanism)
 
@@ -195,9 +215,6 @@ def modes(scn: Scenario):
 
 def make_machine(scn: Scenario, mode: str | None = None):
     """Scenario → Machine (mechanism + drive + controller of the chosen mode)."""
-    import controllers
-
-    from .machine import Machine
 
     mode = scn.mode(mode)
     mech = make_mechanism(scn)
@@ -205,18 +222,18 @@ def make_machine(scn: Scenario, mode: str | None = None):
     n = int(getattr(mech, "n_inputs", 1) or 1)
     if n == 1:
         drive = make_drive(scn)
-        ctrl = controllers.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
+        ctrl = CONTROLLERS.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
     # several inputs: a drive per input ([drives.JOINT] over [drive]); one controller per axis with
     # its axis's reference, or one controller for all axes (a class that says multi_axis)
     drives = [(scn.drives.get(name) or scn.drive).build() for name in mech.input_joints]
-    cls = controllers.get(scn.modes[mode].type)
+    cls = CONTROLLERS.get(scn.modes[mode].type)
     if getattr(cls, "multi_axis", False):
-        ctrl = controllers.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
+        ctrl = CONTROLLERS.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
     else:
         ctrl = []
         for k, d in enumerate(drives):
-            c = controllers.build(scn.modes[mode], drive=d, mechanism=mech, scenario=scn)
+            c = CONTROLLERS.build(scn.modes[mode], drive=d, mechanism=mech, scenario=scn)
             ref = getattr(c, "reference", None)
             if hasattr(ref, "for_axis"):  # the joint trajectories of every axis: this axis's
                 c.reference = ref.for_axis(k)

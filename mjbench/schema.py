@@ -36,6 +36,7 @@ from pydantic_core import PydanticCustomError
 
 from .errors import ScenarioError
 from .fields import Bool, OptQ, Q, Strict, UnitMeta, format_errors, jsonable
+from .motionlaws import BezierLaw, PseudoPolynomialLaw
 from .taskpath import PathParams
 
 __all__ = ["Q", "OptQ", "Bool", "Strict", "UnitMeta", "format_errors", "Scenario", "ScenarioMeta", "Initial",
@@ -166,7 +167,6 @@ class LawParams(Strict):
         return float(self.Phi) if self.Phi is not None else 2.0 * math.pi * float(self.revolutions)
 
     def build(self):
-        from .motionlaws import BezierLaw, PseudoPolynomialLaw
 
         if self.kind == "pseudopoly":
             return PseudoPolynomialLaw(self.Phi_rad, self.T, self.gammas or (3.0, 4.0, 5.0))

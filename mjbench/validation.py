@@ -16,7 +16,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-import controllers as CR
+from .control import REGISTRY as CR
 
 from . import drives
 from . import mechanisms as MR

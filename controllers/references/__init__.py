@@ -13,21 +13,20 @@ MOTOR shaft [rad, rad/s, rad/s²], run by the kernel (compiled or not) and by th
   (:mod:`controllers.references.periodic`: a crank turning continuously under a motion law).
 """
 from __future__ import annotations
-
 from mjbench.errors import ParameterError
+from mjbench.taskpath import PathReferences
+
+from .coupler_speed import CouplerSpeed
+from .law import from_params
 
 
 def build(params, drive=None, mechanism=None, scenario=None):
     """Reference object from its validated Params (``params.type`` selects the module)."""
     if params.type == "coupler_speed":
-        from .coupler_speed import CouplerSpeed
         return CouplerSpeed.from_params(params, drive=drive, mechanism=mechanism)
     if params.type == "law":
-        from .law import from_params
         return from_params(params, drive=drive, mechanism=mechanism, scenario=scenario)
     if params.type == "path":
-        from mjbench.taskpath import PathReferences
-
         path = getattr(scenario, "path", None)
         if path is None:
             raise ParameterError("reference type 'path' needs a [path] table in the scenario")

@@ -10,6 +10,11 @@ from typing import Any
 
 from ..errors import ParameterError
 from .scenarios import Scenario, as_scenario
+from .. import frest as F
+from .analysis import number_text as f
+from ..fmi import export_fmu as export
+from ..outputs import output_file
+from ..outputs import staged_dir, write_json
 
 
 class FrequencyResponse:
@@ -38,8 +43,6 @@ class FrequencyResponse:
 
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``frest.json`` and ``bode.png`` into the folder ``path``, whole or not at all."""
-        from .. import frest as F
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "frest.json"), self.data, indent=1)
@@ -78,7 +81,6 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
     FrequencyResponse
         ``frd`` (python-control FRD objects), ``data`` (frest.json), ``summary()``, ``save(dir)``.
     """
-    from .. import frest as F
 
     if band is not None:
         lo, hi = (float(x) for x in band)
@@ -98,7 +100,6 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
 
 def frest_summary(js: dict[str, Any]) -> str:
     """Text summary of a frest.json."""
-    from .analysis import number_text as f
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['backend']}, {js['signal']}): q* = {f(op['q_rad'])} rad, "
@@ -161,8 +162,6 @@ def export_fmu(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
         import pythonfmu  # noqa: F401
     except ImportError:
         raise ParameterError("export-fmu needs pythonfmu: pip install 'mjbench[fmi]' (or pip install pythonfmu)") from None
-    from ..fmi import export_fmu as export
-    from ..outputs import output_file
 
     scn = as_scenario(scenario)
     if controller:

@@ -4,10 +4,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from .. import control
 from ..errors import MjbenchError, ParameterError, ScenarioError
+from .. import mechanisms
+from ..drive import DriveParams
+from ..schema import format_errors
 
 if TYPE_CHECKING:
-    from controllers.base import Controller
+    from ..control import Controller
 
     from ..drive import DCMotorDrive
     from ..mechanisms.base import Mechanism
@@ -38,7 +42,6 @@ def make_mechanism(type: str, /, **params: Any) -> Mechanism:
     mjbench.errors.GeometryError
         A linkage that cannot be assembled or whose input cannot make the full turn.
     """
-    from .. import mechanisms
 
     mech: Mechanism = _built(lambda: mechanisms.from_dict({"type": type, **params}), f"make_mechanism({type!r})")
     return mech
@@ -67,8 +70,6 @@ def make_drive(**params: Any) -> DCMotorDrive:
     """
     from pydantic import ValidationError
 
-    from ..drive import DriveParams
-    from ..schema import format_errors
 
     try:
         p = DriveParams.model_validate(params)
@@ -104,9 +105,7 @@ def make_controller(type: str, /, *, drive: DCMotorDrive | None = None, mechanis
     mjbench.errors.ScenarioError
         Unknown type or keys, invalid values (every problem listed).
     """
-    import controllers
-
-    ctrl: Controller = _built(lambda: controllers.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
+    ctrl: Controller = _built(lambda: control.REGISTRY.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
                               f"make_controller({type!r})")
     return ctrl
 

@@ -14,6 +14,13 @@ from ..errors import MjbenchError, ParameterError
 from .results import require_pandas
 from .scenarios import Scenario, as_scenario, source_name
 from .simulation import seconds
+from .. import sweep as SW
+from .. import tune as T
+from .. import plots as P
+from ..tune import Problem
+from ..tune import constraint_status
+from ..tune import report
+from ..outputs import staged_dir, write_json
 
 if TYPE_CHECKING:
     import pandas
@@ -107,7 +114,6 @@ def parameter_sweep(scenario: Scenario | str | os.PathLike[str] | Mapping[str, A
     -------
     SweepResult
     """
-    from .. import sweep as SW
 
     if isinstance(scenario, Mapping):
         scenario = as_scenario(scenario)
@@ -185,7 +191,6 @@ def _folder(out: str | os.PathLike[str] | None) -> Any:
 
 def _grid(grid: Mapping[str, Any]) -> dict[str, list[Any]]:
     """{key: values} with the CLI's checks (text values parsed as ``--grid``)."""
-    from .. import sweep as SW
 
     out: dict[str, list[Any]] = {}
     for key, vals in grid.items():
@@ -211,7 +216,6 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _perturb(perturb: Mapping[str, float | str]) -> dict[str, float]:
-    from .. import sweep as SW
 
     return dict(SW.parse_perturb([f"{k}={v if isinstance(v, str) else repr(float(v))}" for k, v in perturb.items()]))
 
@@ -257,14 +261,12 @@ class TuneResult:
     @property
     def violated(self) -> list[str]:
         """The ``margins`` the tuned gains violate (one text each), empty when feasible."""
-        from ..tune import constraint_status
 
         return list(constraint_status(self.result)[0])
 
     @property
     def limits_exceeded(self) -> list[str]:
         """The peak-voltage/current limits the tuned gains exceed (a penalty, not a hard limit)."""
-        from ..tune import constraint_status
 
         return list(constraint_status(self.result)[1])
 
@@ -275,7 +277,6 @@ class TuneResult:
 
     def report(self) -> str:
         """The text ``mjbench tune`` prints."""
-        from ..tune import report
 
         return str(report(self.result))
 
@@ -292,7 +293,6 @@ class TuneResult:
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``tune.json`` and ``tune_speed.png`` (scenario vs tuned gains, multibody) into the
         folder ``path``, whole or not at all (``mjbench tune --out``)."""
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "tune.json"), self.to_dict(), indent=1)
@@ -346,7 +346,6 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
     TuneResult
         ``best`` gains, ``validation`` metrics, ``feasible``, ``report()``, ``save(dir)``.
     """
-    from .. import tune as T
 
     scn = as_scenario(scenario)
     _check_tune_args(T, controller, objective, limits, bounds, margin_mode)
@@ -381,8 +380,6 @@ def speed_figure(res: TuneResult, path: str) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from .. import plots as P
-    from ..tune import Problem
 
     r = res.result
     prob = Problem(res.scenario.spec, r.controller, r.objective, r.limits)  # (no margins: only the runs are drawn)

@@ -11,6 +11,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..plotstyle import BACKEND
+from ..plausibility import warnings_of
+from ..runner import summary_text
+from .. import runner
+from ..outputs import staged_dir, write_json
 
 if TYPE_CHECKING:
     import pandas
@@ -166,14 +171,12 @@ class Result:
     def warnings(self) -> list[str]:
         """The plausibility warnings ``mjbench run`` prints (backends disagree, reduced model
         differs from MuJoCo's, step too coarse); empty when the run is plausible."""
-        from ..plausibility import warnings_of
 
         return list(warnings_of(self.metrics))
 
     def summary(self) -> str:
         """The text ``mjbench run`` prints: mean speed, χ, peaks, backend difference, verdicts.
         A machine built in code is named by what it is made of (its first line)."""
-        from ..runner import summary_text
 
         text = str(summary_text({"scenario": self.scenario.name if self.scenario else "(machine)",
                                  "mode": self.mode, **self.metrics}))
@@ -234,8 +237,6 @@ class Result:
         mjbench.outputs.OutputError
             The folder cannot be used or written (the message names it).
         """
-        from .. import runner
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as tmp:
             if self.scenario is not None and self.mode is not None:
@@ -275,7 +276,6 @@ def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> F
     """Panels of ``columns`` against time for every run (the backends' line styles)."""
     import matplotlib.pyplot as plt
 
-    from ..plotstyle import BACKEND
 
     if isinstance(columns, str):
         columns = [columns]

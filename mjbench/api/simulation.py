@@ -10,6 +10,13 @@ from ..errors import ParameterError
 from ..machine import Machine
 from .results import Result, Run
 from .scenarios import Scenario, as_scenario, warn
+from .. import units as U
+from .. import runner
+from ..preflight import simulation_errors
+from ..errors import ScenarioError
+from ..schema import MultibodyOptions, ReducedOptions, format_errors
+from ..backends import simulate as run_backend
+from ..backends import simulate_many as run_many
 
 #: co-step [s] and record interval [s] of a machine built in code (a scenario's defaults)
 MACHINE_DT, MACHINE_RECORD_DT = 1e-4, 1e-3
@@ -17,7 +24,6 @@ MACHINE_DT, MACHINE_RECORD_DT = 1e-4, 1e-3
 
 def seconds(value: float | str, name: str, allow_zero: bool = False) -> float:
     """A time argument [s]: a number (SI) or a string with a unit ("500 ms"), finite and > 0."""
-    from .. import units as U
 
     try:
         x = float(value) if not isinstance(value, str) else _to_seconds(value)
@@ -29,7 +35,6 @@ def seconds(value: float | str, name: str, allow_zero: bool = False) -> float:
 
 
 def _to_seconds(text: str) -> float:
-    from .. import units as U
 
     try:
         return float(text)
@@ -98,8 +103,6 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
                                  h, progress, machine_options(h, options))
     if options is not None:
         raise ParameterError("simulate: options are a machine's; a scenario has its [multibody] and [reduced] tables")
-    from .. import runner
-    from ..preflight import simulation_errors
 
     scn = _with_times(as_scenario(target), record_dt, dt)
     mode = scn.mode(mode)
@@ -129,8 +132,6 @@ def machine_options(dt: float, options: Mapping[str, Mapping[str, Any]] | None =
     ``[reduced]``) with ``options`` {backend: {key: value}} validated by the same schema."""
     from pydantic import ValidationError
 
-    from ..errors import ScenarioError
-    from ..schema import MultibodyOptions, ReducedOptions, format_errors
 
     given = dict(options or {})
     for b in given:
@@ -148,8 +149,6 @@ def machine_options(dt: float, options: Mapping[str, Mapping[str, Any]] | None =
 
 def _simulate_machine(machine: Machine, backend: str, t_end: float, record_dt: float, dt: float,
                       progress: bool, options: dict[str, dict[str, Any]]) -> Result:
-    from .. import runner
-    from ..backends import simulate as run_backend
 
     trajs = {}
     for b in runner.backends_of(backend):
@@ -166,7 +165,6 @@ def machine_metrics(trajs: dict[str, Any], machine: Machine, options: dict[str, 
     """Metrics of runs of a machine built in code: the one metrics path of scenarios
     (:func:`mjbench.runner.run_metrics`: the controller's families and the reduced-model check
     included) with the default ``[metrics]`` settings."""
-    from .. import runner
 
     return runner.run_metrics(machine, trajs, None, options)
 
@@ -222,7 +220,6 @@ def simulate_many(targets: Sequence[Scenario | Machine | str | Any], backend: st
         In the order of ``targets``.  A run that diverged does not stop the others: its
         ``Result.metrics["diverged"]`` holds {backend: message} and its record ends there.
     """
-    from .. import runner
 
     if not targets:
         raise ParameterError("simulate_many: no targets")
@@ -244,8 +241,6 @@ def simulate_many(targets: Sequence[Scenario | Machine | str | Any], backend: st
 
 def _many_scenarios(scns: list[Scenario], backends: tuple, backend: str, mode: str | None,
                     t_end: float | str | None, threads: int, progress: bool) -> list[Result]:
-    from .. import runner
-    from ..preflight import simulation_errors
 
     first = scns[0]
     t = first.t_end if t_end is None else seconds(t_end, "t_end")
@@ -296,7 +291,6 @@ def _many_machines(machines: list[Machine], backends: tuple, backend: str, t_end
 def _batch(machines: list[Machine], backend: str, t_end: float, record_dt: float, options: dict[str, Any],
            threads: int, progress: bool) -> list[Any]:
     """The trajectories of one batch on ``backend`` (each labelled with it)."""
-    from ..backends import simulate_many as run_many
 
     with _bar(progress, t_end / float(options.get("timestep", MACHINE_DT)), f"{backend} ×{len(machines)}") as bar:
         res = run_many(machines, backend, t_end, record_dt=record_dt, options=options, nthread=threads, progress=bar)

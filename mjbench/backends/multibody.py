@@ -22,6 +22,7 @@ import numpy as np
 from .. import compiled as C
 from .. import kernel
 from ..errors import ParameterError
+from ..mechanisms.interface.forms import SitePairsP, site_pairs_closure  # noqa: F401 - the closure law's old home
 from ..trajectory import Trajectory
 from .joints import addresses, column_names, joint_list
 
@@ -271,22 +272,6 @@ def mujoco_write(out, b, P, S):
         out[c + 2 * k + 1] = P.qvel[P.jv[k]]
 
 
-@C.law
-def site_pairs_closure(P, S):
-    """The loop-closure residual [m]: the largest |component| of the offsets between the two sites
-    of every ``connect`` equality (``P.closure.sx`` the flat ``site_xpos``, ``.pairs`` flat index
-    pairs; ``P``: the MuJoCo plant's parameters)."""
-    r = 0.0
-    sx = P.closure.sx
-    pairs = P.closure.pairs
-    for p in range(len(pairs)):
-        v = abs(sx[pairs[p, 0]] - sx[pairs[p, 1]])
-        if v > r:
-            r = v
-    return r
-
-
-SitePairsP = namedtuple("SitePairsP", "sx pairs")
 
 
 def _python_internal(plant):

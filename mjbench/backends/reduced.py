@@ -41,9 +41,14 @@ from .. import compiled as C
 from .. import kernel
 from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
+from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
 from .joints import table_joints
 from .multibody import _extra_names
+from .table import composing
+from .joints import reduced_table
+from .multibody import build_model
+from ..mechanisms.base import _closed_model
 
 
 #: co-steps from which a reduced run pays for loading the compiled loop (≈ 0.21 s of start-up against
@@ -118,7 +123,6 @@ class ReducedPlant:
             if self.model == "table":
                 model = mech.model_form()
             else:
-                from ..mechanisms.base import _closed_model
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
@@ -219,7 +223,6 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    from .table import composing
 
     with composing():  # the mechanism's description key: once for the table and the machine check
         plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
@@ -291,8 +294,6 @@ _JOINT_TABLES: dict = {}
 def _joint_table(machine, h):
     """(JointsP or None, column names, info or why not) of the machine's mechanism from its q0
     (cached by mechanism and q0)."""
-    from .joints import reduced_table
-    from .multibody import build_model
 
     mech = machine.mechanism
     try:
@@ -308,19 +309,6 @@ def _joint_table(machine, h):
                 _JOINT_TABLES.clear()
             _JOINT_TABLES[key] = hit
     return hit
-
-
-@C.law
-def rigid_accel(MODEL, t, S, iy, ia, tau, Ja, c, P):
-    """The rigid Eksergian acceleration as an acceleration law (the inner mechanism of a compliant
-    gear): q̈ = [τ − c·q̇ + Q_ext − E_p' − ½J'·q̇²] / (J_eq + J) at (q, q̇) = (S[iy], S[iy+1]) into
-    S[ia]; MODEL(q, q̇, t, P) its model law.  → q̈."""
-    q = S[iy]
-    qd = S[iy + 1]
-    J, H, E, Q = MODEL(q, qd, t, P)
-    qdd = (tau - c * qd + Q - E - H * qd * qd) / (Ja + J)
-    S[ia] = qdd
-    return qdd
 
 
 def internal_state_size(n: int) -> int:

@@ -7,10 +7,12 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
 from . import cli_command  # noqa: E402
+from .reproduce import add_common
+from .. import api
+from .reproduce import check_video_options, with_gl
 
 
 def register(sub):
-    from .reproduce import add_common
 
     p = sub.add_parser("demo", help="run every paper case (short videos) and write DIR/report.html",
                        description=__doc__)
@@ -24,8 +26,6 @@ def run(args) -> int:
     import sys
     import time
 
-    from .. import api
-    from .reproduce import check_video_options, with_gl
 
     check_video_options(args)
     t0 = time.perf_counter()

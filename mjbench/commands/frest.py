@@ -5,6 +5,10 @@ from __future__ import annotations
 
 from ..outputs import add_force_option
 from . import cli_command
+from .. import api
+from ..errors import ParameterError
+from ..outputs import check_out_dir
+from .linearize import parse_at
 
 
 def register(sub):
@@ -41,10 +45,6 @@ def register(sub):
 @cli_command
 def cmd_frest(args):
     """``mjbench frest`` = ``mjbench.frequency_response`` → ``FrequencyResponse.save`` (docs/api.md)."""
-    from .. import api
-    from ..errors import ParameterError
-    from ..outputs import check_out_dir
-    from .linearize import parse_at
 
     scn = api.load(args.scenario, args.overrides)
     scn.check(args.mode)

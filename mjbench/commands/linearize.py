@@ -5,6 +5,9 @@ from __future__ import annotations
 
 from ..outputs import add_force_option
 from . import cli_command, integer, parse_numbers
+from ..errors import ParameterError
+from .. import api
+from ..outputs import check_out_dir
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -39,7 +42,6 @@ AT_LIMITS = {"omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
 def parse_at(items) -> dict:
     """``--at q=..,omega=..,I=..,t=..`` → {q, qd, I, t} (floats, SI), checked: finite, |ω| and
     |I| ≤ 1e5, 0 ≤ t ≤ 1e5 s (t is the time of the K_p·t ramp: a negative one is a negative gain)."""
-    from ..errors import ParameterError
 
     got = parse_numbers(items, "--at", [("q", "rad"), ("omega", "rad/s"), ("qd", "rad/s"), ("I", "A"), ("t", "s")])
     if "omega" in got and "qd" in got:
@@ -57,8 +59,6 @@ def parse_at(items) -> dict:
 @cli_command
 def cmd_linearize(args):
     """``mjbench linearize`` = ``mjbench.linearize`` → ``LinearResult.save`` (docs/api.md)."""
-    from .. import api
-    from ..outputs import check_out_dir
 
     at = parse_at(args.at)
     scn = api.load(args.scenario, args.overrides)

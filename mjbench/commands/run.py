@@ -5,6 +5,8 @@ import sys
 
 from . import add_fast_multibody, apply_fast_multibody, cli_command, quantity, refuse_unused
 from ..outputs import add_force_option
+from .. import api
+from ..outputs import check_out_dir
 
 
 def register(sub):
@@ -36,8 +38,6 @@ def register(sub):
 @cli_command
 def cmd_run(args):
     """``mjbench run`` = ``mjbench.load`` → ``simulate`` → ``Result.save`` (docs/api.md)."""
-    from .. import api
-    from ..outputs import check_out_dir
 
     scn = api.load(args.scenario, apply_fast_multibody(args, args.overrides))
     for w in scn.warnings:
@@ -66,7 +66,6 @@ def cmd_run(args):
 @cli_command
 def cmd_list(args):
     """``mjbench list`` = ``mjbench.list_scenarios`` + ``mjbench.load``, then ``mjbench.list_components``."""
-    from .. import api
 
     for name in api.list_scenarios():
         try:

@@ -40,9 +40,19 @@ import numpy as np
 
 from . import sizing as SZ
 from . import thermal as TH
+from . import finish as PL
+from .checks import check_row, drive_checks, sizing_common
+from .law_figure import _cycle, figure  # noqa: F401 - the figure of a motion-law design
 from .model import DriveModel, LoadModel
 from .periodic import NoSteadyState, effective_efficiency
 from .synthesis import constraint
+from .. import metrics as M
+from .. import scenario as SC
+from .. import mechanisms as MR
+from ..errors import ParameterError
+from .. import tune as T
+from ..backends import simulate
+from ..runner import backend_options
 
 TWO_PI = 2.0 * math.pi
 #: the design rule: velocity-PI zero and position-loop gain as fractions of the velocity crossover
@@ -326,8 +336,6 @@ def finalize(c: SZ.Candidate, load, req, law, T_c, n=1024):
 
 
 def sizing_json(sz: LawSizing, load) -> dict:
-    from .pipeline import sizing_common
-
     return {"duty": "motion law", "cycle_s": sz.T_c, "torque_of_the_law": sz.torque,
             "flywheel": {"J_flywheel": 0.0, "note": "none for a motion-law duty: the motor would accelerate it "
                                                     "every cycle"},
@@ -375,14 +383,11 @@ def on_grid(t, req, T_c):
 
 
 # ============================================================================ verification
-def _cycle(tr, a, b):
-    return (tr.t >= a - 1e-9) & (tr.t <= b + 1e-9)
 
 
 def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
     """Figures of the last complete cycle [t_end − T_c, t_end] of a run (the prediction's
     counterparts); ``ref_angle(t)``: the crank's reference angle [rad]."""
-    from .. import metrics as M
 
     b = float(tr.t[-1])
     a = b - T_c
@@ -429,7 +434,6 @@ TRACKING_FACTOR = 2.0
 
 def checks_of(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float) -> list:
     """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
-    from .pipeline import check_row, drive_checks
 
     hb = "harmonic balance of the reduced model's tracking loop vs the multibody run"
     out, temp = drive_checks(pred, ach, pred_th, T_amb, tol, hb)
@@ -445,8 +449,6 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
     """Sizing, control, verification and outputs of a motion-law duty (after the synthesis of
     :func:`mjbench.design.pipeline.design`, whose ``res`` this continues): the stages of the module
     doc, one function each below."""
-    from .. import scenario as SC
-    from . import pipeline as PL
 
     law, T_c = law_of(req)
     res["duty"].update(law=describe(req, law, T_c), tracking_error_max_rad=req.duty.tracking_error_max)
@@ -477,8 +479,6 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
     ``stop`` when no candidate is chosen or the chosen one fails at full resolution
     (``res["closest"]``: the best one, its failing checks in ``failures``); ``res`` gets ``sizing``
     and ``_sizing``."""
-    from .. import mechanisms as MR
-    from ..errors import ParameterError
 
     failures = []
     with clock("sizing"):
@@ -533,9 +533,6 @@ def _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl):
     """``mjbench.tune`` (controller ``servo``) from the candidate's gains within ``box`` on the
     reduced backend (``ctl``: ``tune``, ``source``) → the tuned candidate if the harmonic balance
     accepts it, else ``cand``."""
-    from .. import scenario as SC
-    from .. import tune as T
-    from . import pipeline as PL
 
     g0 = cand.gains
     t_end, _ = _run_length(cand.drive, M_mean, g0, req, T_c)
@@ -589,11 +586,8 @@ def _verification(req, res, table, final, law, T_c, t_end, scn_doc, scn, clock):
     multibody backend from rest, longer runs (up to MAX_CYCLES) until its last two cycles agree →
     (scenario doc, scenario, achieved figures of the last cycle, {"multibody": trajectory});
     ``res``: ``machine`` (a longer run), ``verification``."""
-    from .. import scenario as SC
 
     with clock("verification"):
-        from ..backends import simulate
-        from ..runner import backend_options
 
         z = float(final.drive.z)
         for attempt in range(ATTEMPTS):
@@ -631,7 +625,6 @@ def _checks(res, req, final, ach) -> list:
 def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
     """Stage "analysis": ``res["requirements_table"]`` (the pipeline's rows, plus the tracking error's
     when verified) → its failing rows as failures of stage "requirements"."""
-    from . import pipeline as PL
 
     with clock("analysis"):
         rows = PL.requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
@@ -647,45 +640,3 @@ def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
 
 
 # ============================================================================ figure
-def figure(res, path):
-    """Reference and crank angle, tracking error, motor current and gearbox torque over one cycle:
-    predicted (harmonic balance) and simulated (multibody, last cycle)."""
-    from .. import plotstyle as ps
-    from ..plots import save
-
-    ch = res.get("_final")
-    tr = (res.get("_trajectories") or {}).get("multibody")
-    with ps.context():
-        fig, ax = ps.new(2, 2, figsize=(11, 8))
-        if ch is not None and ch.ss is not None:
-            ss = ch.ss
-            tau = ss["tau"]
-            ax[0][0].plot(tau, np.degrees(ss["q_ref"]), color="0.5", label="reference (the law)")
-            ax[0][0].plot(tau, np.degrees(ss["q"]), color="C0", label="predicted")
-            ax[0][1].plot(tau, np.degrees(ss["delta"]), color="C0", label="predicted (harmonic balance)")
-            ax[1][0].plot(tau, ss["I"], color="C0", label="predicted (harmonic balance)")
-            ax[1][1].plot(tau, ss["T_gear"], color="C0", label="predicted (harmonic balance)")
-            ver = res.get("verification", {}).get("achieved", {})
-            if tr is not None and ver:
-                a, b = ver["cycle_s"]
-                sel = _cycle(tr, a, b)
-                ts = tr.t[sel] - a
-                z = float(ch.drive.z)
-                from .. import scenario as SC
-
-                ref = SC.make_machine(SC.from_raw(res["machine"], "design")).controller.reference
-                e = tr.q[sel] - ref.reference_angle(tr.t[sel]) / z
-                k0 = np.floor(tr.q[sel][0] / TWO_PI + 0.5) * TWO_PI
-                ax[0][0].plot(ts, np.degrees(tr.q[sel] - k0), "--", color="C1", label="multibody")
-                ax[0][1].plot(ts, np.degrees(e), "--", color="C1", label="multibody")
-                ax[1][0].plot(ts, tr.current[sel], "--", color="C1", label="multibody")
-                ax[1][1].plot(ts, ch.drive.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
-                              label="multibody")
-        for a2, lab in ((ax[0][0], ps.label("crank angle", "°")), (ax[0][1], ps.label("tracking error q − q_ref", "°")),
-                        (ax[1][0], ps.label("motor current", "A")), (ax[1][1], ps.label("gearbox output torque", "N·m"))):
-            a2.set_xlabel(ps.label("time in the cycle", "s"))
-            a2.set_ylabel(lab)
-            if a2.get_legend_handles_labels()[0]:  # (no candidate chosen: empty panels, no legend)
-                a2.legend(loc="best", fontsize=7)
-        ps.finish(fig, f"mjbench design {res['name']} (motion law per cycle): {res['status']}")
-        return save(fig, path)

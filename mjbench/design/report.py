@@ -14,6 +14,10 @@ import numpy as np
 
 from ..outputs import atomic_write, staged_dir, write_json
 from . import build as B
+from .law_figure import figure as law_figure
+from .. import plotstyle as ps
+from ..plots import save
+from .. import mechanisms as MR
 
 
 def _fmt(x, unit=""):
@@ -258,12 +262,8 @@ def html_page(res) -> str:
 def figure(res, path):
     """Linkage at eight crank angles (or the traced point's path), torques, current and speed over
     one cycle: predicted (harmonic balance) and simulated (multibody)."""
-    from .. import plotstyle as ps
-    from ..plots import save
 
     if res.get("duty", {}).get("law"):  # a motion-law duty: over the cycle's time
-        from .law_duty import figure as law_figure
-
         return law_figure(res, path)
     sz = res.get("_sizing")
     tr = (res.get("_trajectories") or {}).get("multibody")
@@ -293,7 +293,6 @@ def figure(res, path):
             a.plot(ss[key][:, 0], ss[key][:, 1], ":", color="C3", lw=1, label="output point path")
             a.legend(loc="best", fontsize=7)
         elif mech:
-            from .. import mechanisms as MR
             m = MR.from_dict(mech)
             qq = np.linspace(0, 2 * np.pi, 361)
             tp = m.trace_point(qq)

@@ -32,6 +32,9 @@ from pydantic_core import PydanticCustomError
 
 from ..errors import ScenarioError
 from ..schema import Bool, OptQ, Q, Strict, format_errors
+from ..motionlaws import BezierLaw, PseudoPolynomialLaw
+from ..linear import parse_margin
+from ..errors import ParameterError
 
 Length = Q("length", plausible=False)
 Angle = Q("angle")
@@ -297,7 +300,6 @@ class DutyLaw(Strict):
 
     def build(self, T_cycle: float):
         """The crank's law over one cycle: 2π in move_fraction × T_cycle [s] (crank side)."""
-        from ..motionlaws import BezierLaw, PseudoPolynomialLaw
 
         T = self.move_fraction * float(T_cycle)
         if self.kind == "pseudopoly":
@@ -373,8 +375,6 @@ class ControlReq(Strict):
     @field_validator("margins")
     @classmethod
     def _m(cls, v):
-        from ..linear import parse_margin
-        from ..errors import ParameterError
 
         for m in v:
             try:

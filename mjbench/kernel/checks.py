@@ -7,6 +7,7 @@ import os
 
 from ..errors import ParameterError
 from .loop import MAX_CURRENT, MAX_SPEED
+from ..backends.table import mechanism_key
 
 
 def check_times(t_end, h, record_dt):
@@ -54,7 +55,6 @@ _CHECKED: set = set()
 
 def _machine_key(mc):
     """What :func:`check_machine` depends on: the mechanism's parameters and the drives' inertias."""
-    from ..backends.table import mechanism_key
 
     try:
         mech = (type(mc.mechanism).__name__, mechanism_key(mc.mechanism))

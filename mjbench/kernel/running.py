@@ -29,6 +29,9 @@ from . import checks as CK
 from . import layout as LY
 from . import loop as LP
 from .program import Program, Run
+from ..backends.table import composing
+from ..compiled import jit
+from .program import MIN_STEPS
 
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.05
@@ -310,7 +313,6 @@ def _programs(plants, machines, h: float) -> list:
     """Each run's :class:`Program` (its plant started), after the checks of a job: every machine
     (once per mechanism and drive inertia in this process), one step for all, the same recorded
     columns."""
-    from ..backends.table import composing
 
     with composing():
         progs = []
@@ -426,7 +428,6 @@ def loop_function(program: Program, mode: str):
     """The loop of ``mode`` ("python", "compiled", "check") for this composition."""
     if mode == "python":
         return python_loop(program)
-    from ..compiled import jit
 
     return jit.loop_for(program, LP.source(program.naxes, program.nctrl), check=mode == "check")
 
@@ -449,7 +450,6 @@ def jit_mode(loop: str | None = None) -> str:
 
 def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> tuple[str, str]:
     """("compiled" | "check" | "python", why) for a job of ``run_steps`` co-steps (all runs together)."""
-    from ..compiled import jit
 
     mode = jit_mode(loop)
     if mode == "python":
@@ -484,8 +484,6 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
 def preload(run_steps: float) -> bool:
     """Load numba now when a design loop plans ``run_steps`` co-steps over all its runs and that
     pays for the start-up (then every later run of the process is compiled); → whether loaded."""
-    from ..compiled import jit
-    from .program import MIN_STEPS
 
     if jit_mode() == "python" or not jit.available():
         return False

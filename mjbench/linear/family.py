@@ -14,6 +14,7 @@ from .loop import _reachable, analyse, loop, margins
 from .plant import _angle_mode, reduced_plant, sample
 from .point import operating_point
 from .signals import MEAS, _ct
+from ..kernel import control_every
 
 
 # ============================================================================ angle dependence
@@ -128,7 +129,6 @@ def parse_margin(text: str) -> tuple:
 def plant_family(machine, h: float, n_angles: int = 12, t: float = 0.0, speed=None) -> list:
     """(angle, operating point, plant at the controller period) at ``n_angles`` frozen angles:
     the part of the loop analysis that does not depend on the controller gains."""
-    from ..kernel import control_every
 
     N = control_every(machine.controller, h)
     out = []

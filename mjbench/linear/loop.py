@@ -13,6 +13,7 @@ from .plant import (
     _angle_mode, frequency_grid, multibody_plant, reduced_plant, response, s_poles, sample)
 from .point import OperatingPoint
 from .signals import MEAS, _ct
+from ..kernel import control_every
 
 
 # ============================================================================ loop
@@ -228,7 +229,6 @@ def analyse(machine, op: OperatingPoint, h: float, plant_kind="reduced", options
     """Plant at the controller period + controller counterpart + loop + margins at ``op``.
     ``plant_kind`` "reduced" or "multibody" (input coordinates); ``angle`` None: frozen when
     q̇* ≠ 0, the full Jacobian at a stationary point.  Returns (Loop, Margins)."""
-    from ..kernel import control_every
 
     N = control_every(machine.controller, h)
     if plant_kind == "reduced":

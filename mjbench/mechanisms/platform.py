@@ -46,6 +46,8 @@ from ..errors import ParameterError
 from ..fields import Q, Strict
 from . import register
 from .base import Mechanism, new_spec
+from ..trajectory import atomic_write
+from .base import RenderView
 
 J_MIN = 1e-9  #: [kg·m²] smallest body inertia given to MuJoCo for the motor-side body
 
@@ -232,7 +234,6 @@ class Platform(Mechanism):
 
     def render_view(self):
         """Top view: the platform hinge turns ρ·φ + ψ, the deflection column needle (render.py)."""
-        from .base import RenderView
 
         return RenderView("top", output_joint="platform", output_body="platform", ratio=float(self.ratio),
                           deflection="deflection", label=f"{self.variant} platform")
@@ -450,7 +451,6 @@ def export_default_mjcf(folder="assets/mjcf"):
     """Write the default models to ``folder``/belt_platform.xml and elastic_platform.xml."""
     import os
 
-    from ..trajectory import atomic_write
 
     out = []
     for obj, fname in ((BeltPlatform(), "belt_platform.xml"), (ElasticPlatform(), "elastic_platform.xml")):

@@ -13,6 +13,9 @@ from __future__ import annotations
 import math
 
 from mjbench.papers import Case
+from mjbench import scenario as S
+from mjbench.design import pipeline as P
+from mjbench.errors import ScenarioError
 
 KEY = "design"
 CITATION = "requirements-driven designs (mjbench design)"
@@ -38,14 +41,11 @@ def design(case, out):
     """Run the design of ``case.scenario`` (a built-in requirements name) into ``out/design``:
     (the machine's validated scenario, extra context for rows/figures).  The verification run is
     the case's multibody trajectory."""
-    from mjbench import scenario as S
-    from mjbench.design import pipeline as P
 
     res = P.design(case.scenario, out=out / "design", force=True, log=lambda *a: None)
     if res.get("machine") is not None:
         scn = S.from_raw(res["machine"], f"design:{case.scenario}")
     else:  # infeasible: no machine; the report shows what fails
-        from mjbench.errors import ScenarioError
 
         raise ScenarioError(f"design {case.scenario!r} is infeasible: "
                            + "; ".join(f["name"] for f in res.get("failures", [])))

@@ -12,10 +12,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from mjbench.trajectory import atomic_write
+from mjbench import scenario
+from mjbench.backends import simulate
 
 
 def _save(fig, path):
-    from mjbench.trajectory import atomic_write
 
     ext = os.path.splitext(path)[1].lstrip(".") or "png"
     atomic_write(path, lambda f: fig.savefig(f, format=ext, dpi=130), mode="wb")
@@ -214,8 +216,6 @@ def draw_geometry(mech, path=None, q=2.0):
 def docs_figures(outdir="docs", t_end=5.0, backend="multibody"):
     """Regenerate docs/quickreturn_{geometry,fig6,fig7}.png from the yigit2023 scenario
     (open 48 V, SMC, PID; ≈ 5 s of computing per mode)."""
-    from mjbench import scenario
-    from mjbench.backends import simulate
 
     scn = scenario.load("yigit2023")
     runs = {}

@@ -10,13 +10,14 @@ from .gl import gl_setup
 from .platform import _render_platform_run
 from .video import VideoWriter, _frame_bar, _video_info, frame_indices
 from .view import MechanismView
+from .. import scenario as scenario_mod
+from ..backends import multibody
+from ..errors import ScenarioError
 
 
 # ============================================================================ scenario → video
 def simulate_for_video(scn, mode: str | None = None, t_end: float | None = None):
     """Multibody run of the scenario with every control step recorded.  Returns (machine, traj)."""
-    from .. import scenario as scenario_mod
-    from ..backends import multibody
 
     mode = scn.mode(mode)
     machine = scenario_mod.make_machine(scn, mode)
@@ -71,7 +72,6 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
     if not (np.isfinite(fps) and fps > 0):
         raise ParameterError(f"--fps = {fps!r}: must be > 0")
     gl_setup()
-    from ..errors import ScenarioError
 
     if not scn.modes:
         raise ScenarioError(f"scenario {scn.name!r} defines no [modes.*] controller to simulate")

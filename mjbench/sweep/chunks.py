@@ -16,11 +16,13 @@ from ..trajectory import atomic_write
 from .rows import RowScenarios
 from .spec import SweepSpec, VERIFY
 from .table import _fmt, default_metric
+from ..backends import SEARCH_BACKENDS
+from ..runner import backend_options
+from ..backends import batch, simulate_many
 
 
 # ======================================================================== simulation of a chunk
 def settings(spec: SweepSpec, scn) -> dict:
-    from ..backends import SEARCH_BACKENDS
 
     if spec.backend not in SEARCH_BACKENDS:
         raise ParameterError(f"--backend {spec.backend!r}: choose one of {list(SEARCH_BACKENDS)}")
@@ -31,7 +33,6 @@ def settings(spec: SweepSpec, scn) -> dict:
 
 def _run_settings(scn, t_end_fixed, backend="multibody"):
     """Per-row run settings (a sweep may vary simulation.dt, the integrator, the χ window ...)."""
-    from ..runner import backend_options
 
     opts = backend_options(scn, backend)
     if backend == "reduced":
@@ -52,7 +53,6 @@ def row_metrics(traj, st) -> dict:
 def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
     """Simulate ``rows`` of the sweep in one batch (per model structure) on ``st["backend"]`` →
     result rows.  Pure: the same input gives the same output locally and on a Dask worker."""
-    from ..backends import batch, simulate_many
 
     backend = st.get("backend", "multibody")
     outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT

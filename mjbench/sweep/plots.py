@@ -8,11 +8,11 @@ import numpy as np
 
 from .spec import SweepSpec
 from .table import default_metric
+from .. import plots as P
 
 
 def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | None = None) -> list:
     """Heat map (two grid keys), line (one grid key) and, for Monte Carlo, histograms."""
-    from .. import plots as P
     import matplotlib.pyplot as plt
 
     metric = metric or default_metric(results)

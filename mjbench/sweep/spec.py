@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import scenario as S
 from ..errors import ParameterError, ScenarioError
+from ..kernel import memory_limit
 
 
 RESULTS = "results.csv"
@@ -93,7 +94,6 @@ def max_rows() -> int:
 def check_size(nrows: int, detail: str = "") -> None:
     """Refuse, before anything runs, a sweep of more rows than :func:`max_rows` or than half the
     available memory holds (ROW_BYTES each)."""
-    from ..kernel import memory_limit
 
     lim = max_rows()
     need = nrows * ROW_BYTES

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ...errors import GeometryError
-from ..linkage_kin import TWO_PI, SolveError
+from ..linkage_kin import TWO_PI, SolveError, _angle_ranges
 from .kinematics import _deg
 
 COARSE_STEPS = 90  #: continuation steps over one turn (subdivided automatically where needed)
@@ -164,6 +164,5 @@ class AssemblyMixin:
 
 def _ranges_text(qs, mask):
     """'a..b, c..d' (degrees) for the runs of True in mask over the grid qs (wrapping)."""
-    from ..fourbar import _angle_ranges
 
     return ", ".join(f"{_deg(lo)}..{_deg(hi)}" for lo, hi in _angle_ranges(qs, mask))

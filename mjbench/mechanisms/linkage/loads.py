@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from ... import compiled as C
-from ...backends.table import table_model
+from ..table import table_model
 from ...compiled import law
 from ..linkage_kin import TWO_PI, ptable_channel
 from .description import LoadSpec

@@ -32,7 +32,7 @@ from ..linkage_kin import TWO_PI, SolveError
 from .kinematics import _deg
 from .model import _Compiled
 from .multi_kin import MultiPlanarSystem
-from .topology import GROUND, _ref
+from .topology import GROUND, _ref, _rot2
 
 TABLE_NODES = (32, 64, 128, 256, 512)  #: nodes per input (a full turn; proportionally fewer over a range)
 #: target relative interpolation error of M̄, c̄'s coefficients and ḡ (each against its largest value):
@@ -73,8 +73,6 @@ class MultiCompiled(_Compiled):
         z = np.zeros(3 * self.n)
         pose = {GROUND: (np.zeros(2), 0.0)}
         inp = {self.p.joints[self.jindex[nm]].name: k for k, nm in enumerate(self.inputs)}
-        from .topology import _rot2
-
         for e in self.edges:
             oP, thP = pose[e.parent]
             AP = _rot2(thP)

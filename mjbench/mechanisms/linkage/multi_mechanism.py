@@ -77,6 +77,13 @@ class MultiLinkage(Linkage):
         ch = self.c.exact_model(q)
         return unpack(ch, self.n_inputs)
 
+    def bias_n(self, q, qd):
+        """c̄(q, q̇) + ḡ(q) + D̄(q)·q̇ (B, n) solved exactly: every generalised force on the inputs
+        besides the drives' and M̄·q̈."""
+        _, G, g, D = self.reduced_n(q)
+        qd = np.atleast_2d(np.asarray(qd, float))
+        return cbar(G, qd) + g + np.einsum("bij,bj->bi", D, qd)
+
     def reduced_table(self, q):
         """The same from the table (what the reduced backend integrates)."""
         return unpack(self.c.table_n(np.atleast_2d(q)), self.n_inputs)
