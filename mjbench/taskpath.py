@@ -247,13 +247,14 @@ class PathReferences:
     (Solved once per mechanism and path in a process.)"""
 
     def __init__(self, mechanism, path: PathParams):
-        key = (id(mechanism), path.model_dump_json())
+        desc = getattr(mechanism, "describe", None)
+        key = (type(mechanism).__name__, repr(desc()) if desc is not None else id(mechanism), path.model_dump_json())
         hit = _TRAJ.get(key)
-        if hit is None or hit[0] is not mechanism:
+        if hit is None:
             if len(_TRAJ) > 8:
                 _TRAJ.clear()
-            hit = _TRAJ[key] = (mechanism, joint_trajectories(mechanism, path))
-        self.t, self.Q, self.Qd, self.Qdd, self.path = hit[1]
+            hit = _TRAJ[key] = joint_trajectories(mechanism, path)
+        self.t, self.Q, self.Qd, self.Qdd, self.path = hit
         self.period = self.path.duration if path.repeat else 0.0
 
     def reset(self):

@@ -142,6 +142,10 @@ class MultiCompiled(_Compiled):
             raise GeometryError(f"linkage {p.name!r}: the stated pose is a singular configuration of its inputs "
                                 f"(the inputs {', '.join(self.inputs)} do not fix the linkage there)")
 
+    def has_damping(self) -> bool:
+        """Whether the reduced model has a viscous part (damped joints or dampers)."""
+        return bool(self.damped or any(s.damping > 0 for _, _, s in self.springs))
+
     def ranges(self):
         """[(lo, hi, periodic)] per input."""
         rs = self.p.input_ranges
@@ -338,7 +342,9 @@ class MultiCompiled(_Compiled):
         flat = Z.reshape(-1, Z.shape[-1])
         ch = self.channels_n(flat).reshape(shape + (-1,))
         sv = self.sys.singular_values(flat)
-        tab = GridTable(nodes, periodic, ch)
+        npair = self.layout["M"]
+        kloop = npair + self.layout["G"] + self.layout["g"] + (self.layout["D"] if self.has_damping() else 0)
+        tab = GridTable(nodes, periodic, ch, kloop)
         # the error at every cell centre against the exact solve
         mids = [x + 0.5 * (x[1] - x[0]) if per else x[:-1] + 0.5 * np.diff(x) for x, per in zip(nodes, periodic)]
         Qm = np.stack(np.meshgrid(*mids, indexing="ij"), axis=-1).reshape(-1, self.ninputs)
@@ -357,9 +363,11 @@ class MultiCompiled(_Compiled):
 
 
 # ============================================================================ the grid table
-#: a grid table's parameters: coefficient rows (k, ncells·16), per input: the first node, 1/h, the
+#: a grid table's parameters: coefficient rows (cells, k·16) — a cell's channels side by side, so one
+#: evaluation reads one contiguous block —, the channels the simulation reads (the first ``kloop``), per
+#: input: the first node, 1/h, the
 #: number of cells, periodic (1) or not (0); the number of inputs
-GridTableP = namedtuple("GridTableP", "rows x0 inv_h ncell periodic n")
+GridTableP = namedtuple("GridTableP", "rows kloop x0 inv_h ncell periodic n")
 
 
 class GridTable:
@@ -367,7 +375,7 @@ class GridTable:
     a full turn, or over a range with not-a-knot ends): values at any q, and the coefficient rows of
     the compiled evaluation (:func:`grid2_eval`)."""
 
-    def __init__(self, nodes, periodic, values):
+    def __init__(self, nodes, periodic, values, kloop=None):
         from scipy.interpolate import CubicSpline
 
         self.n = len(nodes)
@@ -393,13 +401,16 @@ class GridTable:
         c0 = spline(nodes[0], v, 0, self.periodic[0], self.h[0])  # (4₀, C0, [N1,] k)
         if self.n == 1:
             self.ncell = [int(c0.shape[1])]
-            rows = np.transpose(c0, (2, 1, 0)).reshape(k, -1)  # [ch, 4·i + a]
+            rows = np.transpose(c0, (1, 2, 0)).reshape(c0.shape[1], -1)  # [i, 4·ch + a]
+            self.width = 4
         else:
             c = spline(nodes[1], c0, 2, self.periodic[1], self.h[1])  # (4₁, C1, 4₀, C0, k)
             self.ncell = [int(c.shape[3]), int(c.shape[1])]
-            rows = np.transpose(c, (4, 3, 1, 2, 0)).reshape(k, -1)  # [ch, 16·(i·C1 + j) + 4·a + b]
+            rows = np.transpose(c, (3, 1, 4, 2, 0)).reshape(c.shape[3] * c.shape[1], -1)  # [i·C1 + j, 16·ch + 4·a + b]
+            self.width = 16
         self.k = k
-        self.P = GridTableP(np.ascontiguousarray(rows), np.array(self.x0), 1.0 / np.array(self.h),
+        self.kloop = int(k if kloop is None else kloop)
+        self.P = GridTableP(np.ascontiguousarray(rows), self.kloop, np.array(self.x0), 1.0 / np.array(self.h),
                             np.array(self.ncell, dtype=np.int64), np.array(self.periodic, dtype=np.int64), self.n)
 
     def _cells(self, q, d):
@@ -421,15 +432,17 @@ class GridTable:
         """Channels (B, k) at inputs Q (B, n), NaN outside the ranges (NumPy, vectorised: the same
         cells and Horner order as the compiled laws :func:`grid1_eval`, :func:`grid2_eval`)."""
         Q = np.atleast_2d(np.asarray(Q, float))
-        R = self.P.rows
+        R = self.P.rows.reshape(self.P.rows.shape[0], self.k, self.width)
         i, s, bad = self._cells(Q[:, 0], 0)
         if self.n == 1:
-            c = R[:, (4 * i)[:, None] + np.arange(4)[None, :]]  # (k, B, 4)
+            c = np.moveaxis(R[i], 1, 0)  # (k, B, 4)
+            s = s[None, :]
             out = ((c[..., 0] * s + c[..., 1]) * s + c[..., 2]) * s + c[..., 3]
         else:
             j, t, bad1 = self._cells(Q[:, 1], 1)
             bad = bad | bad1
-            c = R[:, (16 * (i * self.ncell[1] + j))[:, None] + np.arange(16)[None, :]]  # (k, B, 16)
+            c = np.moveaxis(R[i * self.ncell[1] + j], 1, 0)  # (k, B, 16)
+            s, t = s[None, :], t[None, :]
             a = [((c[..., 4 * m] * t + c[..., 4 * m + 1]) * t + c[..., 4 * m + 2]) * t + c[..., 4 * m + 3]
                  for m in range(4)]
             out = ((a[0] * s + a[1]) * s + a[2]) * s + a[3]
@@ -458,39 +471,42 @@ def grid_cell(q, d, T):
     return int(i), s
 
 
-@C.law(inline=False)
+@C.law
 def grid1_eval(q, T, out, o):
-    """Every channel of a 1-input grid table at q into out[o:o+k] (NaN outside its range)."""
+    """The simulation's channels (the first ``T.kloop``) of a 1-input grid table at q into
+    out[o:o+kloop] (NaN outside its range)."""
     i, s = grid_cell(q, 0, T)
     R = T.rows
-    k = R.shape[0]
+    k = T.kloop
     if i < 0:
         for c in range(k):
             out[o + c] = math.nan
         return
-    b = 4 * i
     for c in range(k):
-        out[o + c] = ((R[c, b] * s + R[c, b + 1]) * s + R[c, b + 2]) * s + R[c, b + 3]
+        b = 4 * c
+        out[o + c] = ((R[i, b] * s + R[i, b + 1]) * s + R[i, b + 2]) * s + R[i, b + 3]
 
 
-@C.law(inline=False)
+@C.law
 def grid2_eval(q0, q1, T, out, o):
-    """Every channel of a 2-input grid table at (q0, q1) into out[o:o+k] (NaN outside its ranges):
-    Horner in the second input's coordinate for each power of the first, then in the first's."""
+    """The simulation's channels (the first ``T.kloop``) of a 2-input grid table at (q0, q1) into
+    out[o:o+kloop] (NaN outside its ranges): Horner in the second input's coordinate for each power
+    of the first, then in the first's; one cell's coefficients are one contiguous row."""
     i, s = grid_cell(q0, 0, T)
     j, t = grid_cell(q1, 1, T)
     R = T.rows
-    k = R.shape[0]
+    k = T.kloop
     if i < 0 or j < 0:
         for c in range(k):
             out[o + c] = math.nan
         return
-    b = 16 * (i * T.ncell[1] + j)
+    r = i * T.ncell[1] + j
     for c in range(k):
-        a0 = ((R[c, b] * t + R[c, b + 1]) * t + R[c, b + 2]) * t + R[c, b + 3]
-        a1 = ((R[c, b + 4] * t + R[c, b + 5]) * t + R[c, b + 6]) * t + R[c, b + 7]
-        a2 = ((R[c, b + 8] * t + R[c, b + 9]) * t + R[c, b + 10]) * t + R[c, b + 11]
-        a3 = ((R[c, b + 12] * t + R[c, b + 13]) * t + R[c, b + 14]) * t + R[c, b + 15]
+        b = 16 * c
+        a0 = ((R[r, b] * t + R[r, b + 1]) * t + R[r, b + 2]) * t + R[r, b + 3]
+        a1 = ((R[r, b + 4] * t + R[r, b + 5]) * t + R[r, b + 6]) * t + R[r, b + 7]
+        a2 = ((R[r, b + 8] * t + R[r, b + 9]) * t + R[r, b + 10]) * t + R[r, b + 11]
+        a3 = ((R[r, b + 12] * t + R[r, b + 13]) * t + R[r, b + 14]) * t + R[r, b + 15]
         out[o + c] = ((a0 * s + a1) * s + a2) * s + a3
 
 
@@ -499,10 +515,10 @@ __all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval
 
 # ============================================================================ the model law
 #: the n-input model law's parameters: the number of inputs, the grid table's
-MultiModelP = namedtuple("MultiModelP", "n table")
+MultiModelP = namedtuple("MultiModelP", "n table damped")
 
 
-@C.law(inline=False)
+@C.law
 def multi_model(S, iy, t, P, W, iw):
     """The reduced model of a linkage with n = P.n inputs at the state (q, q̇) = S[iy:iy+2n]: the mass
     matrix M̄ (n×n, row-major) into W[iw:iw+n²] and the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇ into
@@ -529,10 +545,11 @@ def multi_model(S, iy, t, P, W, iw):
             for k in range(j, n):
                 b += W[ic + npair + i * npair + m] * S[iy + n + j] * S[iy + n + k]
                 m += 1
-        for j in range(n):
-            jj = i if i < j else j
-            kk = j if i < j else i
-            b += W[idd + jj * n - (jj * (jj - 1)) // 2 + (kk - jj)] * S[iy + n + j]
+        if P.damped:
+            for j in range(n):
+                jj = i if i < j else j
+                kk = j if i < j else i
+                b += W[idd + jj * n - (jj * (jj - 1)) // 2 + (kk - jj)] * S[iy + n + j]
         W[iw + n * n + i] = b
 
 

@@ -108,12 +108,12 @@ class MultiLinkage(Linkage):
     def model_form(self):
         """The n-input model law (:func:`.multi.multi_model`) on the grid table."""
         tab = self.c.table_n
-        return C.Form(multi_model, MultiModelP(self.n_inputs, tab.P),
+        return C.Form(multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
                       flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
                                        "table_rel_error_g": self.table_info.get("rel_error_g")},
-                             "channels": tab.k})
+                             "channels": tab.kloop})
 
     def has_multibody_load(self) -> bool:
         return False
