@@ -213,7 +213,7 @@ def steady_state(load: LoadModel, drive: DriveModel, g: ServoGains, law, T_c: fl
     d, dd, ddd, q, qd, qdd, Treq, wm, I, dI, Vreq, r = out
     return {"tau": tau, "T": T_c, "speed": W, "q_ref": qr, "qd_ref": qdr, "qdd_ref": qddr, "delta": d, "q": q,
             "qd": qd, "qdd": qdd, "I": I, "dI": dI, "V": Vreq, "T_m": drive.k_m * I, "T_crank": Treq,
-            "T_gear": drive.gear_output(I, wm, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
+            "T_gear": drive.gear_output(Treq, qd, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
             "residual": res, "n": n, "M_mean": M_mean, "eta_eff": eta_eff, "sign_speed": w_eps}
 
 
@@ -227,6 +227,7 @@ def summary(ss: dict, drive: DriveModel) -> dict:
             "voltage_peak_V": float(np.max(np.abs(V))), "voltage_mean_V": float(np.mean(V)),
             "tracking_rms_rad": rms(d), "tracking_peak_rad": float(np.max(np.abs(d))),
             "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "mean_power_W": float(np.mean(ss["T_crank"] * ss["qd"])),
+            "gear_work_per_cycle_J": float(np.mean(Tg * ss["qd"])) * ss["T"],
             "copper_loss_W": float(np.mean(I * I)) * drive.R, "chi": None}
 
 
@@ -395,10 +396,11 @@ def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
     e = q - ref_angle(tt)
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [a, b], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "tracking_rms_rad": rms(e),
            "tracking_peak_rad": float(np.max(np.abs(e))), "mean_speed_rad_s": float((q[-1] - q[0]) / (tt[-1] - tt[0])),
            "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "chi": float(M.chi(tr.t, tr.omega, a, b)),
@@ -679,7 +681,7 @@ def figure(res, path):
                 ax[0][0].plot(ts, np.degrees(tr.q[sel] - k0), "--", color="C1", label="multibody")
                 ax[0][1].plot(ts, np.degrees(e), "--", color="C1", label="multibody")
                 ax[1][0].plot(ts, tr.current[sel], "--", color="C1", label="multibody")
-                ax[1][1].plot(ts, ch.drive.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
+                ax[1][1].plot(ts, ch.drive.gear_output_of_run(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
                               label="multibody")
         for a2, lab in ((ax[0][0], ps.label("crank angle", "°")), (ax[0][1], ps.label("tracking error q − q_ref", "°")),
                         (ax[1][0], ps.label("motor current", "A")), (ax[1][1], ps.label("gearbox output torque", "N·m"))):

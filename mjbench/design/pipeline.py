@@ -160,10 +160,11 @@ def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
     def rms(x):
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [float(a), float(b)], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "chi": float(M.chi(t, om, a, b)),
            "speed_dev_max_rel": float(np.max(np.abs(qd - speed)) / speed),
            "mean_speed_rad_s": float(M.time_mean(tt, qd)), "motor_speed_max_rad_s": float(np.max(np.abs(wm))),

@@ -417,16 +417,20 @@ def platform_accel(t, S, iy, ia, tau, Ja, c_add, P):
 
 
 def export_default_mjcf(folder="assets/mjcf"):
-    """Write the default models to ``folder``/belt_platform.xml and elastic_platform.xml."""
+    """Write the default models to ``folder``/belt_platform.xml and elastic_platform.xml (stand-alone:
+    mjbench/mjcf_export.py)."""
     import os
 
     from ..trajectory import atomic_write
 
     out = []
+    from ..mjcf_export import standalone_xml
+
     for obj, fname in ((BeltPlatform(), "belt_platform.xml"), (ElasticPlatform(), "elastic_platform.xml")):
         spec = obj.build_spec()
-        spec.compile()
-        xml = _xml_with_inertials(spec)
+        model = spec.compile()  # at rest, undeflected: qpos0 and the keyframe ``initial``
+        xml = standalone_xml(spec, model, obj.initial_qpos(model, 0.0), obj.initial_qvel(model, 0.0, 0.0),
+                             obj.input_joint)
         path = os.path.join(folder, fname)
         atomic_write(path, lambda f, x=xml: f.write(x))
         out.append(path)

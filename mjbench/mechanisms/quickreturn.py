@@ -511,13 +511,16 @@ class QuickReturn(Mechanism):
 
         return Linkage(LinkageParams.model_validate(table_from_quickreturn(self)))
 
-    def export_mjcf(self, path, armature: float = 0.0, options=None):
-        """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""
+    def export_mjcf(self, path, armature: float = 0.0, options=None, q0: float = 0.0):
+        """Write the MJCF (XML) of this mechanism to ``path`` atomically, assembled at crank angle
+        ``q0`` at rest (qpos0 and the keyframe ``initial``: mjbench/mjcf_export.py)."""
+        from ..mjcf_export import standalone_xml
         from ..trajectory import atomic_write
 
         spec = self.build_spec(armature=armature, options=options)
-        spec.compile()
-        xml = spec.to_xml()
+        model = spec.compile()
+        xml = standalone_xml(spec, model, self.initial_qpos(model, q0), self.initial_qvel(model, q0, 0.0),
+                             self.input_joint)
         atomic_write(path, lambda f: f.write(xml))
         return path
 
