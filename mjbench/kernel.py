@@ -62,7 +62,6 @@ adapter in compiled code).
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections import namedtuple
 
@@ -71,6 +70,7 @@ import numpy as np
 from controllers.base import Measurement
 
 from . import compiled as C
+from . import environment
 from .compiled import clip, isfinite
 from .errors import ParameterError, SimulationDiverged
 from .trajectory import NAMES
@@ -524,7 +524,7 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
     """("compiled" | "python", why) for a job of ``run_steps`` co-steps (all runs together)."""
     from .compiled import jit
 
-    mode = (loop or os.environ.get("MJBENCH_JIT", "")).lower()
+    mode = (loop or environment.jit()).lower()  # (MJBENCH_JIT checked: 0/1/python/compiled, else an error)
     if mode in ("0", "python"):
         return "python", "CPython loop requested (MJBENCH_JIT=0 / loop='python')"
     if not program.compiled:
@@ -548,7 +548,7 @@ def preload(run_steps: float) -> bool:
     pays for the start-up (then every later run of the process is compiled); → whether loaded."""
     from .compiled import jit
 
-    if os.environ.get("MJBENCH_JIT", "") == "0" or not jit.available():
+    if environment.jit() == "python" or not jit.available():
         return False
     if jit.loaded() or run_steps >= MIN_STEPS:
         jit.init()
@@ -570,12 +570,9 @@ def memory_limit(need: int | None = None) -> int:
     machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read).  With
     ``need`` [bytes] at most :data:`SMALL_RECORD` and no ``MJBENCH_MAX_RECORD_MB``, ``need`` itself
     without reading the system's figure (a record that small is never refused)."""
-    env = os.environ.get("MJBENCH_MAX_RECORD_MB")
-    if env:
-        try:
-            return int(float(env) * 2 ** 20)
-        except ValueError:
-            raise ParameterError(f"MJBENCH_MAX_RECORD_MB = {env!r}: must be a number of MiB") from None
+    env = environment.max_record_mb()  # (checked: a finite number > 0, else an error naming it)
+    if env is not None:
+        return int(env * 2 ** 20)
     if need is not None and need <= SMALL_RECORD:
         return int(need)
     try:

@@ -17,7 +17,9 @@ def register(sub):
                     "model (MuJoCo mjd_transitionFD), their agreement, the controller's discrete-time counterpart, "
                     "the loop at the plant input (gain/phase margins, peak |S|, bandwidth, closed-loop poles) and "
                     "the loop at frozen angles over one turn. Default point: the initial angle, the controller's "
-                    "running speed there, the current holding q̈ = 0, t = simulation.t_end for a K_p·t PID.")
+                    "running speed there, the turn-averaged current (running: the mean over one turn of the currents that "
+                    "would hold q̈ = 0 at that speed — a linkage is then not stationary at the point, q̈* ≠ 0, printed; "
+                    "at rest: the current holding q̈ = 0), t = simulation.t_end for a K_p·t PID.")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--mode", help="controller mode (default: the scenario's)")
     p.add_argument("--at", action="append", default=[], metavar="q=..,omega=..",

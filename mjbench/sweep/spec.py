@@ -3,7 +3,6 @@ CLI, the chunk size and the row-count limits."""
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -78,16 +77,10 @@ ROW_BYTES = 4096
 
 def max_rows() -> int:
     """The row limit: ``MJBENCH_MAX_SWEEP_ROWS`` if set, else :data:`MAX_ROWS`."""
-    env = os.environ.get("MJBENCH_MAX_SWEEP_ROWS")
-    if not env:
-        return MAX_ROWS
-    try:
-        n = int(float(env))
-    except ValueError:
-        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be a whole number of rows") from None
-    if n < 1:
-        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be >= 1")
-    return n
+    from .. import environment
+
+    n = environment.max_sweep_rows()  # (checked: a whole number >= 1, else an error naming it)
+    return MAX_ROWS if n is None else n
 
 
 def check_size(nrows: int, detail: str = "") -> None:
