@@ -310,7 +310,9 @@ def size(load: LoadModel, req, cat, law, T_c: float, log=None) -> LawSizing:
     feas = [c for c in cands if c.ok]
     chosen = min(feas, key=lambda c: (c.cost, c.summary.get("motor_torque_rms_Nm", 0.0))) if feas else None
     pool = [c for c in cands if not c.screened_out] or cands
-    closest = chosen or min(pool, key=lambda c: (c.violation, c.cost))
+    # the closest: a candidate whose steady state was found (its figures say by how much it fails) before
+    # one without (whose failure says nothing about the requirement the others miss)
+    closest = chosen or min(pool, key=lambda c: (c.ss is None, c.violation, c.cost))
     log(f"sizing (motion law): {len(cands)} candidates, {sum(not c.screened_out for c in cands)} analysed, "
         f"{len(feas)} feasible")
     best = chosen or closest
@@ -492,10 +494,21 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
         sz = size(load, req, cat, law, T_c, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            finalize(best, load, req, law, T_c)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: finalize(best, load, req, law, T_c))
+            else:
+                finalize(best, load, req, law, T_c)
     res["sizing"] = sizing_json(sz, load)
     res["_sizing"] = sz
     if sz.chosen is None or not sz.chosen.ok:
+        lim = req.duty.tracking_error_max
+        peaks = [c.summary["tracking_peak_rad"] for c in sz.candidates if c.ss is not None and c.summary]
+        if lim is not None and peaks and min(peaks) > lim:  # the bound itself: no candidate comes near it
+            failures.append(dict(constraint(
+                "peak tracking error ≤ tracking_error_max, best of every analysed candidate", min(peaks), float(lim),
+                "max", "rad", note=f"no candidate of the catalogue ({len(peaks)} with a periodic steady state) tracks "
+                                   f"the law this closely with the design-rule servo"), stage="sizing",
+                                 candidate="all"))
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
         res["closest"] = best.describe()
         return load, sz, failures, True

@@ -344,9 +344,11 @@ def _synthesis_stage(req, res, clock):
             try:
                 res["synthesis"]["solver_check"] = solver_check(syn, table)
             except Exception as e:  # noqa: BLE001 - a linkage the solver cannot follow is a failure, reported
-                res["synthesis"]["solver_check"] = {"error": str(e)}
+                text = "; ".join(x.strip() for x in str(e).splitlines() if x.strip())  # one line
+                text = text if len(text) <= 400 else text[:397] + "..."
+                res["synthesis"]["solver_check"] = {"error": text}
                 failures.append(dict(constraint("mjbench's position solver follows the linkage over a turn", False,
-                                                compare="true", note=str(e)), stage="synthesis"))
+                                                compare="true", note=text), stage="synthesis"))
     res["mechanism"] = table
     res["_geometry"] = geom
     return syn, table, failures
@@ -369,7 +371,10 @@ def _sizing_stage(req, cat, table, speed, res, clock, log):
         sz = SZ.size(load, req, cat, speed, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            SZ.finalize(best, load, req, speed)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: SZ.finalize(best, load, req, speed))
+            else:
+                SZ.finalize(best, load, req, speed)
     res["sizing"] = _sizing_json(sz, load)
     if sz.chosen is None:
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
