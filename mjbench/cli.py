@@ -104,8 +104,14 @@ def _interrupted(signum) -> int:
 
 
 def _main(argv, outputs) -> int:
+    from . import environment
     from .render.gl import check_gl_env
 
+    try:
+        environment.check()  # every MJBENCH_* variable, before anything runs (mjbench/environment.py)
+    except MjbenchError as e:
+        print(f"mjbench: error: {e}", file=sys.stderr)
+        return 2
     check_gl_env()  # a MUJOCO_GL typo is replaced (with a warning) before MuJoCo is imported
     cmd = _command_in(argv)
     gl = os.environ.get("MUJOCO_GL")

@@ -107,7 +107,7 @@ def multisine(N: int, lines, amplitude: float) -> np.ndarray:
 def harmonic_lines(f0: float, f_lo: float, f_hi: float, n: int, avoid=()) -> np.ndarray:
     """Up to n distinct harmonic indices k (frequency k·f0) log-spaced over [f_lo, f_hi], skipping
     the indices in ``avoid`` (the rotation's harmonics of a linkage)."""
-    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0))), max(1, int(math.floor(f_hi / f0)))
+    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0 - 1e-9))), int(math.floor(f_hi / f0 + 1e-9))
     if k_hi < k_lo:
         raise ParameterError(f"frest: the band {f_lo:g}-{f_hi:g} Hz holds no harmonic of the period's {f0:g} Hz; "
                              f"widen --band or lengthen the period")
@@ -153,7 +153,7 @@ def free_lines(f0: float, f_lo: float, f_hi: float, n: int, turns: int, orders: 
     measured too), no line on a rotation harmonic (k = m·turns: the machine's own fluctuation) or on
     its own mirror (2k = m·turns, m ≤ reach).  Each target takes the nearest free index within half a
     log step; a target with none is dropped."""
-    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0))), max(1, int(math.floor(f_hi / f0)))
+    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0 - 1e-9))), int(math.floor(f_hi / f0 + 1e-9))
     if k_hi < k_lo:
         raise ParameterError(f"frest: the band {f_lo:g}-{f_hi:g} Hz holds no harmonic of the period's {f0:g} Hz; "
                              f"widen --band or lengthen the period")

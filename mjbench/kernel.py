@@ -62,6 +62,7 @@ adapter in compiled code).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections import namedtuple
 

@@ -76,7 +76,19 @@ def cmd_list(args):
             continue
         modes = ", ".join(scn.modes) + (" + optimize-law" if scn.spec.law is not None else "")
         print(f"{name:<22s} modes: {modes:<18s} {scn.title}")
-    comps = api.list_components()
+    import sys
+    import warnings
+
+    from ..registry import PluginWarning
+
+    with warnings.catch_warnings(record=True) as caught:  # a broken plugin: one line each, the rest listed
+        warnings.simplefilter("always", PluginWarning)
+        comps = api.list_components()
+    for w in caught:
+        if issubclass(w.category, PluginWarning):
+            print(f"mjbench: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     for kind in ("mechanism", "controller", "drive"):
         print(f"\n{kind} types:")
         for c in (c for c in comps if c.kind == kind):
