@@ -47,8 +47,8 @@ def _check_parts(m: Machine) -> None:
             "drive": "mjbench.make_drive(...)", "controller": "mjbench.make_controller(...)"}
     for name, want, ok in (("mechanism", "a Mechanism", isinstance(m.mechanism, Mechanism)),
                            ("drive", "a Drive", isinstance(m.drive, Drive)),
-                           ("controller", "a controller (a callable with reset())",
-                            callable(m.controller) and callable(getattr(m.controller, "reset", None)))):
+                           ("controller", "a controller (a callable with reset())", m.controller is None  # (a model only)
+                            or (callable(m.controller) and callable(getattr(m.controller, "reset", None))))):
         if not ok:
             raise ParameterError(f"Machine({name}={getattr(m, name)!r}): expected {want} object, got "
                                  f"{type(getattr(m, name)).__name__}; build one with {make[name]}")

@@ -70,6 +70,8 @@ CASES = [
     ("frest-band-reversed", FREST + ["--band", "500,50"], ["--band", "0 < LO < HI"]),
     ("frest-band-nan", FREST + ["--band", "10,nan"], ["--band", "finite"]),
     ("frest-band-between-lines", FREST + ["--band", "10,12", "--period", "0.5"], ["holds no harmonic"]),
+    ("frest-at-q-huge", FREST + ["--at", "q=1e300"], ["--at q=1e+300", "<= 1e+06 rad"]),  # (ran on NaN)
+    ("linearize-at-q-huge", ["linearize", "incerti2012", "--at", "q=-1e300", "--out", "{o}"], ["--at q=-1e+300"]),
     # --- design: degenerate poses are input errors (were NaN rows, a NumPy warning, a pydantic dump, exit 1)
     ("design-identical-poses", ["design", ("motion", POSE2, "[0.0, 0.0, 0.0]")],
      ["poses 1 and 2 are the same pose", "three different poses"]),

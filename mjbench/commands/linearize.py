@@ -35,7 +35,7 @@ def register(sub):
 
 #: |value| limits of an operating point: beyond any motor a DC drive model covers (the plausible
 #: ranges of mjbench.units for angular velocity and current); t: a run length
-AT_LIMITS = {"omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
+AT_LIMITS = {"q": 1e6, "omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
 
 
 def parse_at(items) -> dict:
@@ -49,8 +49,9 @@ def parse_at(items) -> dict:
     for k, v in got.items():
         lim = AT_LIMITS.get(k)
         if lim is not None and abs(v) > lim:
-            raise ParameterError(f"--at {k}={v:g}: |{k}| must be <= {lim:g} {dict(omega='rad/s', qd='rad/s', I='A', t='s')[k]} "
-                                 f"(beyond what the drive model covers)")
+            why = ("an angle that large has no precision left" if k == "q" else "beyond what the drive model covers")
+            raise ParameterError(f"--at {k}={v:g}: |{k}| must be <= {lim:g} "
+                                 f"{dict(q='rad', omega='rad/s', qd='rad/s', I='A', t='s')[k]} ({why})")
     if got.get("t", 0.0) < 0:
         raise ParameterError(f"--at t={got['t']:g}: must be >= 0 s (the time of the run; K_p·t would be a negative gain)")
     return {AT_KEYS[k]: v for k, v in got.items()}

@@ -170,7 +170,7 @@ def parse_perturb(items) -> dict:
         except ValueError:
             raise ScenarioError(f"--perturb {item!r}: {text!r} is not a number or percentage") from None
         if not (math.isfinite(r) and r >= 0):
-            raise ScenarioError(f"--perturb {item!r}: the relative half-width must be >= 0")
+            raise ScenarioError(f"--perturb {item!r}: the relative half-width must be a finite number >= 0")
         if r >= 1:
             raise ScenarioError(f"--perturb {item!r}: a half-width of {100 * r:g} % can change the value's sign "
                                 f"(factor 1 ± r); use less than 100 %")
