@@ -422,6 +422,7 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     if backend not in ("reduced", "multibody"):
         raise ParameterError(f"--backend {backend!r}: choose reduced or multibody")
     check_options(amplitude, band, period, periods, settle, n_lines)
+    periods, n_lines = int(periods), int(n_lines)
     pt = _operating_point(scn, mode, q, qd, I, t)
     check_timing(pt.T, band, period, n_lines)
     lin = _linearisation(pt, scn, backend) if linear else {"loop": None, "plant": None, "family": None, "note": ""}
@@ -608,9 +609,15 @@ def check_options(amplitude, band, period, periods, settle, n_lines) -> None:
     if amplitude is not None and (bad(amplitude) or not float(amplitude) > 0):
         raise ParameterError(f"--amplitude {amplitude!r}: must be a finite excitation peak > 0 (V; A with a current "
                              f"loop)")
-    if isinstance(n_lines, bool) or not isinstance(n_lines, (int, np.integer)) or not 1 <= int(n_lines) <= 1000:
+    def whole(x, lo, hi):
+        try:
+            return not isinstance(x, bool) and float(x) == int(x) and lo <= int(x) <= hi
+        except (TypeError, ValueError, OverflowError):
+            return False
+
+    if not whole(n_lines, 1, 1000):
         raise ParameterError(f"--lines {n_lines!r}: must be a whole number of excited frequencies in 1 … 1000")
-    if isinstance(periods, bool) or not isinstance(periods, (int, np.integer)) or not 2 <= int(periods) <= 1000:
+    if not whole(periods, 2, 1000):
         raise ParameterError(f"--periods {periods!r}: must be a whole number in 2 … 1000 (the coherence needs two "
                              f"periods)")
     if period is not None and (bad(period) or not float(period) > 0):
