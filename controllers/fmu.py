@@ -107,6 +107,8 @@ class _Handle:
         if f is not None and self.live:
             try:
                 f.terminate()
+            except Exception:  # noqa: BLE001 - an instance in the error/fatal state may refuse; it is freed anyway
+                pass
             finally:
                 f.freeInstance()
                 self.live = False
@@ -237,10 +239,20 @@ class FMUController(Controller):
         except MjbenchError:
             raise
         except Exception as e:  # noqa: BLE001 - FMPy and the FMU's own library: one line naming the mode
-            raise RunFailed(f"{self.where} ({self.path}): the FMU could not be started at t = {t0:.6g} s "
-                            f"({_first_line(e)})", t=t0) from None
+            why = _first_line(e)
+        else:
+            why = None
+        if why is not None:  # (raised outside the handler: no reference to FMPy's exception and its frames)
+            self._release()
+            raise RunFailed(f"{self.where} ({self.path}): the FMU could not be started at t = {t0:.6g} s ({why})", t=t0)
         if self.reference is not None:
             self.reference.reset()
+
+    def _release(self) -> None:
+        import contextlib
+
+        with contextlib.suppress(Exception):
+            self.close()
 
     def close(self) -> None:
         """Terminate the FMU instance and release its library and extracted files (a later call
@@ -272,8 +284,15 @@ class FMUController(Controller):
             f.doStep(currentCommunicationPoint=t, communicationStepSize=self.period)  # FMPy raises on a status
             u = float(f.getReal(self._vr_out)[0])  # above warning (discard, error, fatal)
         except Exception as e:  # noqa: BLE001 - FMPy and the FMU's own library: one line naming the mode, the time
+            why = _first_line(e)
+        else:
+            why = None
+        if why is not None:
+            # the instance is unusable (error, fatal, discard): released here, now, not by the garbage
+            # collector (a pythonfmu FMU's library must not be unloaded from inside a collection)
+            self._release()
             raise RunFailed(f"{self.where} ({self.path}): the FMU's doStep at t = {t:.6g} s (step {self.period:g} s) "
-                            f"failed: {_first_line(e)}", t=t) from None
+                            f"failed: {why}", t=t)
         if not math.isfinite(u):
             raise RunFailed(f"{self.where} ({self.path}): the FMU's output {self.output!r} is {u} after its doStep at "
                             f"t = {t:.6g} s", t=t)

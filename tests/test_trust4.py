@@ -403,8 +403,15 @@ def test_fmu_that_is_not_usable_is_named_before_the_run(tmp_path, capsys, kind, 
 
 @pytest.mark.parametrize("mode,status", [(1, "status 4 (fatal)"), (2, "status 2 (discard)")])
 def test_fmu_whose_step_fails_names_the_mode_and_the_time(faulty_fmu, tmp_path, capsys, mode, status):
-    code, _, err = run_cli(_fmu_mode(faulty_fmu, f"modes.ext.parameters.mode={mode}") + ["--out", tmp_path / "o"],
-                           capsys)
+    args = _fmu_mode(faulty_fmu, f"modes.ext.parameters.mode={mode}") + ["--out", str(tmp_path / "o")]
+    if mode == 1:
+        # in its own process: a PythonFMU slave whose do_step raises leaves the interpreter it runs in
+        # corrupted (PythonFMU 0.7.0: a later garbage collection segfaults; docs/bridges.md §2)
+        r = subprocess.run([sys.executable, "-m", "mjbench", *args], capture_output=True, text=True, timeout=120,
+                           env={**os.environ, "MUJOCO_GL": "egl"})
+        code, err = r.returncode, r.stderr
+    else:
+        code, _, err = run_cli(args, capsys)
     assert code == 2
     line = one_line(err)
     assert "modes.ext" in line and "doStep at t = 0.005 s" in line and status in line
@@ -413,7 +420,7 @@ def test_fmu_whose_step_fails_names_the_mode_and_the_time(faulty_fmu, tmp_path, 
 
 def test_fmu_integer_parameter_is_set_as_an_integer(faulty_fmu, tmp_path, capsys):
     """(An Integer parameter was set with setReal: the FMU failed "fatal" at t = 0.)"""
-    code, _, err = run_cli(_fmu_mode(faulty_fmu, "modes.ext.parameters.mode=1", "modes.ext.parameters.t_fail=1")
+    code, _, err = run_cli(_fmu_mode(faulty_fmu, "modes.ext.parameters.mode=2", "modes.ext.parameters.t_fail=1")
                            + ["--no-figure", "--quiet", "--out", tmp_path / "o"], capsys)
     assert code == 0, err
     code, _, err = run_cli(_fmu_mode(faulty_fmu, "modes.ext.parameters.mode=1.5") + ["--out", tmp_path / "o2"], capsys)
