@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .drive import DCMotorDrive
+from .drives import Drive
 from .errors import ParameterError
 from .mechanisms.base import Mechanism
 
@@ -59,7 +60,10 @@ class Machine:
     xd0: tuple | None = None
 
     def __post_init__(self):
-        n = int(getattr(self.mechanism, "n_inputs", 1) or 1)
+        if not isinstance(self.mechanism, Mechanism):
+            raise ParameterError(f"Machine(mechanism={self.mechanism!r}): expected a Mechanism object, got "
+                                 f"{type(self.mechanism).__name__}; build one with {_MAKE['mechanism']}")
+        n = self.mechanism.n_inputs
         if isinstance(self.drive, (list, tuple)):
             if len(self.drive) != n:
                 raise ParameterError(f"machine: {len(self.drive)} drives for a mechanism with {n} input(s)")
@@ -83,6 +87,7 @@ class Machine:
                 if arr.shape != (n,):
                     raise ParameterError(f"machine.{name} = {v!r}: give {n} values (one per axis)")
                 setattr(self, name, tuple(float(x) for x in arr))
+        _check_parts(self)
         # the drive train's mechanical elements (compliant gear, friction) belong to the plant's model
         train = getattr(self.drive, "train", None) if n == 1 else None
         if n > 1 and any(getattr(d, "train", None) is not None for d in self.drives):
@@ -121,8 +126,7 @@ class Machine:
     @property
     def axis_labels(self) -> tuple:
         """Names of the axes (the input joints)."""
-        names = getattr(self.mechanism, "input_joints", None)
-        return tuple(names) if names else (getattr(self.mechanism, "input_joint", "0"),)
+        return tuple(self.mechanism.input_joints)
 
     def input_inertia(self, n: int = 16) -> tuple[float, float]:
         """(smallest, largest) inertia at an input, J_eq + J(q) over n angles of one period [kg·m²]
@@ -144,3 +148,29 @@ class Machine:
         if not J:
             return Jeq, Jeq
         return Jeq + min(J), Jeq + max(J)
+
+
+#: how to build each part (named in the error when a part is of the wrong kind)
+_MAKE = {"mechanism": "mjbench.make_mechanism(...) or mjbench.load(name).machine().mechanism",
+         "drive": "mjbench.make_drive(...)", "controller": "mjbench.make_controller(...)"}
+
+
+def _check_parts(m: Machine) -> None:
+    """The parts are objects of the right kinds and the initial state is finite: one error naming the
+    argument (a name given instead of an object would otherwise fail deep inside a backend)."""
+    ctrls = [c for c, _ in m.controllers] if m.controller is not None else [None]
+    for name, obj, want, ok in (
+            [("drive", d, "a Drive", isinstance(d, Drive)) for d in m.drives]
+            + [("controller", c, "a controller (a callable with reset())", c is None  # (a model only)
+                or (callable(c) and callable(getattr(c, "reset", None)))) for c in ctrls]):
+        if not ok:
+            raise ParameterError(f"Machine({name}={obj!r}): expected {want} object, got {type(obj).__name__}; "
+                                 f"build one with {_MAKE[name]}")
+    for name in ("q0", "qd0", "I0"):
+        v = getattr(m, name)
+        try:
+            ok = all(not isinstance(x, bool) and math.isfinite(float(x)) for x in np.atleast_1d(np.asarray(v, dtype=object)))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ParameterError(f"Machine({name}={v!r}): must be a finite number (several axes: one per axis)")

@@ -99,24 +99,48 @@ def _test_hook(event: str):
 _critical = 0
 _deferred = None
 _installed = False
+_received = None  #: the last signal our handler turned into :class:`Interrupted` (see interrupted_by)
 
 
 def _handler(signum, frame):
-    global _deferred
+    global _deferred, _received
+    _received = signum
     if _critical:  # Python runs signal handlers in the main thread, between bytecodes
         _deferred = signum
         return
     raise Interrupted(signum)
 
 
+def interrupted_by():
+    """The signal number our handler received since it was installed (None: none).  An
+    :class:`Interrupted` raised where Python cannot pass it on — inside an extension module's
+    initialisation (it becomes "ImportError: initialization failed"), a weak-reference callback
+    of the import system ("Exception ignored") — is still known here (mjbench/cli.py)."""
+    return _received
+
+
+def raise_if_interrupted():
+    """Raise :class:`Interrupted` if a signal arrived and was swallowed on its way (see
+    :func:`interrupted_by`)."""
+    if _received is not None:
+        raise Interrupted(_received)
+
+
 def install_signal_handlers():
     """SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt) in the main thread, so
     a terminated run cleans up exactly like Ctrl-C.  Returns a function restoring the previous
     handlers.  Only handlers still at their defaults are replaced."""
-    global _installed
+    global _installed, _received
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
+    _received = None
     old = {}
+    hook = sys.unraisablehook
+
+    def quiet(u):  # an interrupt swallowed by a callback: no "Exception ignored" traceback (see interrupted_by)
+        if not isinstance(u.exc_value, Interrupted):
+            hook(u)
+    sys.unraisablehook = quiet
     for sig, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, signal.SIG_DFL)):
         cur = signal.getsignal(sig)
         if cur in (default, signal.SIG_DFL, _handler):
@@ -128,6 +152,7 @@ def install_signal_handlers():
         global _installed
         for sig, h in old.items():
             signal.signal(sig, h)
+        sys.unraisablehook = hook
         _installed = False
     return restore
 

@@ -168,7 +168,7 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     coordinates are not compared (their reduced model is not a J(q))."""
     import mujoco
 
-    if int(getattr(mech, "n_inputs", 1) or 1) > 1:  # several inputs: the n×n model's check
+    if mech.n_inputs > 1:  # several inputs: the n×n model's check
         return reduced_vs_mujoco_n(mech, options, n)
     out = {"n_angles": int(n), "tolerance": MODEL_TOLERANCE,
            "method": "J = Γᵀ M Γ (mj_fullM), E_p' = Γᵀ(qfrc_bias − qfrc_spring) at zero speed, J' by 4th-order "

@@ -87,6 +87,11 @@ def plugin_scenarios() -> dict:
 
 def read_raw(name_or_path: str) -> tuple[dict, str]:
     """The raw tables of a scenario (TOML file, built-in name or manifest.json) and its source."""
+    if isinstance(name_or_path, os.PathLike):
+        name_or_path = os.fspath(name_or_path)
+    if not isinstance(name_or_path, str) or not name_or_path:
+        raise ScenarioError(f"scenario {name_or_path!r}: give a built-in name, a TOML path or a manifest.json path "
+                            f"(a non-empty string or path), not {type(name_or_path).__name__}")
     if os.path.exists(name_or_path):
         if os.path.isdir(name_or_path):
             raise ScenarioError(f"scenario {name_or_path!r} is a directory; give a TOML file, a manifest.json "
@@ -219,7 +224,7 @@ def make_machine(scn: Scenario, mode: str | None = None):
     mode = scn.mode(mode)
     mech = make_mechanism(scn)
     init = scn.initial
-    n = int(getattr(mech, "n_inputs", 1) or 1)
+    n = mech.n_inputs
     if n == 1:
         drive = make_drive(scn)
         ctrl = CONTROLLERS.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)

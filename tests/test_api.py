@@ -413,8 +413,10 @@ def test_identify_cli_equals_api(tmp_path, capsys):
 
 def test_frequency_response_cli_equals_api_and_fmu_export(tmp_path):
     opts = ["--lines", "4", "--periods", "2", "--settle", "0.05", "--period", "0.1", "--band", "60,2000"]
-    assert main(["frest", "incerti2012", *opts, "--out", str(tmp_path / "cli")]) == 0
+    # seed 000's PID sits on its ±48 V limiter there: measured, written, flagged saturated, exit 1 (issue 35)
+    assert main(["frest", "incerti2012", *opts, "--out", str(tmp_path / "cli")]) == 1
     res = mjb.frequency_response("incerti2012", lines=4, periods=2, settle=0.05, period=0.1, band=(60, 2000))
+    assert res.data["saturation"]["saturated"] and "SATURATED" in res.summary()
     res.save(tmp_path / "api")
     assert_same_folder(tmp_path / "cli", tmp_path / "api", binary=())
     import control

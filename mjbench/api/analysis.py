@@ -234,7 +234,8 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     q, qd, I, t : float, optional
         Operating point: input angle [rad], input speed [rad/s], current [A], time [s] of a K_p·t
         gain.  Default: the initial angle, the controller's running speed there, the current
-        holding q̈ = 0, ``simulation.t_end`` for a K_p·t PID (else 0).
+        that sustains the speed on average over a turn (at rest: the one holding q̈ = 0; a running
+        linkage's q̈* ≠ 0 at the point), ``simulation.t_end`` for a K_p·t PID (else 0).
     angles : int
         Frozen angles over one turn for the family of loops (0: none).
     multibody : bool
@@ -284,7 +285,8 @@ def linear_summary(js: dict[str, Any]) -> str:
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}): q* = {f(op['q_rad'])} rad, "
-             f"q̇* = {f(op['qd_rad_s'])} rad/s, I* = {f(op['I_A'])} A, V* = {f(op['V_V'])} V"
+             f"q̇* = {f(op['qd_rad_s'])} rad/s, I* = {f(op['I_A'])} A, V* = {f(op['V_V'])} V, "
+             f"q̈* = {f(op['qdd_rad_s2'])} rad/s²"
              + (f", t = {f(op['t_s'])} s" if op["t_s"] else "") + f"; angle model: {js['angle_model']}"]
     for w in js.get("warnings", []):
         lines.append(f"WARNING: {w}")

@@ -193,10 +193,17 @@ def _grid(grid: Mapping[str, Any]) -> dict[str, list[Any]]:
     """{key: values} with the CLI's checks (text values parsed as ``--grid``)."""
 
     out: dict[str, list[Any]] = {}
+    if not isinstance(grid, Mapping):
+        raise ParameterError(f"grid = {grid!r}: expected a mapping {{key: [values]}}, e.g. {{'drive.R': [1.5, 2.0]}}")
     for key, vals in grid.items():
+        if not isinstance(key, str):
+            raise ParameterError(f"grid key {key!r}: expected a dotted scenario key (str), e.g. 'drive.R'")
         if isinstance(vals, str):
             out.update(SW.parse_grid([f"{key}={vals}"]))
             continue
+        if isinstance(vals, Mapping) or not hasattr(vals, "__iter__"):
+            raise ParameterError(f"grid[{key!r}] = {vals!r}: expected a list of values, e.g. [{vals!r}] for one "
+                                 f"value, or the CLI's text '1.5,2,2.5'")
         vals = list(vals.tolist() if hasattr(vals, "tolist") else vals)
         if not vals:
             raise ParameterError(f"grid[{key!r}]: no values")
@@ -217,6 +224,12 @@ def _same(a: Any, b: Any) -> bool:
 
 def _perturb(perturb: Mapping[str, float | str]) -> dict[str, float]:
 
+    if not isinstance(perturb, Mapping):
+        raise ParameterError(f"perturb = {perturb!r}: expected a mapping {{key: relative half-width}}, e.g. "
+                             f"{{'drive.R': 0.05}}")
+    for k, v in perturb.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+            raise ParameterError(f"perturb[{k!r}] = {v!r}: expected a relative half-width (0.05 or '5%')")
     return dict(SW.parse_perturb([f"{k}={v if isinstance(v, str) else repr(float(v))}" for k, v in perturb.items()]))
 
 

@@ -76,7 +76,7 @@ def build_model(machine, options=None, native_dcmotor=False):
 
 def input_joints(mech) -> tuple:
     """The names of the joints the drives turn, in axis order (one-axis: the input joint)."""
-    return tuple(getattr(mech, "input_joints", None) or (mech.input_joint,))
+    return tuple(mech.input_joints)
 
 
 def _add_dcmotor(spec, drive, joint):

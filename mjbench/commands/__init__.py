@@ -57,6 +57,26 @@ def integer(ge=None, le=None, what="an integer"):
     return conv
 
 
+def number(gt=None, ge=None, le=None, what="a number"):
+    """argparse ``type=``: a finite number within the bounds (no unit)."""
+    def conv(text):
+        try:
+            x = float(text)
+            ok = math.isfinite(x)
+        except (ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        if gt is not None and not x > gt:
+            raise argparse.ArgumentTypeError(f"must be {what} > {gt:g}, got {text!r}")
+        if ge is not None and not x >= ge:
+            raise argparse.ArgumentTypeError(f"must be {what} >= {ge:g}, got {text!r}")
+        if le is not None and not x <= le:
+            raise argparse.ArgumentTypeError(f"must be {what} <= {le:g}, got {text!r}")
+        return x
+    return conv
+
+
 def quantity(kind, gt=None, ge=None, lt=None, le=None):
     """argparse ``type=``: a finite number in the SI unit of ``kind`` (:data:`mjbench.units.KINDS`),
     or a string with a unit ("500 ms", "60 rpm"), within the bounds (as the scenario schema)."""

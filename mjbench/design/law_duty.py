@@ -223,7 +223,7 @@ def steady_state(load: LoadModel, drive: DriveModel, g: ServoGains, law, T_c: fl
     d, dd, ddd, q, qd, qdd, Treq, wm, I, dI, Vreq, r = out
     return {"tau": tau, "T": T_c, "speed": W, "q_ref": qr, "qd_ref": qdr, "qdd_ref": qddr, "delta": d, "q": q,
             "qd": qd, "qdd": qdd, "I": I, "dI": dI, "V": Vreq, "T_m": drive.k_m * I, "T_crank": Treq,
-            "T_gear": drive.gear_output(I, wm, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
+            "T_gear": drive.gear_output(Treq, qd, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
             "residual": res, "n": n, "M_mean": M_mean, "eta_eff": eta_eff, "sign_speed": w_eps}
 
 
@@ -237,6 +237,7 @@ def summary(ss: dict, drive: DriveModel) -> dict:
             "voltage_peak_V": float(np.max(np.abs(V))), "voltage_mean_V": float(np.mean(V)),
             "tracking_rms_rad": rms(d), "tracking_peak_rad": float(np.max(np.abs(d))),
             "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "mean_power_W": float(np.mean(ss["T_crank"] * ss["qd"])),
+            "gear_work_per_cycle_J": float(np.mean(Tg * ss["qd"])) * ss["T"],
             "copper_loss_W": float(np.mean(I * I)) * drive.R, "chi": None}
 
 
@@ -319,7 +320,9 @@ def size(load: LoadModel, req, cat, law, T_c: float, log=None) -> LawSizing:
     feas = [c for c in cands if c.ok]
     chosen = min(feas, key=lambda c: (c.cost, c.summary.get("motor_torque_rms_Nm", 0.0))) if feas else None
     pool = [c for c in cands if not c.screened_out] or cands
-    closest = chosen or min(pool, key=lambda c: (c.violation, c.cost))
+    # the closest: a candidate whose steady state was found (its figures say by how much it fails) before
+    # one without (whose failure says nothing about the requirement the others miss)
+    closest = chosen or min(pool, key=lambda c: (c.ss is None, c.violation, c.cost))
     log(f"sizing (motion law): {len(cands)} candidates, {sum(not c.screened_out for c in cands)} analysed, "
         f"{len(feas)} feasible")
     best = chosen or closest
@@ -400,10 +403,11 @@ def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
     e = q - ref_angle(tt)
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [a, b], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "tracking_rms_rad": rms(e),
            "tracking_peak_rad": float(np.max(np.abs(e))), "mean_speed_rad_s": float((q[-1] - q[0]) / (tt[-1] - tt[0])),
            "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "chi": float(M.chi(tr.t, tr.omega, a, b)),
@@ -490,10 +494,21 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
         sz = size(load, req, cat, law, T_c, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            finalize(best, load, req, law, T_c)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: finalize(best, load, req, law, T_c))
+            else:
+                finalize(best, load, req, law, T_c)
     res["sizing"] = sizing_json(sz, load)
     res["_sizing"] = sz
     if sz.chosen is None or not sz.chosen.ok:
+        lim = req.duty.tracking_error_max
+        peaks = [c.summary["tracking_peak_rad"] for c in sz.candidates if c.ss is not None and c.summary]
+        if lim is not None and peaks and min(peaks) > lim:  # the bound itself: no candidate comes near it
+            failures.append(dict(constraint(
+                "peak tracking error ≤ tracking_error_max, best of every analysed candidate", min(peaks), float(lim),
+                "max", "rad", note=f"no candidate of the catalogue ({len(peaks)} with a periodic steady state) tracks "
+                                   f"the law this closely with the design-rule servo"), stage="sizing",
+                                 candidate="all"))
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
         res["closest"] = best.describe()
         return load, sz, failures, True
@@ -637,6 +652,3 @@ def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
             rows.append(PL._row("RMS tracking error", None, ach["tracking_rms_rad"], "info", "rad", src, ok=True))
         res["requirements_table"] = rows
     return [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
-
-
-# ============================================================================ figure

@@ -45,7 +45,7 @@ def figure(res, path):
                 ax[0][0].plot(ts, np.degrees(tr.q[sel] - k0), "--", color="C1", label="multibody")
                 ax[0][1].plot(ts, np.degrees(e), "--", color="C1", label="multibody")
                 ax[1][0].plot(ts, tr.current[sel], "--", color="C1", label="multibody")
-                ax[1][1].plot(ts, ch.drive.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
+                ax[1][1].plot(ts, ch.drive.gear_output_of_run(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
                               label="multibody")
         for a2, lab in ((ax[0][0], ps.label("crank angle", "°")), (ax[0][1], ps.label("tracking error q − q_ref", "°")),
                         (ax[1][0], ps.label("motor current", "A")), (ax[1][1], ps.label("gearbox output torque", "N·m"))):

@@ -170,10 +170,11 @@ def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
     def rms(x):
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [float(a), float(b)], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "chi": float(M.chi(t, om, a, b)),
            "speed_dev_max_rel": float(np.max(np.abs(qd - speed)) / speed),
            "mean_speed_rad_s": float(M.time_mean(tt, qd)), "motor_speed_max_rad_s": float(np.max(np.abs(wm))),
@@ -323,9 +324,11 @@ def _synthesis_stage(req, res, clock):
             try:
                 res["synthesis"]["solver_check"] = solver_check(syn, table)
             except Exception as e:  # noqa: BLE001 - a linkage the solver cannot follow is a failure, reported
-                res["synthesis"]["solver_check"] = {"error": str(e)}
+                text = "; ".join(x.strip() for x in str(e).splitlines() if x.strip())  # one line
+                text = text if len(text) <= 400 else text[:397] + "..."
+                res["synthesis"]["solver_check"] = {"error": text}
                 failures.append(dict(constraint("mjbench's position solver follows the linkage over a turn", False,
-                                                compare="true", note=str(e)), stage="synthesis"))
+                                                compare="true", note=text), stage="synthesis"))
     res["mechanism"] = table
     res["_geometry"] = geom
     return syn, table, failures
@@ -346,7 +349,10 @@ def _sizing_stage(req, cat, table, speed, res, clock, log):
         sz = SZ.size(load, req, cat, speed, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            SZ.finalize(best, load, req, speed)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: SZ.finalize(best, load, req, speed))
+            else:
+                SZ.finalize(best, load, req, speed)
     res["sizing"] = _sizing_json(sz, load)
     if sz.chosen is None:
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]

@@ -321,7 +321,7 @@ def figure(res, path):
                 qs = np.degrees(tr.q[sel]) % 360
                 os_ = np.argsort(qs)
                 dm = ch.drive
-                ax[0][1].plot(qs[os_], dm.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel])[os_], "--", color="C1",
+                ax[0][1].plot(qs[os_], dm.gear_output_of_run(tr.current[sel], tr.omega[sel], tr.qdd[sel])[os_], "--", color="C1",
                               label="gearbox output, multibody")
                 ax[1][0].plot(qs[os_], tr.current[sel][os_], "--", color="C1", label="multibody")
                 ax[1][1].plot(qs[os_], tr.qd[sel][os_], "--", color="C1", label="multibody")

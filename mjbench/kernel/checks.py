@@ -3,8 +3,8 @@ and what it says when a run diverges."""
 from __future__ import annotations
 
 import math
-import os
 
+from .. import environment
 from ..errors import ParameterError
 from .loop import MAX_CURRENT, MAX_SPEED
 from ..backends.table import mechanism_key
@@ -130,15 +130,9 @@ def memory_limit(need: int | None = None) -> int:
     machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read).  With
     ``need`` [bytes] at most :data:`SMALL_RECORD` and no ``MJBENCH_MAX_RECORD_MB``, ``need`` itself
     without reading the system's figure (a record that small is never refused)."""
-    env = os.environ.get("MJBENCH_MAX_RECORD_MB")
-    if env:
-        try:
-            v = float(env)
-        except ValueError:
-            v = math.nan
-        if not (math.isfinite(v) and v > 0):
-            raise ParameterError(f"MJBENCH_MAX_RECORD_MB = {env!r}: must be a finite number of MiB > 0")
-        return int(v * 2 ** 20)
+    env = environment.max_record_mb()  # (checked in one place: a finite number > 0, else an error naming it)
+    if env is not None:
+        return int(env * 2 ** 20)
     if need is not None and need <= SMALL_RECORD:
         return int(need)
     try:

@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import compiled as C
 from .. import signals as SIG
+from .. import environment
 from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
@@ -36,7 +37,7 @@ from .program import MIN_STEPS
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.05
 #: the values ``MJBENCH_JIT`` may take
-JIT_MODES = {"": "", "0": "python", "python": "python", "1": "compiled", "compiled": "compiled", "check": "check"}
+JIT_MODES = environment.JIT_VALUES
 
 
 class Record:
@@ -440,12 +441,7 @@ def jit_mode(loop: str | None = None) -> str:
         if v not in JIT_MODES:
             raise ParameterError(f"loop = {loop!r}: choose python, compiled or check")
         return JIT_MODES[v]
-    env = os.environ.get("MJBENCH_JIT", "")
-    v = env.strip().lower()
-    if v not in JIT_MODES:
-        raise ParameterError(f"MJBENCH_JIT = {env!r}: choose 0 (python), 1 (compiled) or check (compiled, "
-                             f"bounds-checked), or leave it unset (chosen by the job's size)")
-    return JIT_MODES[v]
+    return environment.jit()  # (MJBENCH_JIT checked in one place: mjbench/environment.py)
 
 
 def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> tuple[str, str]:

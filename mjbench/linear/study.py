@@ -53,8 +53,8 @@ def study(scn, mode=None, q=None, qd=None, I=None, t=None, n_angles=36, multibod
     family, the K_p·t stability limit.  Returns {"json": plain data for ``outputs.write_json``,
     "objects": the python-control objects, for the figures}.
     Defaults: q = the scenario's initial angle, q̇ = the running speed there, I = the current
-    holding q̈ = 0, t = simulation.t_end for a K_p·t PID (the largest gain of the run), else 0."""
-
+    sustaining it on average over a turn (at rest: holding q̈ = 0), t = simulation.t_end for a K_p·t
+    PID (the largest gain of the run), else 0."""
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
     h = float(scn.simulation.dt)

@@ -54,6 +54,7 @@ from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
 from .base import table_form
 from .linkage import Linkage, LinkageParams, table_from_quickreturn
 from ..trajectory import atomic_write
+from .mjcf_export import standalone_xml
 
 G = 9.81  #: gravitational acceleration [m/s²]
 AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
@@ -512,12 +513,14 @@ class QuickReturn(Mechanism):
 
         return Linkage(LinkageParams.model_validate(table_from_quickreturn(self)))
 
-    def export_mjcf(self, path, armature: float = 0.0, options=None):
-        """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""
+    def export_mjcf(self, path, armature: float = 0.0, options=None, q0: float = 0.0):
+        """Write the MJCF (XML) of this mechanism to ``path`` atomically, assembled at crank angle
+        ``q0`` at rest (qpos0 and the keyframe ``initial``: mjbench/mjcf_export.py)."""
 
         spec = self.build_spec(armature=armature, options=options)
-        spec.compile()
-        xml = spec.to_xml()
+        model = spec.compile()
+        xml = standalone_xml(spec, model, self.initial_qpos(model, q0), self.initial_qvel(model, q0, 0.0),
+                             self.input_joint)
         atomic_write(path, lambda f: f.write(xml))
         return path
 

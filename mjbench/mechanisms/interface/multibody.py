@@ -21,6 +21,17 @@ class MultibodyModel(abc.ABC):
     #: name of the driven joint in the MJCF model
     input_joint: ClassVar[str] = INPUT_JOINT
 
+    @property
+    def input_joints(self) -> tuple:
+        """The driven joints, one per axis, in axis order (one axis: :attr:`input_joint`; a mechanism
+        with several inputs sets its own)."""
+        return (self.input_joint,)
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of driven inputs (axes)."""
+        return len(self.input_joints)
+
     @abc.abstractmethod
     def build_spec(self, armature: float = 0.0, options=None):
         """Return a ``mujoco.MjSpec`` of the mechanism.  The driven joint is named

@@ -44,12 +44,16 @@ class MultiLinkage(Linkage):
     def from_params(cls, p):
         return cls(p)
 
+    @property
+    def input_joints(self) -> tuple:
+        """The driven joints (the description's ``inputs``), one per axis."""
+        return self._inputs
+
     def __init__(self, params):
         self.params = params
         self.name = params.name
-        self.input_joints = tuple(params.inputs)
-        self.input_joint = self.input_joints[0]
-        self.n_inputs = len(self.input_joints)
+        self._inputs = tuple(params.inputs)
+        self.input_joint = self._inputs[0]
         self.c = c = compiled_multi(params)
         for k in c.closures:
             if params.joints[k].damping > 0:
