@@ -64,8 +64,10 @@ def mujoco_derived(scn) -> bool:
 def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     """Metrics of every backend, their cross-comparison and the paper comparison rows."""
     mt = scn.metrics
+    drive, v_limit = duty_limits(scn, mode)
     res = {"mode": mode, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
-                                                   steady_from=mt.steady_start, band_rel=mt.band_rel)
+                                                   steady_from=mt.steady_start, band_rel=mt.band_rel,
+                                                   drive=drive, v_limit=v_limit)
                                       for b, tr in trajs.items()}}
     res["reduced_model"] = reduced_source(scn)
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
@@ -106,7 +108,18 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", scn.simulation.dt))) for b, tr in trajs.items()}
     res["paper"] = paper_rows(scn, mode, res["backends"])
+    res["warnings"] = M.duty_warnings(res["backends"])
     return res
+
+
+def duty_limits(scn, mode: str) -> tuple:
+    """The drive object and the controller's output clip [V] (None: none) the duty figures are
+    measured against (:func:`mjbench.metrics.duty`)."""
+    try:
+        drive = scn.drive.build()
+    except Exception:  # noqa: BLE001 - the run has built it already; the figures then go without limits
+        drive = None
+    return drive, getattr(scn.modes.get(mode), "v_limit", None)
 
 
 def metric_value(m: dict, key: str):
@@ -244,10 +257,41 @@ def chi_text(res):
     return "\n".join(lines)
 
 
+#: the duty lines of the summary: (label, metric keys joined by " / ", format, scale)
+DUTY_LINES = (("RMS / peak motor current [A]", ("current_rms_steady_A", "current_peak_steady_A"), "{:.3g}", 1.0),
+              ("RMS motor torque k_m·I [N·m]", ("torque_motor_rms_steady_Nm",), "{:.3g}", 1.0),
+              ("RMS / peak gearbox output torque [N·m]", ("torque_output_rms_steady_Nm",
+                                                           "torque_output_peak_steady_Nm"), "{:.4g}", 1.0),
+              ("at the current limit {current_limit_A:g} A [% of time]", ("current_limit_fraction_steady",), "{:.2f}",
+               100.0),
+              ("at the voltage limit {voltage_limit_V:g} V [% of time]", ("voltage_limit_fraction_steady",), "{:.2f}",
+               100.0))
+
+
+def duty_text(res: dict) -> list:
+    """The summary's duty lines (:func:`mjbench.metrics.duty`): over the steady-state window."""
+    bs = {b: m for b, m in res["backends"].items() if m and "duty_window_s" in m}
+    if not bs:
+        return []
+    t0, t1 = next(iter(bs.values()))["duty_window_s"]
+    lines = [f"  duty over the steady state t = {t0:g}–{t1:g} s (from metrics.steady_start; default: half the run):"]
+    for label, keys, fmt, scale in DUTY_LINES:
+        vals = []
+        for b, m in bs.items():
+            xs = [m.get(k) for k in keys]
+            if all(x is not None for x in xs):
+                vals.append(f"{b}: " + " / ".join(fmt.format(scale * x) for x in xs))
+        if vals:
+            first = next(m for m in bs.values() if all(m.get(k) is not None for k in keys))
+            lines.append(f"    {label.format(**first):<38s} " + "   ".join(vals))
+    return lines
+
+
 def summary_text(res: dict) -> str:
     """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
     lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
-    keys = [("mean_motor_speed_rad_s", "mean motor speed (2nd half) [rad/s]", "{:.3f}"),
+    keys = [("mean_motor_speed_rad_s", "mean motor speed (steady state) [rad/s]", "{:.3f}"),
+            ("mean_crank_speed_rad_s", "mean crank speed (steady state) [rad/s]", "{:.4g}"),
             ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),
             ("chi_last_turn", "χ last 2π of travel to t_end [%]", "pct"),
             ("chi_window", "χ in the metrics window [%]", "pct"),
@@ -272,6 +316,7 @@ def summary_text(res: dict) -> str:
     if dts:  # χ is max − min of the record's samples: it depends on their interval
         lines.append(f"  {'χ computed from samples every':<40s} {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms "
                      f"(simulation.record_dt)")
+    lines += duty_text(res)
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")

@@ -155,19 +155,23 @@ def _simulate_machine(machine: Machine, backend: str, t_end: float, record_dt: f
     for b in runner.backends_of(backend):
         with _bar(progress, t_end / dt, b) as bar:
             trajs[b] = run_backend(machine, b, t_end, record_dt=record_dt, options=options[b], progress=bar)
-    metrics = machine_metrics(trajs)
+    metrics = machine_metrics(trajs, machine)
     res = Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend,
                  machine=machine)
     warn(res.warnings)
     return res
 
 
-def machine_metrics(trajs: dict[str, Any]) -> dict[str, Any]:
-    """Metrics of runs without a scenario: per backend, their comparison, the step check."""
+def machine_metrics(trajs: dict[str, Any], machine: Machine | None = None) -> dict[str, Any]:
+    """Metrics of runs without a scenario: per backend (the duty figures against ``machine``'s
+    drive and controller limits), their comparison, the step check."""
     from .. import metrics as M
     from .. import plausibility
 
-    res: dict[str, Any] = {"mode": None, "backends": {b: M.summary(tr) for b, tr in trajs.items()}}
+    drive = getattr(machine, "drive", None)
+    v_limit = getattr(getattr(machine, "controller", None), "v_limit", None)
+    res: dict[str, Any] = {"mode": None, "backends": {b: M.summary(tr, drive=drive, v_limit=v_limit)
+                                                      for b, tr in trajs.items()}}
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
                    for b, tr in trajs.items()}
     if "multibody" in trajs and "reduced" in trajs:
@@ -175,6 +179,7 @@ def machine_metrics(trajs: dict[str, Any]) -> dict[str, Any]:
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", MACHINE_DT))) for b, tr in trajs.items()}
+    res["warnings"] = M.duty_warnings(res["backends"])
     return res
 
 
@@ -292,7 +297,7 @@ def _many_machines(machines: list[Machine], backends: tuple, backend: str, t_end
             runs[i][b] = tr
     out = []
     for mach, trajs in zip(machines, runs):
-        metrics = _guarded(lambda trajs=trajs: machine_metrics(trajs), trajs, None)
+        metrics = _guarded(lambda trajs=trajs, mach=mach: machine_metrics(trajs, mach), trajs, None)
         out.append(Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend,
                           machine=mach))
     warn(w for r in out for w in r.warnings)
