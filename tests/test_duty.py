@@ -9,7 +9,7 @@ import pytest
 import mjbench as mjb
 from mjbench import metrics as M
 from mjbench.drive import DCMotorDrive
-from mjbench.errors import MjbenchWarning
+from mjbench import MjbenchWarning
 from mjbench.trajectory import Trajectory
 
 
