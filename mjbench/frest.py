@@ -710,16 +710,13 @@ def family_comparison(fam, Pm, Lm, Sm, in_band, cmp, sides=None) -> dict:
 def figure(res, path, title=""):
     """Bode plot of the measured plant and loop (dots) with the linearisation (line), the frozen-angle
     envelope (band), the family followed along the turn (dashed) and the coherence."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .plotstyle import subplots
 
     w = res["omega"]
     rows = [("plant q̇/V", res["P"], res["P_lin"], "P")]
     if res["L"] is not None:
         rows.append(("loop L at the plant input", res["L"], res["L_lin"], "L"))
-    fig, ax = plt.subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
+    fig, ax = subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
     for j, (name, G, Gl, key) in enumerate(rows):
         ax[0, j].loglog(w, np.abs(G), "o", ms=3, label="measured (nonlinear machine)")
         ax[1, j].semilogx(w, np.degrees(np.unwrap(np.angle(G))), "o", ms=3)
@@ -744,4 +741,3 @@ def figure(res, path, title=""):
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

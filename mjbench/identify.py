@@ -397,11 +397,11 @@ def report(res, truth=None) -> str:
 
 def plot(rec, res, path):
     from . import plots as P
-    import matplotlib.pyplot as plt
+    from .plotstyle import new
 
     has_i = rec.get("I") is not None
     nrow = 3 if has_i else 2
-    fig, axes = plt.subplots(nrow + 1, 1, figsize=(8, 2.6 * (nrow + 1)), sharex=True)
+    fig, axes = new(nrow + 1, 1, figsize=(8, 2.6 * (nrow + 1)), sharex=True)
     t = rec["t"]
     axes[0].plot(t, rec["V"], color="k", lw=1)
     axes[0].set_ylabel("voltage [V]")
@@ -418,7 +418,7 @@ def plot(rec, res, path):
     if has_i:
         axes[-1].plot(t, rec["I"] - res["I_fit"], color="tab:red", lw=0.6, alpha=0.7, label="current residual [A]")
     axes[-1].set_ylabel("residual")
-    axes[-1].set_xlabel("t [s]")
+    axes[-1].set_xlabel("time t [s]")
     axes[-1].legend(loc="upper right")
     p = res["params"]
     axes[0].set_title("  ".join(f"{k}={v['value']:.4g}" for k, v in p.items()), fontsize=8)

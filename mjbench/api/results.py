@@ -145,7 +145,9 @@ class Run:
         return pd.DataFrame(self.data, columns=list(self.columns))
 
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
-        """One panel per column against time; returns the matplotlib Figure."""
+        """One panel per column against time, labelled with its quantity and unit; returns the
+        matplotlib Figure (:class:`mjbench.plotstyle.Figure`: not pyplot's, so a notebook shows it
+        once and the user's matplotlib backend is left alone; ``fig.savefig(path)`` saves it)."""
         return plot_runs([self], columns)
 
 
@@ -259,7 +261,8 @@ class Result:
 
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
         """One panel per column against time, every backend drawn (multibody solid, reduced
-        dashed); returns the matplotlib Figure."""
+        dashed), labelled with its quantity and unit; returns the matplotlib Figure
+        (:class:`mjbench.plotstyle.Figure`: shown once in a notebook, the backend left alone)."""
         return plot_runs(list(self.runs.values()), columns,
                          title=f"{self.scenario.name} — {self.mode}" if self.scenario else machine_label(self.machine))
 
@@ -324,24 +327,20 @@ def machine_label(machine: Machine | None) -> str:
 
 def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> Figure:
     """Panels of ``columns`` against time for every run (the backends' line styles)."""
-    import matplotlib.pyplot as plt
-
-    from ..plotstyle import BACKEND
+    from ..plotstyle import BACKEND, finish, new
+    from ..trajectory import column_label
 
     if isinstance(columns, str):
         columns = [columns]
     for c in columns:
         if c not in runs[0].columns:
             raise ParameterError(f"plot: {c!r} is not a column; columns: {', '.join(runs[0].columns)}")
-    fig, axes = plt.subplots(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
+    fig, axes = new(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
     for ax, c in zip(axes[:, 0], columns):
         for r in runs:
             ax.plot(r.time, r[c], **BACKEND.get(r.backend, dict(label=r.backend)))
-        ax.set_ylabel(c)
+        ax.set_ylabel(column_label(c))
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
-    axes[-1, 0].set_xlabel("t_s")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    axes[-1, 0].set_xlabel(column_label("t_s"))
+    return finish(fig, title)
