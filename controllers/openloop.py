@@ -20,6 +20,10 @@ class OpenParams(Strict):
     voltage: Q("voltage", finite=True) = Field(description="armature voltage")
     t_ramp: Q("time", ge=0.0, plausible=False) = Field(0.0, description="linear ramp from 0 over t_ramp (0: step)")
 
+    def command_bound(self) -> float:
+        """The largest |voltage| the mode commands [V] (the duty figures: a limiter at or above it never acts)."""
+        return abs(float(self.voltage))
+
 
 OpenP = namedtuple("OpenP", "voltage t_ramp")
 
@@ -56,6 +60,10 @@ class ConstantVoltage(Controller):
 
     def parameters(self, T, z):
         return OpenP(float(self.voltage), float(self.t_ramp))
+
+    def command_bound(self) -> float:
+        """The largest |voltage| it commands [V]."""
+        return abs(float(self.voltage))
 
     def linear(self, machine, op, T, h, angle="state"):
         """None: open loop, no feedback to linearise (the plant alone is the system)."""

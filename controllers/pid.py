@@ -54,7 +54,10 @@ class PIDParams(Strict):
     kp: Q("gain_v_per_rad_s") = Field(description="proportional gain (×t with kp_ramp) [V·s/rad]")
     ki: Q("gain_v_per_rad") = Field(description="integral gain [V/rad]")
     kd: Q("gain_v_per_rad_s2") = Field(description="derivative gain [V·s²/rad]")
-    omega0: OptQ("angular_velocity") = Field(None, description="motor-speed set-point (or a reference table)")
+    omega0: OptQ("angular_velocity") = Field(None, description="speed set-point on the MOTOR shaft, φ̇ (the crank "
+                                                                  "turns at omega0 / z); or omega_crank, or a reference table")
+    omega_crank: OptQ("angular_velocity") = Field(None, description="speed set-point on the CRANK (input) shaft, α̇: "
+                                                                       "the motor's is z·omega_crank")
     kp_ramp: Bool = Field(False, description="time-varying gain K_p·t (seed 000 Eq 15)")
     t_ramp_max: Q("time", gt=0.0, finite=False, plausible=False) = Field(math.inf, description="bound of the K_p·t ramp")
     v_limit: OptQ("voltage", gt=0.0) = Field(None, description="output clip + anti-windup (none: plain Eq 16)")
@@ -64,11 +67,20 @@ class PIDParams(Strict):
 
     @model_validator(mode="after")
     def _ref(self):
-        if self.reference is None and self.omega0 is None:
-            raise PydanticCustomError("mjbench_value", "needs omega0 (motor-speed set-point [rad/s]) or a [reference] table")
-        if self.reference is not None and self.omega0 is not None:
-            raise PydanticCustomError("mjbench_value", "give omega0 or a [reference] table, not both")
+        given = [k for k in ("omega0", "omega_crank", "reference") if getattr(self, k) is not None]
+        if not given:
+            raise PydanticCustomError("mjbench_value", "needs a set-point: omega0 (motor shaft [rad/s]), omega_crank "
+                                      "(crank shaft [rad/s]) or a [reference] table")
+        if len(given) > 1:
+            raise PydanticCustomError("mjbench_value", "give one of omega0 (motor shaft), omega_crank (crank shaft) or "
+                                      "a [reference] table, not {keys}", {"keys": " and ".join(given)})
         return self
+
+    def motor_setpoint(self, z: float):
+        """The motor-shaft speed set-point [rad/s]: omega0, or z·omega_crank (None: a reference table)."""
+        if self.omega0 is not None:
+            return float(self.omega0)
+        return None if self.omega_crank is None else float(z) * float(self.omega_crank)
 
 
 #: the PID law's parameters (motor-side gains, K_p·t ramp and its bound, output clip, gear ratio)
@@ -139,7 +151,12 @@ class PID(Controller):
         if p.reference is not None:
             from . import references
             reference = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)
-        return cls(kp, ki, kd, reference=reference, omega0=p.omega0, kp_ramp=p.kp_ramp,
+        omega0 = p.omega0
+        if p.omega_crank is not None:
+            if drive is None:
+                raise ParameterError("PID omega_crank needs the drive (gear ratio z)")
+            omega0 = p.motor_setpoint(drive.z)
+        return cls(kp, ki, kd, reference=reference, omega0=omega0, kp_ramp=p.kp_ramp,
                    t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)
 
     def parameters(self, T, z):

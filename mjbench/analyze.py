@@ -36,16 +36,15 @@ DEAD_DEG = 1.0  #: transmission angle below which a position is flagged as a dea
 
 
 def default_speeds(scn) -> list:
-    """Input speeds [rad/s] to analyse: the set-point of every mode that has one (PID ω₀/z,
-    SMC ω_d), else one revolution per second."""
+    """Input speeds [rad/s] to analyse: the set-point of every mode that has one (PID ω₀/z or
+    omega_crank, SMC ω_d), else one revolution per second."""
     out = []
     z = float(scn.drive.z)
     for name, p in scn.modes.items():
-        w = None
-        if getattr(p, "omega0", None) is not None:
-            w = float(p.omega0) / z
-        elif getattr(p, "omega_d", None) is not None:
-            w = float(p.omega_d)
+        from .scenario import speed_setpoint
+
+        sp = speed_setpoint(p, z)
+        w = None if sp is None else sp["crank_speed_rad_s"]
         if w is not None and w > 0 and all(abs(w - x) > 1e-9 for x in out):
             out.append(w)
     return out or [2.0 * math.pi]

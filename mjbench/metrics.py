@@ -286,8 +286,9 @@ def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
       torque is not a recorded column);
     * the fraction of the window's samples at the current limit (|I| within 0.5 % of
       ``drive.i_max``: :data:`CURRENT_LIMIT_TOL`) and at the voltage limit (|V| at the smaller of
-      ``drive.v_max`` and the controller's ``v_limit``); a limit that is not set (inf) is not
-      listed.
+      ``drive.v_max`` and the controller's ``v_limit``; ``v_limit`` may be (v_limit, largest
+      |command|) for a mode whose command is known — an open loop at or below the limit is never
+      limited, 0); a limit that is not set (inf) is not listed.
 
     Means over the record's samples (uniform in time).  An ideal torque or speed source has no
     current: its output torque (the recorded drive torque less J·α̈) only.  The peaks are the
@@ -316,11 +317,15 @@ def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
         if math.isfinite(i_max):
             out["current_limit_A"] = i_max
             out["current_limit_fraction_steady"] = float(np.mean(np.abs(I) >= i_max * (1.0 - CURRENT_LIMIT_TOL)))
+        v_limit, bound = v_limit if isinstance(v_limit, tuple) else (v_limit, math.inf)
         v_lim = min(float(getattr(drive, "v_max", math.inf)), math.inf if v_limit is None else float(v_limit))
         if math.isfinite(v_lim):
             V = np.asarray(traj.voltage, dtype=float)[sel]
             out["voltage_limit_V"] = v_lim
-            out["voltage_limit_fraction_steady"] = float(np.mean(np.abs(V) >= v_lim * (1.0 - VOLTAGE_LIMIT_TOL)))
+            if bound <= v_lim:  # the command never exceeds the limit (an open loop at or below it): never limited
+                out["voltage_limit_fraction_steady"] = 0.0
+            else:
+                out["voltage_limit_fraction_steady"] = float(np.mean(np.abs(V) >= v_lim * (1.0 - VOLTAGE_LIMIT_TOL)))
     return out
 
 

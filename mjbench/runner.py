@@ -4,6 +4,7 @@ This is what ``mjbench run`` calls; ``reproduce``, sweeps and tests use the same
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from . import metrics as M
@@ -11,6 +12,7 @@ from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import copy_model_files, manifest, write_json
+from .scenario import speed_setpoint  # noqa: F401 - the set-point on both shafts, here for the metrics
 
 BACKENDS = ("multibody", "reduced")
 
@@ -70,6 +72,9 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
                                                    drive=drive, v_limit=v_limit)
                                       for b, tr in trajs.items()}}
     res["reduced_model"] = reduced_source(scn)
+    sp = speed_setpoint(scn.modes.get(mode), float(getattr(scn.drive, "z", 1.0)), mode)
+    if sp is not None:  # which shaft the set-point is on, and the other shaft's speed
+        res["setpoint"] = sp
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
                    for b, tr in trajs.items()}
@@ -119,7 +124,16 @@ def duty_limits(scn, mode: str) -> tuple:
         drive = scn.drive.build()
     except Exception:  # noqa: BLE001 - the run has built it already; the figures then go without limits
         drive = None
-    return drive, getattr(scn.modes.get(mode), "v_limit", None)
+    p = scn.modes.get(mode)
+    return drive, limit_v(getattr(p, "v_limit", None), getattr(p, "command_bound", None))
+
+
+def limit_v(v_limit, command_bound=None):
+    """The controller's voltage clip for the duty figures: its ``v_limit``, or — for a mode whose
+    command is bounded (open loop, a signal: ``command_bound()``) — ``(v_limit, bound)`` so that a
+    limiter at or above the largest command is known never to act."""
+    bound = command_bound() if callable(command_bound) else None
+    return v_limit if bound is None else (v_limit, bound)
 
 
 def metric_value(m: dict, key: str):
@@ -214,12 +228,10 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
 
 
 def setpoint(scn, mode):
-    """Motor-speed set-point drawn on the speed plot (PID ``omega0``, SMC ``omega_d`` × z)."""
-    p = scn.modes.get(mode)
-    v = getattr(p, "omega0", None)
-    if v is None and getattr(p, "omega_d", None) is not None:
-        v = float(p.omega_d) * float(scn.drive.z)
-    return float(v) if v is not None else None
+    """Motor-speed set-point drawn on the speed plot (PID ``omega0`` or z·``omega_crank``, SMC
+    ``omega_d`` × z)."""
+    sp = speed_setpoint(scn.modes.get(mode), float(getattr(scn.drive, "z", 1.0)))
+    return None if sp is None else sp["motor_speed_rad_s"]
 
 
 def chi_text(res):
@@ -290,6 +302,12 @@ def duty_text(res: dict) -> list:
 def summary_text(res: dict) -> str:
     """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
     lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
+    sp = res.get("setpoint")
+    if sp:
+        rpm = 60.0 / (2.0 * math.pi)
+        lines.append(f"  set-point {sp['key']}: motor {sp['motor_speed_rad_s']:.5g} rad/s "
+                     f"({rpm * sp['motor_speed_rad_s']:.4g} rpm) = crank {sp['crank_speed_rad_s']:.5g} rad/s "
+                     f"({rpm * sp['crank_speed_rad_s']:.4g} rpm), z = {sp['z']:g}")
     keys = [("mean_motor_speed_rad_s", "mean motor speed (steady state) [rad/s]", "{:.3f}"),
             ("mean_crank_speed_rad_s", "mean crank speed (steady state) [rad/s]", "{:.4g}"),
             ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),

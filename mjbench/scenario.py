@@ -208,3 +208,21 @@ def make_machine(scn: Scenario, mode: str | None = None):
 def get(scn: Scenario, key: str, default=None):
     """Value at a dotted key of the validated scenario (aliases resolved), or ``default``."""
     return scn.get(key, default)
+
+
+def speed_setpoint(p, z: float, mode: str | None = None) -> dict | None:
+    """A mode's constant speed set-point on both shafts, or None: ``motor_speed_rad_s``,
+    ``crank_speed_rad_s`` (= motor / z), ``z``, ``key`` (the table key it was given by, with the
+    shaft it is on: PID ``omega0`` and FMU ``omega0`` motor shaft, PID ``omega_crank`` and SMC
+    ``omega_d`` crank shaft)."""
+    z = float(z)
+    where = f"modes.{mode}." if mode else ""
+    if getattr(p, "omega0", None) is not None:
+        motor, key = float(p.omega0), f"{where}omega0 (motor shaft)"
+    elif getattr(p, "omega_crank", None) is not None:
+        motor, key = z * float(p.omega_crank), f"{where}omega_crank (crank shaft)"
+    elif getattr(p, "omega_d", None) is not None:
+        motor, key = z * float(p.omega_d), f"{where}omega_d (crank shaft)"
+    else:
+        return None
+    return {"motor_speed_rad_s": motor, "crank_speed_rad_s": motor / z, "z": z, "key": key}

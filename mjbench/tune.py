@@ -193,12 +193,9 @@ class Problem:
         self.nthread, self.batch_size = nthread, batch_size
         drive = S.make_drive(scn)
         table = self.base_params
-        if getattr(table, "omega0", None) is not None:
-            self.setpoint = float(table.omega0) / float(drive.z)  # crank side [rad/s]
-        elif getattr(table, "omega_d", None) is not None:
-            self.setpoint = float(table.omega_d)
-        else:
-            self.setpoint = None
+        from .scenario import speed_setpoint
+        sp = speed_setpoint(table, float(drive.z))
+        self.setpoint = None if sp is None else sp["crank_speed_rad_s"]  # crank side [rad/s]
         self.limits = dict(limits or {})
         self.nfev = 0
         self._plant = None

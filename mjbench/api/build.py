@@ -70,8 +70,11 @@ def make_drive(**params: Any) -> DCMotorDrive:
     from ..drive import DriveParams
     from ..schema import format_errors
 
+    table, problems = DriveParams.expand(params)
+    if problems:
+        raise ScenarioError("invalid [drive] table:\n  " + "\n  ".join(problems), problems=problems)
     try:
-        p = DriveParams.model_validate(params)
+        p = DriveParams.model_validate(table)
     except ValidationError as e:
         lines = format_errors(e, ("drive",), DriveParams)
         raise ScenarioError("invalid [drive] table:\n  " + "\n  ".join(lines), problems=lines) from None

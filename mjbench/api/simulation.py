@@ -169,7 +169,10 @@ def machine_metrics(trajs: dict[str, Any], machine: Machine | None = None) -> di
     from .. import plausibility
 
     drive = getattr(machine, "drive", None)
-    v_limit = getattr(getattr(machine, "controller", None), "v_limit", None)
+    from ..runner import limit_v
+
+    ctrl = getattr(machine, "controller", None)
+    v_limit = limit_v(getattr(ctrl, "v_limit", None), getattr(ctrl, "command_bound", None))
     res: dict[str, Any] = {"mode": None, "backends": {b: M.summary(tr, drive=drive, v_limit=v_limit)
                                                       for b, tr in trajs.items()}}
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
