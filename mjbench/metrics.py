@@ -69,6 +69,7 @@ DUTY_METRICS = {
     "torque_output_rms_steady_Nm": "RMS torque at the gearbox output (crank shaft) over the steady-state window [N·m]: "
                                    "z·(k_m·I − T_0·sgn φ̇) through the gear efficiency, − z²·λ·α̇ − (J_m + J_a)·z²·α̈",
     "torque_output_peak_steady_Nm": "peak |torque at the gearbox output| over the steady-state window [N·m]",
+    "current_rated_A": "the motor's continuous current rating drive.i_rated [A] (when stated)",
     "current_limit_A": "the current limit the run had: drive.i_max [A]",
     "current_limit_fraction_steady": "fraction of the steady-state window's samples with |I| at the current limit",
     "voltage_limit_V": "the voltage limit the run had: the smaller of drive.v_max and the controller's v_limit [V]",
@@ -313,6 +314,9 @@ def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
         out["torque_output_rms_steady_Nm"] = float(np.sqrt(np.mean(out_torque * out_torque)))
         out["torque_output_peak_steady_Nm"] = peaks["torque_output"]
     if electric and drive is not None:
+        i_rated = float(getattr(drive, "i_rated", math.inf))
+        if math.isfinite(i_rated):
+            out["current_rated_A"] = i_rated
         i_max = float(getattr(drive, "i_max", math.inf))
         if math.isfinite(i_max):
             out["current_limit_A"] = i_max
@@ -370,6 +374,14 @@ def duty_warnings(backend_metrics: dict, threshold: float = LIMIT_FRACTION_WARN)
         out.append(f"{what} {m0[lim]:g} {unit} during {frac} of the steady state t = {t0:g}–{t1:g} s (more than "
                    f"{100 * threshold:g} %): the drive cannot give what the controller asks, so the speed and the "
                    f"other figures are the limited machine's (metrics.json \"{key}\")")
+    over = {b: m for b, m in backend_metrics.items()
+            if (m or {}).get("current_rated_A") is not None and m.get("current_rms_steady_A", 0.0) > m["current_rated_A"]}
+    if over:
+        m0 = next(iter(over.values()))
+        rms = ", ".join(f"{m['current_rms_steady_A']:.3g} A ({b})" for b, m in over.items())
+        t0, t1 = m0["duty_window_s"]
+        out.append(f"the RMS motor current {rms} over the steady state t = {t0:g}–{t1:g} s exceeds the motor's continuous "
+                   f"rating drive.i_rated = {m0['current_rated_A']:g} A: it would overheat in continuous duty")
     return out
 
 

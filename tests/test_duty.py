@@ -47,6 +47,12 @@ def test_rms_peak_and_limits_against_hand_values():
     # the controller's own clip, lower than v_max, is the voltage limit
     d2 = M.duty(tr, 1.0, drive, v_limit=30.0)
     assert d2["voltage_limit_V"] == 30.0 and d2["voltage_limit_fraction_steady"] > d["voltage_limit_fraction_steady"]
+    # a continuous rating below the RMS current: a warning naming both
+    rated = DCMotorDrive(R=1.0, L=1e-3, k_m=0.5, J_m=1e-4, J_a=0.0, J_b=0.0, z=10.0, lam=0.0, i_rated=4.0)
+    d4 = M.duty(tr, 1.0, rated)
+    assert d4["current_rated_A"] == 4.0
+    assert any(f"RMS motor current {d4['current_rms_steady_A']:.3g} A (reduced)" in w and "i_rated = 4 A" in w
+               for w in M.duty_warnings({"reduced": d4}))
     # no limits set: no fractions, no warnings
     free = DCMotorDrive(R=1.0, L=1e-3, k_m=0.5, J_m=1e-4, J_a=0.0, J_b=0.0, z=10.0, lam=0.0)
     d3 = M.duty(tr, 1.0, free)
@@ -103,7 +109,7 @@ def test_scenario_runs_report_duty_in_metrics_and_summary():
     res = scn.simulate(backend="reduced", t_end=2.5)
     m = res.metrics["backends"]["reduced"]
     assert m["duty_window_s"] == [2.0, 2.5]
-    for k in M.DUTY_METRICS:
+    for k in set(M.DUTY_METRICS) - {"current_rated_A"}:   # (no rating stated)
         assert k in m, k
     assert m["current_limit_A"] == 40.0 and m["voltage_limit_V"] == 48.0
     text = res.summary()
