@@ -18,7 +18,7 @@ from .base import Controller, Measurement
 #: built-in controller types → module
 BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
            "servo": "controllers.servo",
-           "fmu": "controllers.fmu", "constant": "controllers.constant"}
+           "fmu": "controllers.fmu", "constant": "controllers.constant", "signal": "controllers.signal"}
 
 #: the controller registry (built-ins, plugins of entry-point group ``mjbench.controllers``, registered classes)
 REGISTRY = Registry("controller", Controller, BUILTIN, GROUPS[1], prefix=("modes", "{typ}"),

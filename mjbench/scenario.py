@@ -114,15 +114,26 @@ def from_raw(raw: dict, source: str = "", overrides=()) -> Scenario:
 
 
 def _resolve_paths(raw: dict, source: str) -> None:
-    """Let the mechanism class make file paths of its table absolute (relative to the scenario
-    file; ``mjcf``: the model file), so a manifest re-runs from anywhere."""
+    """Let the mechanism class and the controller classes make file paths of their tables absolute
+    (relative to the scenario file; ``mjcf``: the model file; a ``signal`` mode: its CSV file, read
+    into the table), so a manifest re-runs from anywhere."""
     table = raw.get("mechanism")
-    if not isinstance(table, dict) or not isinstance(table.get("type"), str):
-        return
-    cls = mechanisms.get(table["type"])
-    hook = getattr(cls, "resolve_paths", None) if cls is not None else None
-    if hook is not None:
-        hook(table, source)
+    if isinstance(table, dict) and isinstance(table.get("type"), str):
+        cls = mechanisms.get(table["type"])
+        hook = getattr(cls, "resolve_paths", None) if cls is not None else None
+        if hook is not None:
+            hook(table, source)
+    modes = raw.get("modes")
+    for name, table in (modes.items() if isinstance(modes, dict) else ()):
+        if isinstance(table, dict) and isinstance(table.get("type"), str) and "file" in table:
+            import controllers
+
+            hook = getattr(controllers.get(table["type"]), "resolve_paths", None)
+            try:
+                if hook is not None:
+                    hook(table, source)
+            except ScenarioError as e:
+                raise ScenarioError(f"modes.{name}.file: {e}") from None
 
 
 def with_values(scn: Scenario, values: dict) -> Scenario:
