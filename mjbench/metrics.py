@@ -385,6 +385,52 @@ def duty_warnings(backend_metrics: dict, threshold: float = LIMIT_FRACTION_WARN)
     return out
 
 
+# ============================================================================ process loads
+def loads(mech, traj) -> dict:
+    """Each process load of the mechanism (a linkage's ``[[mechanism.loads]]``, by name) along the
+    recorded motion: ``peak_abs`` its largest |force| [N] (|torque| [N·m] for a torque load) and
+    ``active_fraction`` the fraction of the samples where it is not zero, from the mechanism's own
+    load law at the recorded angles (``load_forces``); {} for a mechanism without loads."""
+    if not hasattr(mech, "load_forces") or not getattr(mech, "load_specs", None):
+        return {}
+    out = {}
+    for name, ld, (s, _, F) in zip(mech.load_names(), mech.load_specs, mech.load_forces(traj.q, traj.qd)):
+        F = np.asarray(F, dtype=float) + 0.0 * np.asarray(traj.q)
+        entry = {"peak_abs": float(np.max(np.abs(F))), "active_fraction": float(np.mean(F != 0.0)),
+                 "unit": "N" if ld.link is None else "N·m"}
+        if ld.point is not None:
+            s = np.asarray(s, dtype=float) + 0.0 * F
+            entry.update(point=ld.point, direction=[float(x) for x in ld.direction], s_reached_m=[float(s.min()),
+                                                                                                  float(s.max())])
+            if ld.s is not None:
+                entry["s_table_m"] = [float(ld.s[0]), float(ld.s[-1])]
+        out[name] = entry
+    return out
+
+
+def load_warnings(backend_metrics: dict) -> list:
+    """A load that never acts along the motion (zero at every recorded sample of every backend that
+    ran): one warning naming it, where its table is and where its point went."""
+    out, seen = [], set()
+    for m in backend_metrics.values():
+        for name, e in ((m or {}).get("loads") or {}).items():
+            if name in seen or e["peak_abs"] > 0.0:
+                continue
+            if any(((x or {}).get("loads") or {}).get(name, {}).get("peak_abs", 0.0) > 0.0
+                   for x in backend_metrics.values()):
+                continue
+            seen.add(name)
+            where = ""
+            if "s_table_m" in e:
+                (a, b), (c, d) = e["s_table_m"], e["s_reached_m"]
+                where = (f": its table spans s = {1e3 * a:.4g} … {1e3 * b:.4g} mm along {tuple(e['direction'])}, the "
+                         f"point {e['point']} moved over s = {1e3 * c:.4g} … {1e3 * d:.4g} mm")
+            out.append(f"load {name!r} never acts along the motion (zero at every recorded sample){where}; check the "
+                       f"mechanism's assembly (a link angle's sign), the load's direction and active stroke, or give it "
+                       f"over the stroke (profile: distance before the stroke's end)")
+    return out
+
+
 #: the trajectory columns whose last value is an end-state metric (``final_<column>``)
 END_COLUMNS = ("crank_angle_rad", "crank_speed_rad_s", "crank_accel_rad_s2", "current_A", "voltage_V",
                "torque_crank_Nm", "power_mech_W")

@@ -113,8 +113,18 @@ def mode_metrics(scn, mode: str, trajs: dict) -> dict:
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", scn.simulation.dt))) for b, tr in trajs.items()}
     res["paper"] = paper_rows(scn, mode, res["backends"])
-    res["warnings"] = M.duty_warnings(res["backends"])
+    add_loads(res, S.make_mechanism(scn), trajs)
+    res["warnings"] = M.duty_warnings(res["backends"]) + M.load_warnings(res["backends"])
     return res
+
+
+def add_loads(res: dict, mech, trajs: dict) -> None:
+    """Each backend's process loads along its motion (:func:`mjbench.metrics.loads`), when the
+    mechanism has any."""
+    for b, tr in trajs.items():
+        ld = M.loads(mech, tr)
+        if ld:
+            res["backends"][b]["loads"] = ld
 
 
 def duty_limits(scn, mode: str) -> tuple:
@@ -335,6 +345,11 @@ def summary_text(res: dict) -> str:
         lines.append(f"  {'χ computed from samples every':<40s} {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms "
                      f"(simulation.record_dt)")
     lines += duty_text(res)
+    for name in dict.fromkeys(n for m in res["backends"].values() for n in ((m or {}).get("loads") or {})):
+        vals = [f"{b}: {m['loads'][name]['peak_abs']:.4g} / {100 * m['loads'][name]['active_fraction']:.1f}"
+                for b, m in res["backends"].items() if name in ((m or {}).get("loads") or {})]
+        unit = next(m["loads"][name]["unit"] for m in res["backends"].values() if name in ((m or {}).get("loads") or {}))
+        lines.append(f"  {f'load {name!r}: peak [{unit}] / acting [% of time]':<40s} " + "   ".join(vals))
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")

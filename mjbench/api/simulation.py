@@ -182,7 +182,11 @@ def machine_metrics(trajs: dict[str, Any], machine: Machine | None = None) -> di
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"])
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", MACHINE_DT))) for b, tr in trajs.items()}
-    res["warnings"] = M.duty_warnings(res["backends"])
+    if machine is not None:
+        from ..runner import add_loads
+
+        add_loads(res, machine.mechanism, trajs)
+    res["warnings"] = M.duty_warnings(res["backends"]) + M.load_warnings(res["backends"])
     return res
 
 
