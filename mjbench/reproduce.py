@@ -34,7 +34,7 @@ from .errors import MjbenchError, ScenarioError
 from . import verdicts as V
 from .manifest import json_default as _json_default
 # report.md / report.html: mjbench/report.py (summary, headline numbers, folded tables)
-from .report import GLOSSARY, fmt, headline, write_report  # noqa: F401
+from .report import GLOSSARY, engineering, fmt, headline, write_report  # noqa: F401
 
 AGREE_REL = V.TOLERANCE  #: relative tolerance of a point value (mjbench.verdicts)
 
@@ -126,6 +126,7 @@ def run_case(case, out_dir, quick=False, video=True, progress=True, width=None, 
         res["warnings"] = [str(w) for w in ctx.warnings]
         res["counts"] = V.counts(res["rows"])
         res["headline"] = headline(res["rows"])  # indices of the rows shown next to the headline figure
+        res["engineering"] = engineering(res)  # limits, duty, models agree, χ / tracking bound
     res["sim_figures_s"] = time.perf_counter() - t0
     try:  # a video that cannot be made (no OpenGL, encoder) is recorded; the report goes on
         if video and case.video and case.kind in ("run", "design"):
@@ -216,19 +217,23 @@ def _video(ctx: CaseRun, quick, progress, width=None, height=None):
     tr = _recorded_run(ctx, mode, t_vid)
     if tr is None:
         info = render.render_scenario(ctx.scn, ctx.out / "video.mp4", mode=mode, fps=30, width=w, height=h,
-                                      t_end=t_vid, progress=progress)
+                                      t_end=t_vid, progress=progress, poster=ctx.out / "video_poster.png")
         source = "a multibody run recorded at every step"
     else:
         render.gl_setup()
         machine = ctx.machines.get(mode) or S.make_machine(ctx.scn, mode)
         info = render.render_trajectory(machine, tr, ctx.out / "video.mp4", fps=30, width=w, height=h,
                                         title=f"{ctx.scn.name} — mode {mode} (multibody)", progress=progress,
-                                        t_end=t_vid, options=ctx.scn.multibody_options())
+                                        t_end=t_vid, options=ctx.scn.multibody_options(),
+                                        poster=ctx.out / "video_poster.png")
         step = float(np.median(np.diff(tr.t[: min(tr.n, 1000)])))
         source = f"the case's multibody run (samples every {1e3 * step:.3g} ms)"
-    return {"file": "video.mp4", "mode": mode, "frames": info["frames"], "width": w, "height": h,
-            "duration_s": info["duration_s"], "render_s": info["wall_s"], "frames_per_s": info["frames_per_s"],
-            "source": source}
+    out = {"file": "video.mp4", "mode": mode, "frames": info["frames"], "width": w, "height": h,
+           "duration_s": info["duration_s"], "render_s": info["wall_s"], "frames_per_s": info["frames_per_s"],
+           "source": source}
+    if info.get("poster"):  # the still shown before the video plays: the machine running
+        out.update(poster="video_poster.png", poster_t_s=info["poster_t_s"])
+    return out
 
 
 def _recorded_run(ctx: CaseRun, mode, t_vid):
