@@ -54,8 +54,9 @@ def overlay_text(machine, traj, idx) -> list:
 def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title="", progress=True,
                       t_end=None, options=None, crf=23, poster=None, poster_at=0.6):
     """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps).
-    ``poster``: also write that PNG, the frame at ``poster_at`` of the video (the machine running,
-    not at rest at t = 0: the page's still image before the video plays; ``info["poster"]``)."""
+    ``poster``: also write that PNG, a frame of the machine running (:func:`poster_frame`, after
+    ``poster_at`` of the video; not at rest at t = 0): the page's still image before the video
+    plays (``info["poster"]``)."""
 
     mech, drive = machine.mechanism, machine.drive
     if mech.render_view().kind == "top":  # the mechanism's class says how it is shown
@@ -66,7 +67,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     text = overlay_text(machine, traj, idx)
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
                          overlay_lines=(1 if title else 0) + 2 + max(len(x) for x in text))
-    k_poster = min(len(idx) - 1, int(poster_at * len(idx)))
+    k_poster = poster_frame(traj, idx, poster_at)
     # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
@@ -95,6 +96,15 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
         info["poster"] = str(poster)
         info["poster_t_s"] = float(t[idx[k_poster]])
     return info
+
+
+def poster_frame(traj, idx, after=0.6) -> int:
+    """The frame the still image shows: the machine working hardest (largest |drive torque on the
+    crank|) in the last part of the video (from ``after`` of it), so the still shows it running
+    under its load, not at rest at t = 0."""
+    k0 = min(len(idx) - 1, int(after * len(idx)))
+    T = np.abs(np.asarray(traj["torque_crank_Nm"], dtype=float)[np.asarray(idx[k0:])])
+    return k0 + int(np.nanargmax(T)) if np.any(np.isfinite(T)) else k0
 
 
 def _write_png(path, img) -> None:
