@@ -40,12 +40,15 @@ def _run_settings(scn, t_end_fixed, backend="multibody"):
             "record_dt": scn.simulation.record_dt,
             "options": opts,
             "chi_window": scn.metrics.chi_window,
-            "chi_average": scn.metrics.chi_average}
+            "chi_average": scn.metrics.chi_average,
+            "steady_from": scn.metrics.steady_start, "band_rel": scn.metrics.band_rel}
 
 
 def row_metrics(traj, st) -> dict:
     win = st["chi_window"]
-    m = M.summary(traj, chi_window=win, average=st["chi_average"])
+    drive, v_limit = st.get("duty") or (None, None)
+    m = M.summary(traj, chi_window=win, average=st["chi_average"], steady_from=st.get("steady_from"),
+                  band_rel=st.get("band_rel", 0.10), drive=drive, v_limit=v_limit)
     return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
 
@@ -63,6 +66,9 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
         try:
             s = scenarios(r)
             st_r = _run_settings(s, st.get("t_end_fixed"), backend)
+            from ..runner import duty_limits
+
+            st_r["duty"] = duty_limits(s, st["mode"])  # the row's limits for its duty figures
             mc = S.make_machine(s, st["mode"])
             if backend == "multibody":
                 o = {**batch.DEFAULT_OPTIONS, **st_r["options"]}

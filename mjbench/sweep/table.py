@@ -93,7 +93,8 @@ def check_metric(metric, scn):
 
 # ======================================================================== plots
 def default_metric(results):
-    for k in ("chi_window", "chi_last_cycle", "chi_steady_mean", "mean_motor_speed_rad_s"):
+    """The figure the summary plots show by default: a χ (never a speed, which nothing minimises)."""
+    for k in ("chi_window", "chi_last_cycle", "chi_steady_mean"):
         if any(k in r for r in results):
             return k
     return None
