@@ -228,9 +228,10 @@ class StepCheck:
         """Angle and speed deviations, simulated (solid) and linear (dashed); returns the Figure."""
         from ..plotstyle import new
 
+        fig: Figure
         fig, ax = new(2, 1, sharex=True, figsize=(7, 5))
         for a, sim, lin, name in ((ax[0], self.q_sim, self.q_lin, "crank angle deviation δq [rad]"),
-                                     (ax[1], self.qd_sim, self.qd_lin, "crank speed deviation δq̇ [rad/s]")):
+                                  (ax[1], self.qd_sim, self.qd_lin, "crank speed deviation δq̇ [rad/s]")):
             a.plot(self.t, sim, label=f"simulated ({self.backend})")
             a.plot(self.t, lin, "--", label="linear closed loop")
             a.set_ylabel(name)

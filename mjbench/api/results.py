@@ -343,4 +343,5 @@ def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> F
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     axes[-1, 0].set_xlabel(column_label("t_s"))
-    return finish(fig, title)
+    out: Figure = finish(fig, title)
+    return out

@@ -94,7 +94,7 @@ def failure_text(f) -> str:
     name = str(f.get("name", ""))
     v, lim, cmp_, unit = f.get("value", f.get("achieved")), f.get("limit", f.get("required")), f.get("compare"), \
         f.get("unit", "")
-    u = f" {unit}" if unit and unit != "1" else ""
+    u = "" if not unit or unit == "1" else unit if unit == "°" else f" {unit}"
     num = lambda x: isinstance(x, (int, float)) and not isinstance(x, bool)  # noqa: E731
     if cmp_ in ("max", "min") and num(v) and num(lim):
         sym = "≤" if cmp_ == "max" else "≥"

@@ -29,6 +29,7 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     later one leaves the rows saved so far, and the same call resumes."""
     scn = S.load(spec.scenario, spec.overrides)
     metric = check_metric(metric, scn)
+    rows = make_rows(spec, scn)
     if metric is None and scn.metrics.chi_window is None and spec.backend != "multibody" and spec.verify > 0:
         # the default ranking is χ in the scenario's window: without one, the "best" rows would be
         # ranked by whatever figure happens to exist (once: the slowest machines, by mean speed)
@@ -36,7 +37,6 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
                              f"figure to rank its best rows by before re-running them on MuJoCo; name the figure to "
                              f"minimise, e.g. --metric chi_last_cycle, --metric current_rms_steady_A, --metric "
                              f"torque_output_rms_steady_Nm (or --verify 0)")
-    rows = make_rows(spec, scn)
     keys = spec.keys()
     st = settings(spec, scn)
     own_client = None

@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 from .spec import SweepSpec
-from .table import default_metric
+from .table import default_metric, plot_metric
 
 
 def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | None = None) -> list:
@@ -15,7 +15,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
     from .. import plots as P
     from ..plotstyle import new
 
-    metric = metric or default_metric(results)
+    metric = metric or default_metric(results) or plot_metric(results)
     if metric is None:
         return []
     paths = []
