@@ -30,10 +30,13 @@ def run(args) -> int:
     check_video_options(args)
     t0 = time.perf_counter()
     with_gl(args)
-    api.reproduce_papers(args.out, "all", quick=True, video=not args.no_video, width=args.width, height=args.height,
-                         force=args.force, progress=not args.no_progress and sys.stderr.isatty(), log=print,
-                         what="--out", jobs=args.jobs)
+    results = api.reproduce_papers(args.out, "all", quick=True, video=not args.no_video, width=args.width,
+                                   height=args.height, force=args.force,
+                                   progress=not args.no_progress and sys.stderr.isatty(), log=print, what="--out",
+                                   jobs=args.jobs)
+    from .reproduce import closing_lines
+
     out = os.path.abspath(args.out)
-    print(f"demo done in {time.perf_counter() - t0:.0f} s: open {os.path.join(out, 'report.html')} "
-          f"(or read {os.path.join(out, 'report.md')})")
+    print(f"demo done in {time.perf_counter() - t0:.0f} s (or read {os.path.join(out, 'report.md')})")
+    print(closing_lines(results, args.out))
     return 0
