@@ -274,7 +274,7 @@ def loop_margins(res) -> dict:
     try:
         from ..api import linearize
 
-        m = linearize(res["machine"], angles=0).margins
+        m = linearize(res["machine"], angles=0, multibody=False).margins  # the reduced plant: the loop's numbers
         return {"w_gain_crossover_rad_s": m.w_gain_crossover_rad_s, "phase_margin_deg": m.phase_margin_deg,
                 "gain_margin_dB": m.gain_margin_dB, "Ms": m.Ms, "source": "mjbench.linearize at the running point"}
     except Exception as e:  # noqa: BLE001 - a report line, not the design
