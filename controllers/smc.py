@@ -225,8 +225,8 @@ class SlidingMode(Controller):
 
     def setpoint(self, machine):
         z = float(machine.drive.z)
-        return {"input_rad_s": self.omega_d, "motor_rad_s": self.omega_d * z,
-                "source": "omega_d (crank-speed set-point)"}
+        return {"input_rad_s": self.omega_d, "motor_rad_s": self.omega_d * z, "z": z,
+                "source": "omega_d (crank shaft)"}
 
     def linear(self, machine, op, T, h, angle="state"):
         """Inside the boundary layer, |s| < φ: the computed-torque part linearised at the point

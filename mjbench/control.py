@@ -226,8 +226,9 @@ class Controller(abc.ABC):
         return 0.0 if v is None else float(v)
 
     def setpoint(self, machine) -> dict | None:
-        """The speed the controller holds, on both shafts: ``{"input_rad_s", "motor_rad_s", "source"}``
-        (``source`` says where it comes from, e.g. ``"omega0 (motor shaft)"``), or None when it has
+        """The speed the controller holds, on both shafts: ``{"input_rad_s", "motor_rad_s", "z", "source"}``
+        (``source``: the parameter it was given by and its shaft, e.g. ``"omega_crank (crank shaft)"``;
+        ``metrics.json "setpoint"``, the printed summary), or None when it has
         no constant set-point (a motion law, an open-loop command).  Default: from the reference's
         constant speed, if any."""
         fn = getattr(self.reference, "setpoint", None)
@@ -373,8 +374,8 @@ class ConstantSpeed(Reference):
 
     def setpoint(self, machine) -> dict:
         z = float(machine.drive.z)
-        return {"input_rad_s": float(self.omega0) / z, "motor_rad_s": float(self.omega0),
-                "source": "constant motor-shaft speed ω₀"}
+        return {"input_rad_s": float(self.omega0) / z, "motor_rad_s": float(self.omega0), "z": z,
+                "source": "omega0 (motor shaft)"}
 
     @property
     def phi_start(self):
@@ -538,7 +539,7 @@ def _plain(v):
 #: engine finds controllers through this registry, never by importing them)
 BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
            "servo": "controllers.servo", "fmu": "controllers.fmu", "constant": "controllers.constant",
-           "computed_torque": "controllers.computed_torque"}
+           "computed_torque": "controllers.computed_torque", "signal": "controllers.signal"}
 
 #: the controller registry (built-ins, plugins of entry-point group ``mjbench.controllers``, registered classes)
 REGISTRY = Registry("controller", Controller, BUILTIN, GROUPS[1], prefix=("modes", "{typ}"),

@@ -52,6 +52,7 @@ from .linear import response
 from . import linear as LN
 from . import scenario as S
 from .kernel import control_every
+from .plotstyle import subplots
 
 SIGNALS = ("multisine", "sine")
 DRIVETRAIN = ("pwm", "encoder", "sensor", "gear", "friction", "current_loop")
@@ -842,16 +843,11 @@ def family_comparison(fam, Pm, Lm, Sm, in_band, cmp, sides=None) -> dict:
 def figure(res, path, title=""):
     """Bode plot of the measured plant and loop (dots) with the linearisation (line), the frozen-angle
     envelope (band), the family followed along the turn (dashed) and the coherence."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     w = res["omega"]
     rows = [("plant q̇/V", res["P"], res["P_lin"], "P")]
     if res["L"] is not None:
         rows.append(("loop L at the plant input", res["L"], res["L_lin"], "L"))
-    fig, ax = plt.subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
+    fig, ax = subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
     for j, (name, G, Gl, key) in enumerate(rows):
         ax[0, j].loglog(w, np.abs(G), "o", ms=3, label="measured (nonlinear machine)")
         ax[1, j].semilogx(w, np.degrees(np.unwrap(np.angle(G))), "o", ms=3)
@@ -876,4 +872,3 @@ def figure(res, path, title=""):
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

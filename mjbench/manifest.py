@@ -58,6 +58,9 @@ def manifest(scn, argv=None, extra=None) -> dict:
     files = model_files(scn)
     if files:
         out["model_files"] = files
+    ds = getattr(scn.drive, "datasheet", None)
+    if ds is not None:  # the drive's values derived from the motor's datasheet, with their formulas
+        out["drive_from_datasheet"] = ds.conversion()
     out.update(extra or {})
     return out
 

@@ -317,6 +317,17 @@ def _sweep_leftovers(parent: Path, name: str):
     return restored
 
 
+def force_name(what: str) -> str:
+    """How the caller says "replace it": the option ``--force`` on the command line (``what`` is an
+    option such as ``--out``), the keyword ``force=True`` from Python (``what`` names a call)."""
+    return "--force" if str(what).startswith("--") else "force=True"
+
+
+def force_hint(what: str) -> str:
+    """"add --force" (a command's option) or "pass force=True" (a Python call)."""
+    return "add --force" if str(what).startswith("--") else "pass force=True"
+
+
 def check_out_dir(out, what="--out", force=False, must_be_empty=True) -> Path:
     """Refuse an output folder path that cannot be used, before any work starts.  A symbolic link
     to a folder stands for that folder (the outputs are staged beside the link's target)."""
@@ -336,12 +347,12 @@ def check_out_dir(out, what="--out", force=False, must_be_empty=True) -> Path:
                 shown = ", ".join(entries[:4]) + (", ..." if len(entries) > 4 else "")
                 n = f"{len(entries)} entr{'y' if len(entries) == 1 else 'ies'}"
                 raise OutputError(
-                    f"{what} {out} already holds {n} ({shown}); add --force to replace "
+                    f"{what} {out} already holds {n} ({shown}); {force_hint(what)} to replace "
                     f"the whole folder (the old one is kept until the new outputs are complete), or "
-                    f"choose another {what}")
+                    f"choose another {what if str(what).startswith('--') else 'folder'}")
             why = _dangerous(out)
             if why:
-                raise OutputError(f"{what} {out}: refusing to replace it even with --force: {why}")
+                raise OutputError(f"{what} {out}: refusing to replace it even with {force_name(what)}: {why}")
     return out
 
 
@@ -447,7 +458,7 @@ def _swap(staging: Path, out: Path, force: bool, what: str):
             raise OutputError(f"{what} {out}: cannot move the outputs into place ({e.strerror})") from None
     if not force:  # it was empty or missing when the run started
         raise OutputError(f"{what} {out} was filled by another process during the run; the new outputs "
-                          f"were not moved in (add --force to replace it)")
+                          f"were not moved in ({force_hint(what)} to replace it)")
     old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-{os.getpid()}-", dir=out.parent))
     os.rmdir(old)
     os.rename(out, old)

@@ -40,13 +40,14 @@ def backends(compare: dict, tolerance: float = BACKENDS_TOLERANCE) -> dict:
 
 def warnings_of(res: dict) -> list:
     """Warning lines for the CLI from a mode's metrics dict (runner.mode_metrics): the backends'
-    agreement, the reduced model against MuJoCo's (``model``), the step size (``step``)."""
+    agreement, the reduced model against MuJoCo's (``model``), the step size (``step``), then the
+    run's own ``warnings`` (a limit active over the steady state, a load never engaged ...)."""
     p = res.get("plausibility") or {}
     out = model_warnings(p.get("model"))
     for b, st in (p.get("step") or {}).items():
         if not st.get("step_ok", True):
             out.append(f"{b}: {st['note']} (metrics.json \"plausibility\": {{\"step\": ...}})")
-    return _backend_warnings(p) + out
+    return _backend_warnings(p) + out + [str(w) for w in res.get("warnings") or []]
 
 
 def _backend_warnings(p: dict) -> list:

@@ -142,15 +142,24 @@ def from_raw(raw: dict, source: str = "", overrides=()) -> Scenario:
 
 
 def _resolve_paths(raw: dict, source: str) -> None:
-    """Let the mechanism class make file paths of its table absolute (relative to the scenario
-    file; ``mjcf``: the model file), so a manifest re-runs from anywhere."""
+    """Let the mechanism class and the controller classes make file paths of their tables absolute
+    (relative to the scenario file; ``mjcf``: the model file; a ``signal`` mode: its CSV file, read
+    into the table), so a manifest re-runs from anywhere."""
     table = raw.get("mechanism")
-    if not isinstance(table, dict) or not isinstance(table.get("type"), str):
-        return
-    cls = mechanisms.get(table["type"])
-    hook = getattr(cls, "resolve_paths", None) if cls is not None else None
-    if hook is not None:
-        hook(table, source)
+    if isinstance(table, dict) and isinstance(table.get("type"), str):
+        cls = mechanisms.get(table["type"])
+        hook = getattr(cls, "resolve_paths", None) if cls is not None else None
+        if hook is not None:
+            hook(table, source)
+    modes = raw.get("modes")
+    for name, table in (modes.items() if isinstance(modes, dict) else ()):
+        if isinstance(table, dict) and isinstance(table.get("type"), str) and "file" in table:
+            hook = getattr(CONTROLLERS.get(table["type"]), "resolve_paths", None)
+            try:
+                if hook is not None:
+                    hook(table, source)
+            except ScenarioError as e:
+                raise ScenarioError(f"modes.{name}.file: {e}") from None
 
 
 def with_values(scn: Scenario, values: dict) -> Scenario:
@@ -250,3 +259,5 @@ def make_machine(scn: Scenario, mode: str | None = None):
 def get(scn: Scenario, key: str, default=None):
     """Value at a dotted key of the validated scenario (aliases resolved), or ``default``."""
     return scn.get(key, default)
+
+

@@ -42,6 +42,35 @@ COLUMNS = (
 # (``angle_meas_rad``, ``speed_est_rad_s``, ``accel_est_rad_s2``, ``voltage_bridge_V``,
 # ``current_mean_A``, ``current_min_A``, ``current_max_A``, ``current_ref_A``: docs/drivetrain.md).
 NAMES = tuple(c[0] for c in COLUMNS)
+#: axis labels of the core columns: the quantity, its symbol and its unit
+LABELS = {
+    "t_s": "time t [s]", "crank_angle_rad": "crank angle α [rad]", "crank_speed_rad_s": "crank speed α̇ [rad/s]",
+    "crank_accel_rad_s2": "crank acceleration α̈ [rad/s²]", "motor_speed_rad_s": "motor speed φ̇ [rad/s]",
+    "current_A": "armature current I [A]", "voltage_V": "armature voltage V_a [V]",
+    "torque_crank_Nm": "drive torque on the crank [N·m]", "power_mech_W": "mechanical power k_m·I·φ̇ [W]",
+    "power_elec_W": "electrical power V_a·I [W]", "closure_error_m": "loop-closure error [m]",
+}
+#: column-name suffix → unit, longest first (the SI naming of every column)
+UNITS = (("_rad_s2", "rad/s²"), ("_rate_rad_s", "rad/s"), ("_rad_s", "rad/s"), ("_m_s", "m/s"), ("_rad", "rad"),
+         ("_Nm", "N·m"), ("_s", "s"), ("_V", "V"), ("_A", "A"), ("_W", "W"), ("_J", "J"), ("_m", "m"), ("_N", "N"))
+
+
+def column_label(name: str) -> str:
+    """An axis label for a column: its quantity and unit ("crank speed α̇ [rad/s]" for
+    ``crank_speed_rad_s``; other columns from their SI name: ``joint_B_rate_rad_s`` → "joint B
+    rate [rad/s]")."""
+    if name in LABELS:
+        return LABELS[name]
+    if name.startswith("joint_"):  # [simulation] record_joints: a hinge's angle or a slide's position
+        for suf, what in (("_rate_rad_s", "rate [rad/s]"), ("_rate_m_s", "speed [m/s]"), ("_rad", "angle [rad]"),
+                          ("_m", "position [m]")):
+            if name.endswith(suf):
+                return f"joint {name[6:-len(suf)]} {what}"
+    for suf, unit in UNITS:
+        if name.endswith(suf) and len(name) > len(suf):
+            stem = name[: -len(suf)] + ("_rate" if suf == "_rate_rad_s" else "")
+            return f"{stem.replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
 INDEX = {n: i for i, n in enumerate(NAMES)}
 #: rows written per chunk of a CSV file
 CSV_CHUNK = 10_000

@@ -33,7 +33,7 @@ controller's motion-law reference [rad] — a law repeated per cycle included, t
 law evaluated at the record's times — over ``metrics.chi_window`` when the scenario sets one,
 else over the whole run).
 
-Margin constraints (``--margin pm>=45 --margin ms<=2``; keys pm [deg], gm [dB], ms = peak |S|,
+Margin constraints (``--margin 'pm>=45' --margin 'ms<=2'``, quoted for the shell; keys pm [deg], gm [dB], ms = peak |S|,
 bw [rad/s]): evaluated on the linear model (:mod:`mjbench.linear`) — the candidate's controller
 counterpart closed around the reduced plant at ``margin_angles`` frozen angles over one turn at
 the running speed, worst case over the angles, K_p·t frozen at the end of the run (the largest

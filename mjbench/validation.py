@@ -93,6 +93,11 @@ def _drive(raw: dict, problems: list):
             problems.append(f"drive.type: {drives.type_of(draw)!r} is not a known drive type; choose one of "
                             f"{', '.join(drives.names())}")
             return None
+        if hasattr(cls, "expand"):  # values derived from others of the table (a motor's datasheet)
+            draw, more = cls.expand(draw)
+            if more:
+                problems += more
+                return None
         try:
             return cls.model_validate(draw)
         except ValidationError as e:
@@ -297,6 +302,7 @@ def _warnings(scn, modes: dict) -> list[str]:
             _plausibility(v, sec, sink)
     for name, mp in modes.items():
         _plausibility(mp, f"modes.{name}", sink)
+    sink += getattr(scn.drive, "datasheet_warnings", list)()
     return sink
 
 

@@ -211,7 +211,7 @@ def test_infeasible_synthesis_exits_1_naming_the_constraint(tmp_path, capsys):
     p = _variant(tmp_path, "press", [("mechanism", "min_transmission", "60 deg")])
     assert main(["design", str(p)]) == 1
     text = capsys.readouterr().out
-    assert "FAILS (synthesis): minimum transmission angle = 47.2" in text
+    assert "FAILS (synthesis): minimum transmission angle: 47.201°, below the required 60° by 21.3 %" in text
 
 
 def test_bad_requirements_are_one_message_exit_2(tmp_path, capsys):

@@ -17,6 +17,7 @@ from .simulation import seconds
 from .. import sweep as SW
 from .. import tune as T
 from .. import plots as P
+from ..plotstyle import new
 from ..tune import Problem
 from ..tune import constraint_status
 from ..tune import report
@@ -390,13 +391,12 @@ def _check_tune_args(T: Any, controller: str, objective: str, limits: Mapping[st
 
 def speed_figure(res: TuneResult, path: str) -> None:
     """Motor speed, voltage and current of the scenario's and the tuned gains (multibody)."""
-    import matplotlib.pyplot as plt
     import numpy as np
 
 
     r = res.result
     prob = Problem(res.scenario.spec, r.controller, r.objective, r.limits)  # (no margins: only the runs are drawn)
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    fig, axes = new(3, 1, figsize=(7, 8), sharex=True)
     for label, gains, st in (("scenario controller", r.baseline, dict(color="tab:gray")),
                              (f"tuned {r.controller}", r.best, dict(color="tab:blue"))):
         try:
@@ -409,10 +409,10 @@ def speed_figure(res: TuneResult, path: str) -> None:
     if prob.window:
         for ax in axes:
             ax.axvspan(*prob.window, color="tab:orange", alpha=0.12)
-    axes[0].set_ylabel("motor speed [rad/s]")
-    axes[1].set_ylabel("voltage [V]")
-    axes[2].set_ylabel("current [A]")
-    axes[2].set_xlabel("t [s]")
+    axes[0].set_ylabel("motor speed φ̇ [rad/s]")
+    axes[1].set_ylabel("armature voltage V_a [V]")
+    axes[2].set_ylabel("armature current I [A]")
+    axes[2].set_xlabel("time t [s]")
     axes[0].legend()
     axes[0].set_title(f"{r.controller}: {r.objective} {r.validation['baseline']['objective']:.4g} → "
                       f"{r.validation['tuned']['objective']:.4g}")

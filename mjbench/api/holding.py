@@ -22,6 +22,7 @@ from .. import runner
 from ..linear import StepReference
 from ..linear import operating_point
 from .. import linear as LN
+from ..plotstyle import new
 
 if TYPE_CHECKING:
     import pandas
@@ -227,18 +228,16 @@ class StepCheck:
 
     def plot(self) -> Figure:
         """Angle and speed deviations, simulated (solid) and linear (dashed); returns the Figure."""
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-        for a, sim, lin, name in ((ax[0], self.q_sim, self.q_lin, "δq [rad]"), (ax[1], self.qd_sim, self.qd_lin,
-                                                                                   "δq̇ [rad/s]")):
+        fig: Figure
+        fig, ax = new(2, 1, sharex=True, figsize=(7, 5))
+        for a, sim, lin, name in ((ax[0], self.q_sim, self.q_lin, "crank angle deviation δq [rad]"),
+                                  (ax[1], self.qd_sim, self.qd_lin, "crank speed deviation δq̇ [rad/s]")):
             a.plot(self.t, sim, label=f"simulated ({self.backend})")
             a.plot(self.t, lin, "--", label="linear closed loop")
             a.set_ylabel(name)
             a.grid(True, alpha=0.3)
         ax[0].legend(fontsize=8)
-        ax[1].set_xlabel("t [s]")
-        fig.tight_layout()
+        ax[1].set_xlabel("time t [s]")
         return fig
 
 

@@ -12,6 +12,7 @@ from .. import reproduce as R
 from ..errors import ParameterError
 from .. import outputs, render
 from . import MAX_HEIGHT, MAX_WIDTH, check_frame, given, integer, refuse_unused
+from .. import report as RP
 
 
 def add_common(p, out_required=True):
@@ -63,11 +64,29 @@ def run(args) -> int:
     R.select(R.load_cases(), args.case)  # an unknown case name: an error before anything is written
     check_video_options(args)
     with_gl(args)
-    api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
-                         height=args.height, force=args.force, progress=not args.no_progress and sys.stderr.isatty(),
-                         log=print, what="--out", jobs=args.jobs)
+    results = api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
+                                   height=args.height, force=args.force,
+                                   progress=not args.no_progress and sys.stderr.isatty(), log=print, what="--out",
+                                   jobs=args.jobs)
     print(f"results written to {args.out}")
+    print(closing_lines(results, args.out))
     return 0
+
+
+def closing_lines(results, out) -> str:
+    """What a finished report run ends with: the verdict counts and the page to open."""
+    import os
+
+    page = os.path.join(os.path.abspath(os.fspath(out)), "report.html")
+    cases = [r for r in results or [] if isinstance(r, dict) and "rows" in r]
+    if not cases:
+        return f"open the report: {page}"
+    eng = RP._eng_counts(cases)
+    tot = RP._totals(cases)
+    return (f"{len(cases)} cases — engineering verdicts: {eng['ok']} met, {eng['fail']} not met, {eng['na']} not "
+            f"applicable or not stated; paper figures: {tot['meet']} meet, {tot['differ']} differ, {tot['fitted']} "
+            f"fitted, {tot['unjudged']} rows without a paper figure\n"
+            f"open the report: {page}")
 
 
 def check_video_options(args):

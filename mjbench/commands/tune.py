@@ -31,9 +31,9 @@ def register(sub):
                         "error to a motion-law reference (over metrics.chi_window, else the run)")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
-    p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
-                   help="robustness constraint on the linear model (worst frozen angle): pm>=DEG, gm>=DB, "
-                        "ms<=PEAK_S, bw>=RAD_S (repeatable; docs/linear.md)")
+    p.add_argument("--margin", action="append", default=[], metavar="'pm>=45'",
+                   help="robustness constraint on the linear model (worst frozen angle), quoted for the shell: 'pm>=DEG', 'gm>=DB', "
+                        "'ms<=PEAK_S', 'bw>=RAD_S' (repeatable; docs/linear.md)")
     p.add_argument("--margin-mode", choices=["penalty", "constraint"], default=None,
                    help="penalty: objective + 10 × relative violation (default); constraint: violating "
                         "candidates are not simulated, and exit status 1 when no candidate meets them")

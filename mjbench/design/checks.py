@@ -46,7 +46,23 @@ def sizing_common(sz, load, figure: str) -> dict:
             "candidates": [{"label": c.label, "ok": c.ok, "cost": c.cost, "violation": c.violation,
                             "screened_out": c.screened_out, "current_rms_A": c.summary.get("current_rms_A"),
                             figure: c.summary.get(figure),
-                            "fails": [x["name"] for x in c.checks if not x["ok"]]} for c in sz.candidates],
+                            "fails": [x["name"] for x in c.checks if not x["ok"]],
+                            "tightest": tightest(c.checks)} for c in sz.candidates],
             "n_candidates": len(sz.candidates), "n_analysed": sum(not c.screened_out for c in sz.candidates),
             "n_feasible": sum(c.ok for c in sz.candidates),
             "chosen": sz.chosen.label if sz.chosen else None, "timing": sz.timing}
+
+
+def tightest(checks) -> dict | None:
+    """The check of a candidate with the least relative margin (limit − value)/limit (a bound ≥:
+    (value − limit)/limit): {name, margin, value, limit, unit}; None without bounds."""
+    best = None
+    for c in checks or []:
+        v, lim = c.get("value"), c.get("limit")
+        if c.get("compare") not in ("max", "min") or not isinstance(v, (int, float)) or not lim:
+            continue
+        m = (lim - v) / abs(lim) if c["compare"] == "max" else (v - lim) / abs(lim)
+        if math.isfinite(m) and (best is None or m < best["margin"]):
+            best = {"name": c["name"], "margin": float(m), "value": float(v), "limit": float(lim),
+                    "unit": c.get("unit", "")}
+    return best

@@ -116,7 +116,7 @@ def parse_margin(text: str) -> tuple:
     m = re.fullmatch(r"\s*(pm|gm|ms|bw)\s*(>=|<=)\s*([-+0-9.eE]+)\s*", str(text))
     if not m:
         raise ParameterError(f"--margin {text!r}: expected pm>=DEG, gm>=DB, ms<=VALUE or bw>=RAD_S "
-                             f"(e.g. --margin pm>=45 --margin ms<=2)")
+                             f"(e.g. --margin 'pm>=45' --margin 'ms<=2', quoted for the shell)")
     key, op, val = m.group(1), m.group(2), float(m.group(3))
     if op != MARGIN_KEYS[key][1]:
         raise ParameterError(f"--margin {text!r}: {key} is a {'lower' if MARGIN_KEYS[key][1] == '>=' else 'upper'} "

@@ -7,10 +7,7 @@ from __future__ import annotations
 
 import io
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from mjbench.plotstyle import no_pyplot as plt  # figures without pyplot: the user's backend is left alone
 import numpy as np  # noqa: E402
 
 from mjbench.motionlaws import BezierLaw  # noqa: E402

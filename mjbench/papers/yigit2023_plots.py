@@ -1,4 +1,4 @@
-"""Figures of the Yiğit & Şen 2023 scenario in the style of the paper's Figs 6-7 (matplotlib, Agg).
+"""Figures of the Yiğit & Şen 2023 scenario in the style of the paper's Figs 6-7 (matplotlib, no pyplot).
 
 ``plot_speed`` (Fig. 6: crank angular velocity, with a zoom on the steady state) and
 ``plot_voltage`` (Fig. 7: a section of the input signal) take Trajectory objects.
@@ -7,10 +7,7 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from mjbench.plotstyle import no_pyplot as plt  # figures without pyplot: the user's backend is left alone
 import numpy as np  # noqa: E402
 from mjbench.trajectory import atomic_write
 from mjbench import scenario

@@ -17,7 +17,7 @@ from .rows import RowScenarios
 from .spec import SweepSpec, VERIFY
 from .table import _fmt, default_metric
 from ..backends import SEARCH_BACKENDS
-from ..runner import backend_options
+from ..runner import backend_options, duty_limits
 from ..backends import batch, simulate_many
 
 
@@ -41,12 +41,15 @@ def _run_settings(scn, t_end_fixed, backend="multibody"):
             "record_dt": scn.simulation.record_dt,
             "options": opts,
             "chi_window": scn.metrics.chi_window,
-            "chi_average": scn.metrics.chi_average}
+            "chi_average": scn.metrics.chi_average,
+            "steady_from": scn.metrics.steady_start, "band_rel": scn.metrics.band_rel}
 
 
 def row_metrics(traj, st) -> dict:
     win = st["chi_window"]
-    m = M.summary(traj, chi_window=win, average=st["chi_average"])
+    drive, v_limit = st.get("duty") or (None, None)
+    m = M.summary(traj, chi_window=win, average=st["chi_average"], steady_from=st.get("steady_from"),
+                  band_rel=st.get("band_rel", 0.10), drive=drive, v_limit=v_limit)
     return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
 
@@ -64,6 +67,8 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
             s = scenarios(r)
             st_r = _run_settings(s, st.get("t_end_fixed"), backend)
             mc = S.make_machine(s, st["mode"])
+            # the row's limits for its duty figures (several axes: the rows carry no per-axis duty figures)
+            st_r["duty"] = duty_limits(mc.drive, mc.controller) if mc.naxes == 1 else (None, None)
             if backend == "multibody":
                 o = {**batch.DEFAULT_OPTIONS, **st_r["options"]}
                 key = batch._model_key(mc, o)

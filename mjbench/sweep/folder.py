@@ -7,7 +7,7 @@ import os
 
 from .. import outputs
 from .. import scenario as S
-from ..errors import MjbenchError, ScenarioError
+from ..errors import MjbenchError, ParameterError, ScenarioError
 from ..trajectory import atomic_write
 from .chunks import run_chunk, settings, verify_best
 from .cluster import _run_on_dask, connect
@@ -30,6 +30,13 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     scn = S.load(spec.scenario, spec.overrides)
     metric = check_metric(metric, scn)
     rows = make_rows(spec, scn)
+    if metric is None and scn.metrics.chi_window is None and spec.backend != "multibody" and spec.verify > 0:
+        # the default ranking is χ in the scenario's window: without one, the "best" rows would be
+        # ranked by whatever figure happens to exist (once: the slowest machines, by mean speed)
+        raise ParameterError(f"--metric: scenario {scn.name!r} has no metrics.chi_window, so the sweep has no default "
+                             f"figure to rank its best rows by before re-running them on MuJoCo; name the figure to "
+                             f"minimise, e.g. --metric chi_last_cycle, --metric current_rms_steady_A, --metric "
+                             f"torque_output_rms_steady_Nm (or --verify 0)")
     keys = spec.keys()
     st = settings(spec, scn)
     own_client = None

@@ -104,6 +104,24 @@ def linkage_model(q, qd, t, P):
     return J, H, E, Q + linkage_torque(q, qd, P.ext)
 
 
+def stroke_table(ld: LoadSpec, s_min: float, s_max: float) -> LoadSpec:
+    """A point load given over the stroke (``profile``: distance before the end of the active
+    stroke; ``profile_fraction``: fraction of the stroke before its end) as the table s/F of the
+    point's coordinate, the stroke being [s_min, s_max] over one turn: the end of
+    ``stroke_against`` is s_min (the point moves against the direction), of ``stroke_along``
+    s_max.  Other loads are returned as they are."""
+    rows = ld.profile if ld.profile is not None else ld.profile_fraction
+    if rows is None:
+        return ld
+    scale = (s_max - s_min) if ld.profile is None else 1.0
+    if ld.active == "stroke_against":
+        pts = sorted((s_min + scale * float(h), float(F)) for h, F in rows)
+    else:
+        pts = sorted((s_max - scale * float(h), float(F)) for h, F in rows)
+    return ld.model_copy(update={"s": [p[0] for p in pts], "F": [p[1] for p in pts], "profile": None,
+                                 "profile_fraction": None})
+
+
 def _loads_params(specs) -> "LoadsP":
     """The parameters of :func:`load_force` and :func:`load_abscissa` for the load descriptions
     ``specs`` (in order; a torque load's magnitude is its torque, its abscissa s or the angle q)."""
