@@ -424,7 +424,7 @@ def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
             return ctrl(t, y, {n: Y[i] for n, i in idx.items()})
         return ctrl(t, y)
 
-    return C.python_form(adapter, f"{type(ctrl).__name__} has no compiled form (no law)")
+    return C.python_form(adapter, f"{type(ctrl).__name__} has no compiled form (no law): the CPython loop runs it")
 
 
 def _takes_signals(ctrl) -> bool:

@@ -262,6 +262,9 @@ def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, arg
     copy_model_files(scn, out)
     write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(trajs),
                                                             "reduced_model": res["reduced_model"],
+                                                            # a controller given in code instead of the mode's
+                                                            **({"controller_replaced_by": res["controller"]}
+                                                               if "controller" in res else {}),
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
     if figure and "axes" in res:  # several motors: one row of plots per axis

@@ -2,11 +2,13 @@
 on the multibody backend (MuJoCo), the reduced J(α) model, or both."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..errors import ParameterError
+from ..control import FunctionController
 from ..machine import Machine
 from .results import Result, Run
 from .scenarios import Scenario, as_scenario, warn
@@ -45,7 +47,7 @@ def _to_seconds(text: str) -> float:
 def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, backend: str | None = None,
              t_end: float | str | None = None, *, record_dt: float | str | None = None,
              dt: float | str | None = None, progress: bool = False, check: bool = True,
-             options: Mapping[str, Mapping[str, Any]] | None = None) -> Result:
+             options: Mapping[str, Mapping[str, Any]] | None = None, controller: Any = None) -> Result:
     """Simulate a scenario (or a machine built in code) on one backend or both.
 
     Parameters
@@ -73,6 +75,13 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
         scenario's ``[multibody]`` (``integrator``, ``iterations``, ``tolerance``, ``solref``,
         ``solimp``) and ``[reduced]`` tables (``model``, ``method``, ``rtol``, ``atol``); their
         defaults are a scenario's.  A scenario has its own tables (set them with :func:`load`).
+    controller : callable or controller object, optional
+        Replaces the mode's controller (a scenario): a plain function ``f(t, y) -> u`` of the time
+        [s] and ``y``, a mapping of the trajectory's column names (``crank_speed_rad_s``,
+        ``current_A`` …) and the kernel's signal names to their present values, returning the
+        drive's command (volts for a DC motor), called every co-step; or a controller object
+        (:func:`make_controller`); several axes: one per axis.  A function runs the CPython loop
+        (``Run.meta["loop_reason"]`` says so); the manifest records it (``metrics["controller"]``).
 
     Returns
     -------
@@ -111,11 +120,30 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
     t = scn.t_end if t_end is None else seconds(t_end, "t_end")
     if check:
         scn.check(mode)
+    machine = None if controller is None else with_controller(scn.machine(mode), controller)
     with simulation_errors(scn.spec):
-        trajs, metrics = runner.simulate_mode(scn.spec, mode, backend, t, progress)
+        trajs, metrics = runner.simulate_mode(scn.spec, mode, backend, t, progress, machine=machine)
+    if machine is not None:  # what ran instead of the mode's controller (metrics.json, the manifest)
+        metrics["controller"] = [c.describe() for c, _ in machine.controllers]
     res = Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend, mode, scn)
     warn(res.warnings)
     return res
+
+
+def with_controller(machine: Machine, controller: Any) -> Machine:
+    """``machine`` with its controller replaced by ``controller`` (:func:`simulate`): a function
+    ``f(t, y) -> u`` becomes a :class:`~mjbench.control.FunctionController`; a controller object is
+    used as it is; several axes take a sequence, one per axis."""
+    many = isinstance(controller, (list, tuple))
+    items = list(controller) if many else [controller]
+    if machine.naxes > 1 and (not many or len(items) != machine.naxes):
+        raise ParameterError(f"simulate: controller = {controller!r}: the machine has {machine.naxes} axes "
+                             f"({', '.join(machine.axis_labels)}); give one controller per axis (a list)")
+    if machine.naxes == 1 and many:
+        raise ParameterError(f"simulate: controller = a list of {len(items)}: the machine has one axis; give one "
+                             f"function or controller")
+    built = [c if callable(getattr(c, "reset", None)) and callable(c) else FunctionController(c) for c in items]
+    return dataclasses.replace(machine, controller=built if many else built[0])
 
 
 def _with_times(scn: Scenario, record_dt: float | str | None, dt: float | str | None) -> Scenario:
