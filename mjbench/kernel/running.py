@@ -266,8 +266,8 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     stats = None if consume is not None else np.full((N, nrec * nstat), np.nan)
     fns = {}
     for pr in progs:
-        if pr.key not in fns:
-            fns[pr.key] = loop_function(pr, mode)
+        if pr.loop_key(mode) not in fns:
+            fns[pr.loop_key(mode)] = loop_function(pr, mode)
     meta = _job_meta(plants[0], machines[0], h, decim, mode, why)
     nrows = np.zeros(N, dtype=int)
     diverged = np.zeros(N, dtype=bool)
@@ -279,7 +279,7 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     def task(i, prog, stop=None):
         pr = progs[i]
         st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, None if data is None else data[i],
-                     fns[pr.key], None if stats is None else stats[i], strict=strict)
+                     fns[pr.loop_key(mode)], None if stats is None else stats[i], strict=strict)
         _run_one(st, prog, mode != "python", stop)
         if st.fallback:
             meta["loop"], meta["loop_reason"] = "python", st.fallback
@@ -409,7 +409,8 @@ def loop_env() -> dict:
 def python_loop(program: Program):
     """The loop executed by CPython for this composition (the unrolled template's code)."""
     key = program.key
-    fn = _PY_LOOPS.get(key) if program.compiled else None
+    shared = program.compiled and not program.twins  # (a loop holding a run's twins is that run's alone)
+    fn = _PY_LOOPS.get(key) if shared else None
     if fn is None:
         shape = (program.naxes, program.nctrl)
         code = _PY_CODE.get(shape)
@@ -419,7 +420,7 @@ def python_loop(program: Program):
             code = _PY_CODE[shape] = next(c for c in mod.co_consts if isinstance(c, types.CodeType))
         env = {**loop_env(), **program.env()}
         fn = types.FunctionType(code, env, "_loop")
-        if program.compiled:
+        if shared:
             _PY_LOOPS[key] = fn  # (its globals hold the laws: their ids in the key stay unique)
     return fn
 
