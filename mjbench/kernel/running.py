@@ -28,6 +28,7 @@ from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
 from . import loop as LP
+from . import pyloop
 from .program import Program, Run
 from ..backends.table import composing
 from ..compiled import jit
@@ -396,7 +397,6 @@ def _run_threaded(task, N: int, nthreads: int, progress) -> None:
 
 
 # =============================================================================== the loops
-_PY_CODE: dict = {}
 _PY_LOOPS: dict = {}
 
 
@@ -412,12 +412,7 @@ def python_loop(program: Program):
     shared = program.compiled and not program.twins  # (a loop holding a run's twins is that run's alone)
     fn = _PY_LOOPS.get(key) if shared else None
     if fn is None:
-        shape = (program.naxes, program.nctrl)
-        code = _PY_CODE.get(shape)
-        if code is None:
-            src = LP.source(*shape)
-            mod = compile(src, f"<mjbench loop {shape[0]} axis(es), {shape[1]} controller(s)>", "exec")
-            code = _PY_CODE[shape] = next(c for c in mod.co_consts if isinstance(c, types.CodeType))
+        code = pyloop.code(program.naxes, program.nctrl, program.flags)  # specialised to its constants, kept
         env = {**loop_env(), **program.env()}
         fn = types.FunctionType(code, env, "_loop")
         if shared:
