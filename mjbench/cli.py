@@ -46,13 +46,21 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"mjbench: error: {msg} (see mjbench {sub + ' ' if sub else ''}--help)\n")
 
 
+class _Version(argparse.Action):
+    """``--version`` after a subcommand's options: the version read when asked for (importlib.metadata
+    is not imported to build the parser; a bare ``mjbench --version`` never builds it, :func:`main`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        parser.exit(message=f"mjbench {version()}\n")
+
+
 def build_parser(argv=None):
     """The parser; with ``argv`` naming a known subcommand only that command's module is imported
     (help and unknown commands import every command module)."""
     p = Parser(prog="mjbench", description=(
         "MuJoCo testbed for motor-driven mechanisms under feedback control. "
         "Scenarios are built-in names (see `mjbench list`) or TOML files."))
-    p.add_argument("--version", action="version", version=f"mjbench {version()}")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     cmd = _command_in(argv) if argv is not None else None

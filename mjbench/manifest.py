@@ -28,6 +28,30 @@ def versions() -> dict:
 
 
 def _dist_version(name: str) -> str | None:
+    """The installed distribution's version: the ``Version:`` line of the first ``NAME-*.dist-info``
+    along ``sys.path`` (what importlib.metadata finds, without parsing the whole METADATA file as an
+    e-mail: ≈ 50 ms for scipy and matplotlib), else importlib.metadata's answer."""
+    prefix = name.lower().replace("-", "_") + "-"
+    for entry in sys.path:
+        try:
+            names = os.listdir(entry or ".")
+        except OSError:
+            continue
+        for d in names:
+            if d.lower().startswith(prefix) and d.endswith(".dist-info"):
+                try:
+                    with open(os.path.join(entry or ".", d, "METADATA"), encoding="utf-8") as fh:
+                        for line in fh:
+                            if not line.strip():
+                                break  # the end of the headers
+                            if line.startswith("Version:"):
+                                return line[len("Version:"):].strip()
+                except OSError:
+                    pass
+                break
+        else:
+            continue
+        break
     from importlib.metadata import PackageNotFoundError, version
 
     try:

@@ -15,11 +15,18 @@ Angles are dimensionless for pint, so it would read "10 Hz" as 10 rad/s; here a 
 given to a quantity that carries an angle is cycles per second (1 Hz = 2π rad/s), and an angular
 rate given to a frequency is converted the other way (:func:`to_si`).
 
-pint is imported (≈1 s to build its registry) only when a string with a unit is met.
+The common units are converted without pint (:func:`fast_convert`): pint's own arithmetic — its
+parser's products, quotients and integer powers, its conversion factor from the definitions'
+scales (the same floats, multiplied in the same order) — over a small table of its definitions
+(SI base and derived units with their prefixes, deg, rpm, rev, min …), so the result is the float
+pint gives, bit for bit (tests/test_units_fast.py checks every unit string of the scenarios, docs
+and tests against pint).  Anything else — another unit, other syntax, a wrong dimension — goes to
+pint (imported, ≈ 1 s to build its registry, only then), whose messages are the errors.
 """
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 #: kind → (SI unit as pint parses it, label for messages, plausible range (lo, hi) of |value| in SI)
@@ -107,6 +114,9 @@ def to_si(value, kind: str) -> float:
     else:
         raise UnitError(f"{value!r} is a number written as a string: write it bare ({text}, SI: {label}) "
                         f"or with its unit ('{text} {label}')")
+    fast = _fast_to_si(text, kind)
+    if fast is not None:
+        return fast
     import pint
 
     reg = ureg()
@@ -200,9 +210,11 @@ def plausibility(v: float, kind: str, what: str = "") -> str | None:
     reg = None
     for alt in _SUGGEST.get(si, ()):
         try:
-            if reg is None:
-                reg = ureg()
-            conv = float(reg.Quantity(a, alt).to(si).magnitude)
+            conv = _fast_quantity(a, alt, si)
+            if conv is None:
+                if reg is None:
+                    reg = ureg()
+                conv = float(reg.Quantity(a, alt).to(si).magnitude)
         except Exception:  # noqa: BLE001 - a suggestion only
             continue
         if lo <= conv <= hi:
@@ -212,3 +224,275 @@ def plausibility(v: float, kind: str, what: str = "") -> str | None:
         hint = f"; bare numbers are SI ({label})"
     return (f"= {v:g} {label} is outside the plausible range {lo:g} … {hi:g} {label}"
             f"{' for ' + what if what else ''}{hint}")
+
+
+
+# ============================================================================ without pint
+# pint's default registry (pint 0.25, default_en.txt) for the units scenarios use: name → (scale,
+# reference).  A base unit's reference is its dimension (a string; "" for the radian, dimensionless);
+# a derived unit's is its definition ((name, exponent), …) in pint's order.  The scales are pint's
+# own objects (int or float, as its definition parser leaves them): pint multiplies them in its
+# conversion factor, and 60 ** -1 is not 60.0 ** -1 in every case.  tests/test_units_fast.py checks
+# every entry against pint's registry (scale, type, reference, name resolution).
+_BASE = {"meter": "[length]", "gram": "[mass]", "second": "[time]", "ampere": "[current]",
+         "kelvin": "[temperature]", "radian": ""}
+_DEFS: dict = {
+    "pi": (3.141592653589793, ()),
+    "degree": (0.005555555555555556, (("pi", 1), ("radian", 1))),
+    "turn": (2, (("pi", 1), ("radian", 1))),
+    "minute": (60, (("second", 1),)),
+    "hour": (60, (("minute", 1),)),
+    "revolutions_per_minute": (1.0, (("turn", 1), ("minute", -1))),
+    "hertz": (1.0, (("second", -1),)),
+    "newton": (1.0, (("kilogram", 1), ("meter", 1), ("second", -2))),
+    "joule": (1, (("newton", 1), ("meter", 1))),
+    "watt": (1.0, (("joule", 1), ("second", -1))),
+    "coulomb": (1, (("ampere", 1), ("second", 1))),
+    "volt": (1.0, (("joule", 1), ("coulomb", -1))),
+    "ohm": (1.0, (("volt", 1), ("ampere", -1))),
+    "weber": (1, (("volt", 1), ("second", 1))),
+    "henry": (1.0, (("weber", 1), ("ampere", -1))),
+}
+#: SI prefixes: symbol → (pint's name, its scale)
+_PREFIX = {"G": ("giga", 1000000000.0), "M": ("mega", 1000000.0), "k": ("kilo", 1000.0), "c": ("centi", 0.01),
+           "m": ("milli", 0.001), "u": ("micro", 1e-06), "µ": ("micro", 1e-06), "μ": ("micro", 1e-06),
+           "n": ("nano", 1e-09)}
+#: unit symbol → (pint's name, the prefixes it takes here)
+_SYMBOLS = {"m": ("meter", "kcmuµμn"), "g": ("gram", "km"), "s": ("second", "muµμn"), "A": ("ampere", "kmuµμ"),
+            "V": ("volt", "kmuµμ"), "ohm": ("ohm", "Mkm"), "Ω": ("ohm", "Mkm"), "H": ("henry", "muµμn"),
+            "N": ("newton", "Mkm"), "W": ("watt", "Mkm"), "J": ("joule", "km"), "Hz": ("hertz", "GMkm"),
+            "rad": ("radian", "m"), "rpm": ("revolutions_per_minute", "k"), "K": ("kelvin", ""),
+            "C": ("coulomb", ""), "Wb": ("weber", ""), "deg": ("degree", ""), "min": ("minute", ""),
+            "hr": ("hour", ""), "turn": ("turn", "")}
+#: spelled-out names (and plurals pint accepts) → pint's name
+_WORDS = {"meter": "meter", "meters": "meter", "metre": "meter", "gram": "gram", "grams": "gram",
+          "kilogram": "kilogram", "kilograms": "kilogram", "second": "second", "seconds": "second",
+          "sec": "second", "millisecond": "millisecond", "milliseconds": "millisecond", "ampere": "ampere",
+          "amperes": "ampere", "amp": "ampere", "volt": "volt", "volts": "volt", "ohms": "ohm", "henry": "henry",
+          "newton": "newton", "newtons": "newton", "watt": "watt", "watts": "watt", "joule": "joule",
+          "joules": "joule", "hertz": "hertz", "radian": "radian", "radians": "radian", "degree": "degree",
+          "degrees": "degree", "revolution": "turn", "revolutions": "turn", "turns": "turn", "cycle": "turn",
+          "minute": "minute", "minutes": "minute", "hour": "hour", "hours": "hour", "kelvin": "kelvin",
+          "millimeter": "millimeter", "millimeters": "millimeter", "centimeter": "centimeter",
+          "centimeters": "centimeter"}
+
+
+def _unit_table():
+    names, defs = dict(_WORDS), dict(_DEFS)
+    for sym, (name, prefixes) in _SYMBOLS.items():
+        names[sym] = name
+        for p in prefixes:
+            pname, scale = _PREFIX[p]
+            names[p + sym] = pname + name
+            defs[pname + name] = (scale, ((name, 1),))
+    return names, defs
+
+
+_NAMES, _UNITS = _unit_table()
+_NUMBER = re.compile(r"([+-]?)(\d+\.?\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?)(\s*)")
+_TOKENS = re.compile(r"\s*(\*\*|\^|[*/()]|-?\d+|[A-Za-zµμΩ_]+)")
+_PLAIN = re.compile(r"\d+\.?\d*")
+_GLUED = frozenset("abcdfghijklmnopqrstuvwxyzABCDFGHIJKLMNOPQRSTUVWXYZ")
+_INT = re.compile(r"-?\d+")
+_ROOT_CACHE: dict = {}
+
+
+def _mul(a: dict, b: dict, sign: int) -> dict:
+    """pint's UnitsContainer product (sign 1) or quotient (−1): a's keys first, a zero exponent dropped."""
+    new = dict(a)
+    for k, v in b.items():
+        new[k] = new.get(k, 0) + sign * v
+        if new[k] == 0:
+            del new[k]
+    return new
+
+
+def _units_of(expr: str) -> dict | None:
+    """The units of ``expr`` as pint's parser builds them (names and exponents in its order), or None
+    when the expression is outside the fast path (unknown name, other syntax)."""
+    toks, pos = [], 0
+    expr = expr.strip()
+    while pos < len(expr):
+        m = _TOKENS.match(expr, pos)
+        if m is None or m.end() == pos:
+            return None
+        toks.append(m.group(1))
+        pos = m.end()
+        while pos < len(expr) and expr[pos].isspace():
+            pos += 1
+    if not toks:
+        return None
+    i = 0
+
+    def factor():
+        nonlocal i
+        if i >= len(toks):
+            return None
+        t = toks[i]
+        i += 1
+        if t == "(":
+            u = product()
+            if u is None or i >= len(toks) or toks[i] != ")":
+                return None
+            i += 1
+        elif t == "1":
+            u = {}
+        elif t in _NAMES:
+            u = {_NAMES[t]: 1}
+        else:
+            return None
+        if i < len(toks) and toks[i] in ("**", "^"):
+            i += 1
+            if i >= len(toks) or not _INT.fullmatch(toks[i]) or int(toks[i]) == 0:
+                return None
+            n = int(toks[i])
+            i += 1
+            u = {k: v * n for k, v in u.items()}
+        return u
+
+    def product():
+        nonlocal i
+        u = factor()
+        while u is not None and i < len(toks) and toks[i] != ")":
+            sign = 1
+            if toks[i] in ("*", "/"):
+                sign = 1 if toks[i] == "*" else -1
+                i += 1
+            v = factor()
+            if v is None:
+                return None
+            u = _mul(u, v, sign)
+        return u
+
+    u = product()
+    return u if u is not None and i == len(toks) else None
+
+
+def _root(units: dict):
+    """pint's ``_get_root_units``: (factor, base units) of ``units``: the scales gathered as a
+    fraction keyed by value (equal scales cancel), then multiplied numerator first, in pint's order."""
+    key = tuple(units.items())
+    hit = _ROOT_CACHE.get(key)
+    if hit is not None:
+        return hit
+    if not units:
+        return 1, {}
+    acc: dict = {}
+    num: dict = {}
+    den: dict = {}
+
+    def walk(ref, exp):
+        for name, e in ref:
+            e2 = exp * e
+            if name in _BASE:
+                acc[name] = acc.get(name, 0) + e2
+                continue
+            scale, sub = _UNITS[name]
+            if e2 < 0:
+                den[scale] = den.get(scale, 0) - e2
+            else:
+                num[scale] = num.get(scale, 0) + e2
+            walk(sub, e2)
+
+    walk(units.items(), 1)
+    while any(f in den for f in num):
+        for f, e in num.items():
+            if f in den and e >= den[f]:
+                num[f] -= den[f]
+                del den[f]
+        for f, e in den.items():
+            if f in num and e >= num[f]:
+                den[f] -= num[f]
+                del num[f]
+    factor = 1
+    for f, e in num.items():
+        if e != 0:
+            factor *= f ** e
+    for f, e in den.items():
+        if e != 0:
+            factor *= f ** -e
+    out = _ROOT_CACHE[key] = (factor, {k: v for k, v in acc.items() if v != 0})
+    return out
+
+
+def _dims(base: dict) -> dict:
+    return {_BASE[k]: v for k, v in base.items() if _BASE[k]}
+
+
+def _fast_factor(src: dict, dst: dict):
+    """pint's conversion factor src → dst (its ``convert``), or None when the dimensions differ."""
+    if src == dst:
+        return None, True
+    if _dims(_root(src)[1]) != _dims(_root(dst)[1]):
+        return None, False
+    return _root(_mul(src, dst, -1))[0], True
+
+
+def _fast_quantity(magnitude, unit, si: str):
+    """``magnitude`` in ``unit`` (text, or units as :func:`_units_of` gives them) converted to ``si`` as
+    pint does (``Quantity(magnitude, unit).to(si)``), or None."""
+    src = _units_of(unit) if isinstance(unit, str) else unit
+    dst = _units_of(si) if si else {}
+    if src is None or dst is None:
+        return None
+    f, ok = _fast_factor(src, dst)
+    if not ok:
+        return None
+    return float(magnitude if f is None else magnitude * f)
+
+
+def _fast_parse(text: str):
+    """"<number> <units>" → (pint's magnitude: int or float, units) or None."""
+    m = _NUMBER.match(text)
+    if m is None:
+        return None
+    sign, num, gap = m.groups()
+    rest = text[m.end():]
+    if not rest or (not gap and not (_PLAIN.fullmatch(num) and rest[0] in _GLUED)):
+        return None  # "60mm" reads as 60*mm in pint; anything less plain: pint decides
+    try:
+        mag = int(num)
+    except ValueError:
+        mag = float(num)
+    if sign == "-":
+        mag = mag * -1
+    units = _units_of(rest)
+    return None if units is None else (mag, units)
+
+
+def _fast_to_si(text: str, kind: str):
+    """:func:`to_si` of a string without pint, or None (pint decides: another unit, other syntax, an
+    error).  The same float as pint's path: magnitude × pint's factor, × the cycle factor."""
+    parsed = _fast_parse(text)
+    si = KINDS[kind][0]
+    dst = _units_of(si) if si else {}
+    if parsed is None or dst is None:
+        return None
+    mag, src = parsed
+    f, ok = _fast_factor(src, dst)
+    if not ok:
+        return None
+    value = float(mag if f is None else mag * f)
+    # the cycle factor (:func:`_cycle_factor`) from the same root units
+    if not si:
+        return value * 1.0
+    want = _root(dst)[1].get("radian", 0)
+    angle = cycles = 0
+    for name, exp in src.items():
+        root = _root({name: 1})[1]
+        if root.get("radian"):
+            angle += exp * root["radian"]
+        elif root == {"second": -1}:
+            cycles += exp
+    if angle == 0 and cycles != 0 and cycles == want:
+        return value * (2.0 * math.pi) ** cycles
+    if kind == "frequency" and angle == 1 and cycles == 0:
+        return value * (1.0 / (2.0 * math.pi))
+    return value * 1.0
+
+
+def fast_convert(text: str, unit: str):
+    """A quantity string converted to ``unit`` (a unit expression, e.g. ``"kelvin/watt"``) as pint
+    would, without pint; None when the fast path does not know it (then ask pint)."""
+    parsed = _fast_parse(str(text).strip())
+    return None if parsed is None else _fast_quantity(parsed[0], parsed[1], unit)

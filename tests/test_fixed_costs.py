@@ -70,3 +70,29 @@ def test_a_command_imports_only_its_own_module(tmp_path, sub):
     mods, _ = _modules_after(args, tmp_path)
     cmds = {m for m in mods if m.startswith("mjbench.commands")}
     assert cmds == {"mjbench.commands", f"mjbench.commands.{cli.COMMAND_MODULES[sub]}"}, cmds
+
+
+def test_a_press_run_needs_neither_pint_nor_scipy_optimize_the_second_time(tmp_path):
+    """press-slidercrank writes its angles with units and is a generic linkage: its unit strings are
+    read without pint (mjbench.units' fast path) and, from the second run on, its built linkage comes
+    from the user cache (no assembly: no scipy.optimize)."""
+    env = {"MJBENCH_CACHE_DIR": str(tmp_path / "cache")}
+    args = ["run", "press-slidercrank", "--backend", "multibody", "--t-end", "0.01", "--no-figure", "--force",
+            "--out", str(tmp_path / "o")]
+    first, _ = _modules_after(args, tmp_path, env)
+    second, _ = _modules_after(args, tmp_path, env)
+    assert "scipy.optimize" in first and "pint" not in first
+    heavy = sorted(m for m in HEAVY_FOR_A_RUN + ("scipy.optimize", "scipy.linalg") if m in second)
+    assert not heavy, heavy
+
+
+def test_the_manifest_states_the_installed_versions():
+    """The manifest reads scipy's and matplotlib's versions from their dist-info without parsing the
+    whole METADATA file: the same strings importlib.metadata gives."""
+    from importlib.metadata import version
+
+    from mjbench import manifest
+
+    v = manifest.versions()
+    assert v["scipy"] == version("scipy") and v["matplotlib"] == version("matplotlib")
+    assert manifest._dist_version("no-such-distribution-here") is None

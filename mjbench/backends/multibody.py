@@ -170,9 +170,9 @@ class MultibodyPlant:
         elif mech.internal:
             laws["write"] = mujoco_internal
         if load is None:
-            f = C.Form(mujoco_step, P, laws=laws, flags=flags)
+            f = C.Form(mujoco_step, P, laws=laws, flags=flags, python=python_step(P, m, d))
         else:
-            f = C.Form(mujoco_step_load, P, laws=laws, flags=flags, fn_args=(load,))
+            f = C.Form(mujoco_step_load, P, laws=laws, flags=flags, fn_args=(load,), python=python_step(P, m, d, load))
         if not closure.compiled and f.compiled:
             f.compiled, f.reason = False, closure.reason
         if _mj_step_address() is None:
@@ -244,6 +244,30 @@ def mujoco_step_load(LOAD, TAU, t, P, S, QO):
     LOAD(t, P.load)
     mj_step_at(P.step, P.m, P.d)
     mujoco_read(P, S, QO)
+
+
+def python_step(P, model, data, load=None):
+    """:func:`mujoco_step` (:func:`mujoco_step_load` with the load's slot function) as a CPython twin
+    (:attr:`mjbench.compiled.Form.python`): the same writes, the load, ``mujoco.mj_step`` on this
+    model and data and the same reads (:func:`mujoco_read`), the addresses written into the code."""
+    env = {"qfrc": memoryview(P.qfrc), "qpos": memoryview(P.qpos), "qvel": memoryview(P.qvel),
+           "mj_step": mujoco.mj_step, "model": model, "data": data,
+           "LOAD": load.bound() if load is not None else None}
+    lines = ["def mujoco_step_twin(TAU, t, P, S, QO):"]
+    lines += [f"    qfrc[{int(v)}] = TAU[{a}]" for a, v in enumerate(P.vd)]
+    if load is not None:
+        lines.append("    LOAD(t, P.load)")
+    lines.append("    mj_step(model, data)")
+    for a, (qa, va) in enumerate(zip(P.qa, P.va)):
+        lines += [f"    q = qpos[{int(qa)}]", f"    qd = qvel[{int(va)}]"]
+        if P.qm < 0:
+            lines += ["    dm = 0.0", "    dmd = 0.0"]
+        else:
+            lines += [f"    dm = qpos[{int(P.qm)}] - q", f"    dmd = qvel[{int(P.vm)}] - qd"]
+        lines += [f"    QO[{4 * a}] = q", f"    QO[{4 * a + 1}] = qd", f"    QO[{4 * a + 2}] = dm", f"    QO[{4 * a + 3}] = dmd"]
+    src = "\n".join(lines) + "\n"
+    exec(compile(src, "<mjbench MuJoCo step twin>", "exec"), env)  # noqa: S102 - our own generated source
+    return env["mujoco_step_twin"]
 
 
 @C.law

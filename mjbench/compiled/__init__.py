@@ -91,7 +91,14 @@ class Form:
     ``compiled``: False when the law is a Python adapter numba cannot compile, with ``reason``;
     ``children``: sub-forms the kernel wires into slots of their own (a controller's reference);
     ``fn_args``: forms whose *laws* this law takes as its leading arguments (a plant's dynamics
-    model, a controller's model of the plant); their parameters are part of this form's ``P``."""
+    model, a controller's model of the plant); their parameters are part of this form's ``P``.
+
+    ``python``: optionally, the law's *CPython twin* for this form: a function with the slot's
+    signature that performs the same floating-point operations in the same order, specialised to
+    this form's parameters (constants written into its code, loops over them unrolled, live arrays
+    read through memoryviews) — the CPython loop calls it instead of the law (the compiled loop
+    never does); the same bits, at a fraction of the per-call cost of a generic law reading its
+    parameter tables.  A twin belongs to one form (one run): loops that hold one are not shared."""
 
     law: Callable
     P: Any = NO_PARAMS
@@ -104,6 +111,7 @@ class Form:
     fn_args: tuple = ()
     outputs: tuple = ()
     what: str = ""
+    python: Callable | None = None
 
     def __post_init__(self):
         self.S0 = np.ascontiguousarray(self.S0, dtype=np.float64).reshape(-1)
@@ -125,10 +133,18 @@ class Form:
         return self.S0.copy()
 
     def bound(self) -> Callable:
-        """The slot function for CPython: the law with its ``fn_args`` laws bound in front."""
+        """The slot function for CPython: the law's twin (``python``) if it has one, else the law with
+        its ``fn_args`` laws bound in front."""
+        if self.python is not None:
+            return self.python
         if not self.fn_args:
             return self.law
         return functools.partial(self.law, *(f.bound() for f in self.fn_args))
+
+    @property
+    def twins(self) -> tuple:
+        """The CPython twins of this form and of its function arguments (:attr:`python`)."""
+        return ((self.python,) if self.python is not None else ()) + tuple(t for f in self.fn_args for t in f.twins)
 
     @property
     def ident(self) -> tuple:

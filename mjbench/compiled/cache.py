@@ -9,12 +9,19 @@ process only (nothing left behind; :data:`NOTES` says so once).
 A generated module carries the SHA-256 of its own text on its first line; a module whose text does
 not match (truncated, edited, corrupted on disk) or that fails to load is rebuilt, with numba's
 cache entries of that module, and :data:`NOTES` says so.
+
+Objects that are costly to build and cheap to read back (a linkage's assembled branch and tables)
+are kept in ``<cache>/<folder>/`` (:func:`load_object`, :func:`store_object`): keyed by their
+description and :func:`code_version`, written atomically, each file carrying the SHA-256 of its
+contents (a corrupted entry is removed, rebuilt and said in :data:`NOTES`); without a writable cache
+nothing is written.
 """
 from __future__ import annotations
 
 import glob
 import hashlib
 import os
+import pickle
 import sys
 from pathlib import Path
 
@@ -41,8 +48,9 @@ def root() -> Path | None:
             probe.unlink()
             _ROOT = path
         except OSError as e:
-            NOTES.append(f"cache folder {base} is not writable ({e.strerror}): compiled loops are built in memory "
-                         f"for this process only (set MJBENCH_CACHE_DIR to a writable folder to keep them)")
+            NOTES.append(f"cache folder {base} is not writable ({e.strerror}): compiled loops and built linkages are "
+                         f"kept in memory for this process only (set MJBENCH_CACHE_DIR to a writable folder to keep "
+                         f"them)")
     return _ROOT
 
 
@@ -110,3 +118,96 @@ def purge(name: str) -> None:
 def note(msg: str) -> None:
     if msg not in NOTES:
         NOTES.append(msg)
+
+
+# ============================================================================ stored objects
+#: first bytes of a stored object's file, then the SHA-256 of the pickle that follows
+OBJECT_MAGIC = b"mjbench-object-1\n"
+#: stored objects kept per folder (the oldest beyond are removed when one is stored)
+KEEP_OBJECTS = 64
+_VERSION: str | None = None
+
+
+def code_version() -> str:
+    """A fingerprint of the code that builds stored objects: every source file of mjbench (its path,
+    size and modification time: no file is read), Python's version, NumPy's and SciPy's."""
+    global _VERSION
+    if _VERSION is None:
+        import importlib.util
+
+        h = hashlib.sha256(sys.version.encode())
+        here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        for dirpath, dirnames, files in os.walk(here):
+            dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
+            for f in sorted(files):
+                if f.endswith(".py") or f.endswith(".toml"):
+                    st = os.stat(os.path.join(dirpath, f))
+                    h.update(f"{os.path.relpath(os.path.join(dirpath, f), here)}:{st.st_size}:{st.st_mtime_ns}".encode())
+        for pkg in ("numpy", "scipy"):
+            spec = importlib.util.find_spec(pkg)
+            ver = os.path.join(os.path.dirname(spec.origin), "version.py") if spec and spec.origin else ""
+            try:
+                with open(ver, "rb") as fh:
+                    h.update(fh.read())
+            except OSError:
+                h.update(pkg.encode())
+        _VERSION = h.hexdigest()
+    return _VERSION
+
+
+def _object_path(folder: str, key: str) -> Path | None:
+    r = root()
+    return None if r is None else r / folder / f"{key}.pickle"
+
+
+def load_object(folder: str, key: str, what: str = "cache entry"):
+    """The object stored under ``key`` in ``folder``, or None (absent, no cache; an entry whose
+    checksum does not match or that cannot be read back is removed and said in :data:`NOTES`)."""
+    path = _object_path(folder, key)
+    if path is None:
+        return None
+    try:
+        raw = path.read_bytes()
+    except OSError:
+        return None
+    n = len(OBJECT_MAGIC)
+    body = raw[n + 32:]
+    try:
+        if raw[:n] != OBJECT_MAGIC or raw[n:n + 32] != hashlib.sha256(body).digest():
+            raise ValueError("checksum")
+        return pickle.loads(body)  # noqa: S301 - our own file in the user's own cache, checksummed
+    except Exception as e:  # noqa: BLE001 - a corrupted or unreadable entry: rebuilt
+        try:
+            path.unlink()
+        except OSError:
+            pass
+        note(f"{what}: its cache entry could not be read ({e if isinstance(e, ValueError) else type(e).__name__}); "
+             f"rebuilt")
+        return None
+
+
+def store_object(folder: str, key: str, obj) -> bool:
+    """Store ``obj`` under ``key`` in ``folder`` (atomically: a temporary file renamed); → whether stored.
+    Without a writable cache, or when the write fails, nothing is left behind."""
+    path = _object_path(folder, key)
+    if path is None:
+        return False
+    tmp = path.parent / f".{key}.{os.getpid()}.tmp"
+    try:
+        body = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_bytes(OBJECT_MAGIC + hashlib.sha256(body).digest() + body)
+        os.replace(tmp, path)
+    except (OSError, pickle.PicklingError, TypeError, AttributeError):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        return False
+    try:
+        entries = sorted(path.parent.glob("*.pickle"), key=lambda p: p.stat().st_mtime_ns)
+        for old in entries[:max(0, len(entries) - KEEP_OBJECTS)]:
+            old.unlink()
+    except OSError:
+        pass
+    return True

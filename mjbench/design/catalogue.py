@@ -46,8 +46,9 @@ def _thermal_resistance(v):
             x = float(v)
         except ValueError:
             try:
-                reg = U.ureg()
-                x = float(reg.Quantity(v.strip()).to("kelvin/watt").magnitude)
+                x = U.fast_convert(v, "kelvin/watt")
+                if x is None:
+                    x = float(U.ureg().Quantity(v.strip()).to("kelvin/watt").magnitude)
             except Exception:  # noqa: BLE001 - pint's parser errors vary
                 raise PydanticCustomError("mjbench_value", "{v!r} is not a thermal resistance in K/W", {"v": v}) from None
     else:

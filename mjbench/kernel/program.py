@@ -246,6 +246,21 @@ class Program:
                              tuple(sorted(self.flags.items())))
         return k
 
+    @property
+    def twins(self) -> tuple:
+        """The CPython twins in this composition's slots (:attr:`mjbench.compiled.Form.python`): a
+        CPython loop that holds one belongs to this run alone (computed once)."""
+        t = self.__dict__.get("_twins")
+        if t is None:
+            forms = list(self.slots.values()) + [f for f, _ in self.wired.values()]
+            t = self._twins = tuple(tw for f in forms for tw in f.twins)
+        return t
+
+    def loop_key(self, mode: str):
+        """The key under which runs share a loop of ``mode``: :attr:`key`, or this program alone when
+        its CPython loop holds twins."""
+        return (self.key, id(self)) if mode == "python" and self.twins else self.key
+
     def law_frames(self) -> dict:
         """{code object: (component, law name)} of every law of the composition (error messages)."""
         out = {}

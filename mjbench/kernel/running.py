@@ -29,6 +29,7 @@ from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
 from . import loop as LP
+from . import pyloop
 from .program import Program, Run
 from ..backends.table import composing
 from ..compiled import jit
@@ -267,8 +268,8 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     stats = None if consume is not None else np.full((N, nrec * nstat), np.nan)
     fns = {}
     for pr in progs:
-        if pr.key not in fns:
-            fns[pr.key] = loop_function(pr, mode)
+        if pr.loop_key(mode) not in fns:
+            fns[pr.loop_key(mode)] = loop_function(pr, mode)
     meta = _job_meta(plants[0], machines[0], h, decim, mode, why)
     nrows = np.zeros(N, dtype=int)
     diverged = np.zeros(N, dtype=bool)
@@ -280,7 +281,7 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     def task(i, prog, stop=None):
         pr = progs[i]
         st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, None if data is None else data[i],
-                     fns[pr.key], None if stats is None else stats[i], strict=strict)
+                     fns[pr.loop_key(mode)], None if stats is None else stats[i], strict=strict)
         _run_one(st, prog, mode != "python", stop)
         if st.fallback:
             meta["loop"], meta["loop_reason"] = "python", st.fallback
@@ -397,7 +398,6 @@ def _run_threaded(task, N: int, nthreads: int, progress) -> None:
 
 
 # =============================================================================== the loops
-_PY_CODE: dict = {}
 _PY_LOOPS: dict = {}
 
 
@@ -410,17 +410,13 @@ def loop_env() -> dict:
 def python_loop(program: Program):
     """The loop executed by CPython for this composition (the unrolled template's code)."""
     key = program.key
-    fn = _PY_LOOPS.get(key) if program.compiled else None
+    shared = program.compiled and not program.twins  # (a loop holding a run's twins is that run's alone)
+    fn = _PY_LOOPS.get(key) if shared else None
     if fn is None:
-        shape = (program.naxes, program.nctrl)
-        code = _PY_CODE.get(shape)
-        if code is None:
-            src = LP.source(*shape)
-            mod = compile(src, f"<mjbench loop {shape[0]} axis(es), {shape[1]} controller(s)>", "exec")
-            code = _PY_CODE[shape] = next(c for c in mod.co_consts if isinstance(c, types.CodeType))
+        code = pyloop.code(program.naxes, program.nctrl, program.flags)  # specialised to its constants, kept
         env = {**loop_env(), **program.env()}
         fn = types.FunctionType(code, env, "_loop")
-        if program.compiled:
+        if shared:
             _PY_LOOPS[key] = fn  # (its globals hold the laws: their ids in the key stay unique)
     return fn
 

@@ -188,7 +188,7 @@ class MjSpecMixin:
 
     def _link_geoms(self, mujoco, body, name, rad, rgba):
         pts = np.array(list(self.c.pts[name].values())).reshape(-1, 2)
-        uniq = np.unique(np.round(pts, 12), axis=0)
+        uniq = _unique_rows(np.round(pts, 12))
         segs = []
         if len(uniq) == 2:
             segs = [(uniq[0], uniq[1])]
@@ -232,3 +232,13 @@ class MjSpecMixin:
         d = self.c.slide_positions(self._drawing_z(720))
         return {k: (float(np.nanmin(d[:, k])), float(np.nanmax(d[:, k]))) for k in range(d.shape[1])
                 if not np.isnan(d[0, k])}
+
+
+def _unique_rows(a):
+    """``np.unique(a, axis=0)`` for a float array (the rows sorted, each once) without ``np.unique``,
+    which imports ``numpy.ma`` (≈ 10 ms) in every process that builds a linkage's model; a negative
+    zero (two rows that compare equal with different bits): ``np.unique`` itself."""
+    if np.any(np.signbit(a) & (a == 0.0)) or not np.all(np.isfinite(a)):
+        return np.unique(a, axis=0)
+    rows = sorted({tuple(float(v) for v in r) for r in a})
+    return np.array(rows, dtype=a.dtype).reshape(-1, a.shape[1])

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ...compiled import cache
 from ..linkage_kin import KJoint, PlanarSystem
 from .assembly import AssemblyMixin
 from .description import LinkageParams
@@ -94,14 +95,29 @@ class _Compiled(TreeMixin, KinematicsMixin, AssemblyMixin, ReducedMixin):
 
 
 _CACHE: dict = {}
+#: the user cache's folder of built linkages (:func:`mjbench.compiled.cache.store_object`); None: not
+#: kept on disk (scripts/bench_parts/linkage.py times the build itself)
+DISK_FOLDER: str | None = "linkages"
 
 
 def compiled(p: LinkageParams) -> _Compiled:
-    """The compiled, built linkage of a description (cached by its content)."""
-    key = hashlib.sha1(p.model_dump_json().encode()).hexdigest()
+    """The compiled, built linkage of a description: cached in memory by its content, and on disk in
+    the user cache by its content and the code's version (:func:`mjbench.compiled.cache.code_version`),
+    so a second command does not assemble it again (nor import ``scipy.optimize`` for it)."""
+    text = p.model_dump_json()
+    key = hashlib.sha1(text.encode()).hexdigest()
     hit = _CACHE.get(key)
     if hit is None:
         if len(_CACHE) > 32:
             _CACHE.clear()
-        hit = _CACHE[key] = _Compiled(p).build()
+        disk = hashlib.sha256(f"{text}\n{cache.code_version()}".encode()).hexdigest()[:40] if DISK_FOLDER else ""
+        if disk:
+            hit = cache.load_object(DISK_FOLDER, disk, f"built linkage {p.name!r}")
+            if not isinstance(hit, _Compiled) or hit.p != p:
+                hit = None
+        if hit is None:
+            hit = _Compiled(p).build()
+            if disk:
+                cache.store_object(DISK_FOLDER, disk, hit)
+        _CACHE[key] = hit
     return hit

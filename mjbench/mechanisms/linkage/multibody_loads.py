@@ -22,7 +22,7 @@ import numpy as np
 
 from ... import compiled as C
 from ...compiled import law
-from ..linkage_kin import ptable_channel
+from ..linkage_kin import TWO_PI, ptable_channel
 from .loads import load_abscissa, load_force
 from .topology import GROUND, _ref
 
@@ -192,6 +192,155 @@ def write_forces(qfrc, ina, I, W, rd, nd):
             qfrc[d] = W[i, W_F]
 
 
+# ============================================================================ the CPython twin
+def python_twin(P):
+    """:func:`linkage_load`'s CPython twin for these parameters (:attr:`mjbench.compiled.Form.python`):
+    the same operations in the same order — every group and entry unrolled, the constants of ``I``,
+    ``F``, the loads' table and the periodic table's position written into the code, the forces kept
+    in locals — reading ``qpos``/``qvel`` and writing ``qfrc`` through memoryviews, as the law does
+    in the CPython loop.  The same bits (tests/test_linkage_cache.py's twin test, tests/test_digests.py)."""
+    I, F, spec, xf, tab = np.asarray(P.I), np.asarray(P.F), np.asarray(P.loads.spec), np.asarray(P.loads.xf), P.tab
+    env = {"math": math, "nan": math.nan, "qpos": memoryview(P.qpos), "qvel": memoryview(P.qvel),
+           "qfrc": memoryview(P.qfrc)}
+    r = repr
+    out = ["def linkage_load_twin(t, _P):"]
+    add = out.append
+    for i in range(P.nd):
+        add(f"    w{i} = 0.0")
+
+    def channel(target, q, ch, ind):
+        """:func:`~..linkage_kin.ptable_channel` (channel ``ch``) of ``q`` into ``target``."""
+        env[f"R{ch}"] = memoryview(np.ascontiguousarray(tab.rows[ch]))
+        cell = f"(i & {int(tab.M)})" if int(tab.M) >= 0 else f"(i % {int(tab.N)})"
+        add(f"{ind}u = ({q} - {r(float(tab.q0))}) * {r(float(tab.inv_h))}")
+        add(f"{ind}if not abs(u) < 1e15:")
+        add(f"{ind}    {target} = nan")
+        add(f"{ind}else:")
+        add(f"{ind}    i = math.floor(u)")
+        add(f"{ind}    tt = u - i")
+        add(f"{ind}    b = 4 * {cell}")
+        add(f"{ind}    {target} = ((R{ch}[b] * tt + R{ch}[b + 1]) * tt + R{ch}[b + 2]) * tt + R{ch}[b + 3]")
+
+    def force(target, k, s, sd, ind):
+        """:func:`~.loads.load_force` of load ``k`` at ``s`` with ds/dq ``sd`` into ``target``."""
+        g = float(spec[k, 2])
+        body = ind
+        if g != 0.0:
+            add(f"{ind}if not ({r(g)} * {sd} > 0.0):")
+            add(f"{ind}    {target} = 0.0")
+            add(f"{ind}else:")
+            body = ind + "    "
+        if float(spec[k, 0]) == 0.0:
+            add(f"{body}{target} = {r(float(spec[k, 1]))}")
+            return
+        a, n = int(spec[k, 3]), int(spec[k, 4])
+        xs, ys = tuple(float(v) for v in xf[0, a:a + n]), tuple(float(v) for v in xf[1, a:a + n])
+        env[f"X{k}"], env[f"Y{k}"] = xs, ys
+        add(f"{body}if {s} <= {r(xs[0])}:")
+        add(f"{body}    {target} = {r(ys[0])}")
+        add(f"{body}elif {s} >= {r(xs[-1])}:")
+        add(f"{body}    {target} = {r(ys[-1])}")
+        add(f"{body}else:")
+        add(f"{body}    lo = 0")
+        add(f"{body}    hi = {n - 1}")
+        add(f"{body}    while hi - lo > 1:")
+        add(f"{body}        mid = (lo + hi) // 2")
+        add(f"{body}        if X{k}[mid] <= {s}:")
+        add(f"{body}            lo = mid")
+        add(f"{body}        else:")
+        add(f"{body}            hi = mid")
+        add(f"{body}    x0 = X{k}[lo]")
+        add(f"{body}    tt = ({s} - x0) / (X{k}[lo + 1] - x0)")
+        add(f"{body}    {target} = Y{k}[lo] + tt * (Y{k}[lo + 1] - Y{k}[lo])")
+
+    def entries(g):
+        return range(int(I[g, G_START]), int(I[g, G_END]))
+
+    for g in range(0, P.ga):  # closure_damping_forces
+        add("    w = 0.0")
+        for e in entries(g):
+            add(f"    w = w {'+' if F[e, E_K] > 0.0 else '-'} qvel[{int(I[e, E_DOF])}]")
+        add(f"    tau = -{r(float(F[g, G_C]))} * w")
+        for e in entries(g):
+            i = int(I[e, E_SLOT])
+            add(f"    w{i} = w{i} {'+' if F[e, E_K] > 0.0 else '-'} tau")
+    h2 = r(float(P.h2))
+    add(f"    q_mid = qpos[{int(P.qina)}] + {h2} * qvel[{int(P.ina)}]")
+    for g in range(P.ga, P.gc):  # slide_load_forces
+        add(f"    sv = {r(float(F[g, G_C]))}")
+        for e in entries(g):
+            add(f"    sv = sv + {r(float(F[e, E_K]))} * (qpos[{int(I[e, E_QPOS])}] + {h2} * qvel[{int(I[e, E_DOF])}])")
+        channel("sp", "q_mid", int(I[g, G_KD]), "    ")
+        force("Fs", int(I[g, G_LOAD]), "sv", "sp", "    ")
+        for e in entries(g):
+            i = int(I[e, E_SLOT])
+            add(f"    w{i} = w{i} + Fs * {r(float(F[e, E_K]))}")
+    for g in range(P.gc, P.gt):  # chain_load_forces
+        add("    th = 0.0")
+        add("    cP = 1.0")
+        add("    sP = 0.0")
+        add("    ox = 0.0")
+        add("    oy = 0.0")
+        for e in entries(g):
+            p0, p1, c0, c1 = (r(float(F[e, j])) for j in (E_P0, E_P1, E_C0, E_C1))
+            add(f"    val = qpos[{int(I[e, E_QPOS])}] + {h2} * qvel[{int(I[e, E_DOF])}]")
+            add(f"    px = ox + cP * {p0} - sP * {p1}")
+            add(f"    py = oy + sP * {p0} + cP * {p1}")
+            if int(I[e, E_HINGE]) != 0:
+                add(f"    a{e} = px")
+                add(f"    b{e} = py")
+                add("    th = th + val")
+            else:
+                u0, u1 = r(float(F[e, E_U0])), r(float(F[e, E_U1]))
+                add(f"    ux = cP * {u0} - sP * {u1}")
+                add(f"    uy = sP * {u0} + cP * {u1}")
+                add("    px = px + val * ux")
+                add("    py = py + val * uy")
+                add(f"    a{e} = ux")
+                add(f"    b{e} = uy")
+                add(f"    th = th + {r(float(F[e, E_PHI]))}")
+            add("    cP = math.cos(th)")
+            add("    sP = math.sin(th)")
+            add(f"    ox = px - (cP * {c0} - sP * {c1})")
+            add(f"    oy = py - (sP * {c0} + cP * {c1})")
+        pt0, pt1, dx, dy = (r(float(F[g, j])) for j in (G_PT0, G_PT1, G_DX, G_DY))
+        add(f"    x = ox + cP * {pt0} - sP * {pt1}")
+        add(f"    y = oy + sP * {pt0} + cP * {pt1}")
+        channel("sp", "q_mid", int(I[g, G_KD]), "    ")
+        add(f"    s = x * {dx} + y * {dy}")
+        force("Fs", int(I[g, G_LOAD]), "s", "sp", "    ")
+        for e in entries(g):
+            i = int(I[e, E_SLOT])
+            if int(I[e, E_HINGE]) != 0:
+                add(f"    w{i} = w{i} + Fs * ((b{e} - y) * {dx} + (x - a{e}) * {dy})")
+            else:
+                add(f"    w{i} = w{i} + Fs * (a{e} * {dx} + b{e} * {dy})")
+    for g in range(P.gt, P.ge):  # link_torque_forces
+        k = int(I[g, G_LOAD])
+        if float(spec[k, 7]) == 0.0:  # load_abscissa: the periodic table's channel
+            channel("s", "q_mid", int(spec[k, 5]), "    ")
+        else:
+            q0 = r(float(spec[k, 8]))
+            add(f"    u = q_mid - {q0}")
+            add("    if not abs(u) < 1e15:")
+            add("        s = nan")
+            add("    else:")
+            add(f"        s = {q0} + (u - {r(TWO_PI)} * math.floor(u / {r(TWO_PI)}))")
+        channel("sp", "q_mid", int(I[g, G_KD]), "    ")
+        force("T", k, "s", "sp", "    ")
+        for e in entries(g):
+            i = int(I[e, E_SLOT])
+            add(f"    w{i} = w{i} + T")
+    for i in range(P.nd):  # write_forces
+        d = int(I[P.rd + i, E_DOF])
+        add(f"    qfrc[{d}] {'+=' if d == int(P.ina) else '='} w{i}")
+    src = "\n".join(out) + "\n"
+    exec(compile(src, "<mjbench linkage load twin>", "exec"), env)  # noqa: S102 - our own generated source
+    fn = env["linkage_load_twin"]
+    fn.source = src
+    return fn
+
+
 # ============================================================================ the mechanism's side
 def _affine_terms(cc, pt, d):
     """A point moved by slides only (a ram on its guide): s is affine in the slide values,
@@ -310,7 +459,7 @@ class MultibodyLoadsMixin:
         gt = gc + len(loads)
         P = LinkageLoadP(data.qpos, data.qvel, data.qfrc_applied, self.c.table.P, self.loads_P, Ii, Ff,
                          np.zeros((max(rows, 1), 3)), ina, qina, h2, ga, gc, gt, ng, ng + ne, len(dofs))
-        return C.Form(linkage_load, P)
+        return C.Form(linkage_load, P, python=python_twin(P))
 
     def multibody_load(self, model, data, t: float) -> None:
         """Point and torque loads and the viscous friction of loop-closing hinges as generalised forces
