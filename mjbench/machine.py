@@ -25,6 +25,18 @@ class OneAxisOnly(ParameterError, AttributeError):
     """A one-axis quantity asked of a machine with several axes (one line naming it)."""
 
 
+#: where the docs say what works on a machine with several motors and what is one-axis only
+MULTI_AXIS_DOC = "docs/linkages.md §8"
+
+
+def one_axis_only(what: str, labels, why: str = "") -> OneAxisOnly:
+    """The one-line error for ``what`` (a command, an analysis) asked of a machine whose axes are
+    ``labels``: "export-fmu: the machine has 2 axes (A, E); export-fmu is one-axis only so far (why) …"."""
+    labels = list(labels)
+    return OneAxisOnly(f"{what}: the machine has {len(labels)} axes ({', '.join(labels)}); {what} is one-axis only "
+                       f"so far{f' ({why})' if why else ''}; {MULTI_AXIS_DOC}")
+
+
 class PerAxis(list):
     """The drives (or controllers) of a machine with several axes, in axis order: a list; asking it
     for one drive's attribute (``machine.drive.z``) is a one-line error naming the axes."""
@@ -94,12 +106,10 @@ class Machine:
         for c, _ in self.controllers:
             c.reset()
 
-    def require_one_axis(self, what: str) -> None:
+    def require_one_axis(self, what: str, why: str = "") -> None:
         """One line when ``what`` (a command, an analysis) is asked of a machine with several axes."""
         if self.naxes > 1:
-            raise OneAxisOnly(f"{what}: the machine has {self.naxes} axes ({', '.join(self.axis_labels)}); {what} is "
-                              f"one-axis only so far (run, render, sweep, analyze and the API work on it; "
-                              f"docs/linkages.md §8)")
+            raise one_axis_only(what, self.axis_labels, why)
 
     # ------------------------------------------------------------------ what the kernel reads
     @property

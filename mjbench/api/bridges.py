@@ -91,6 +91,7 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
         raise ParameterError(f"periods = {periods}: at least 2 (the coherence needs two periods)")
     at = {k: v for k, v in (("q", q), ("qd", qd), ("I", I), ("t", t)) if v is not None}
     scn = as_scenario(scenario)
+    scn.require_one_axis("frest", "it measures one loop's frequency response at one drive's input")
     mode = scn.mode(mode)
     scn.check(mode)
     res = F.measure(scn.spec, mode, backend=backend, signal=signal, amplitude=amplitude, band=band, period=period,
@@ -164,6 +165,7 @@ def export_fmu(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
         raise ParameterError("export-fmu needs pythonfmu: pip install 'mjbench[fmi]' (or pip install pythonfmu)") from None
 
     scn = as_scenario(scenario)
+    scn.require_one_axis("export-fmu", "the FMU has one voltage input and one input joint's outputs")
     if controller:
         scn.mode(controller)  # an unknown mode: one error before any work
     with output_file(path, what, suffixes=(".fmu",)) as out:
