@@ -210,7 +210,7 @@ class LinearResult:
 
     def summary(self) -> str:
         """The text ``mjbench linearize`` prints."""
-        return linear_summary(self.data)
+        return linear_summary_n(self.data) if self.data.get("multi_axis") else linear_summary(self.data)
 
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``linear.json`` and the figures (bode.png, nyquist.png, poles.png, plant.png) into
@@ -219,7 +219,10 @@ class LinearResult:
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "linear.json"), self.data, indent=1)
             with plotstyle.context():
-                LP.family_figures(self.objects, os.fspath(out), self.scenario.name)
+                if self.data.get("multi_axis"):
+                    LP.multi_figures(self.objects, os.fspath(out), self.scenario.name)
+                else:
+                    LP.family_figures(self.objects, os.fspath(out), self.scenario.name)
         return Path(os.path.abspath(os.fspath(path)))
 
 
@@ -236,7 +239,11 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     q, qd, I, t : float, optional
         Operating point: input angle [rad], input speed [rad/s], current [A], time [s] of a K_p·t
         gain.  Default: the initial angle, the controller's running speed there, the current
-        holding q̈ = 0, ``simulation.t_end`` for a K_p·t PID (else 0).
+        holding q̈ = 0, ``simulation.t_end`` for a K_p·t PID (else 0).  A machine with several
+        motors: only ``t``, the time of the path's point (default: where the inputs move fastest);
+        the result is the MIMO plant and loop (``plant``: inputs ``V_A`` …, outputs ``q_A``,
+        ``qd_A``, ``I_A`` …; ``loop``: :class:`mjbench.linear.MultiLoop`; ``margins``: loop-at-a-time
+        margins per axis and ‖S‖∞), docs/linear.md §8.
     angles : int
         Frozen angles over one turn for the family of loops (0: none).
     multibody : bool
@@ -265,6 +272,13 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     scn = as_scenario(scenario)
     mode = scn.mode(mode)
     scn.check(mode)
+    if len(scn.axes) > 1:  # several motors: the MIMO plant and loop at the path's point at time t
+        for k in ("q", "qd", "I"):
+            if k in at:
+                raise ParameterError(f"linearize: {k}: a machine with several motors is linearised at its path's "
+                                     f"point at a time t (its inputs, speeds and currents follow from the path)")
+        res = LN.study_n(scn.spec, mode, t=at.get("t"), multibody=multibody)
+        return LinearResult(scn, res["json"], res["objects"])
     try:
         res = LN.study(scn.spec, mode, n_angles=int(angles), multibody=multibody, **at)
     except ArithmeticError as e:  # (ZeroDivisionError, OverflowError, FloatingPointError)
@@ -320,6 +334,34 @@ def linear_summary(js: dict[str, Any]) -> str:
         lim = kr["limit"]
         lines.append(f"  K_p·t = {f(kr['kp_eff'])} V·s/rad at t = {f(kr['t_s'])} s; the sampled loop loses stability at "
                      f"t = {f(lim['t_s'])} s (K_p·t = {f(lim['kp_eff'])}, q = {f(lim['at_q_rad'])} rad)")
+    return "\n".join(lines)
+
+
+def linear_summary_n(js: dict[str, Any]) -> str:
+    """Text summary of the linear.json of a machine with several motors."""
+    f = number_text
+    op = js["operating_point"]
+    pts = "; ".join(f"{lab}: q {f(a['q_rad'])} rad, q̇ {f(a['qd_rad_s'])} rad/s, I {f(a['I_A'])} A, V {f(a['V_V'])} V"
+                    for lab, a in op["axes"].items())
+    lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}, {len(js['axes'])} axes): at t = "
+             f"{f(op['t_s'])} s ({op['source']}): {pts}"]
+    for w in js.get("warnings", []):
+        lines.append(f"WARNING: {w}")
+    a = (js.get("agreement") or {}).get("reduced_vs_multibody_input_coordinates")
+    if a:
+        lines.append(f"  MIMO plant q̇/V, reduced vs multibody (input coordinates): max relative difference "
+                     f"{f(a['max_rel'], '{:.2e}')} over {f(a['omega_lo_rad_s'])}-{f(a['omega_hi_rad_s'])} rad/s")
+    lp = js.get("loop")
+    if lp:
+        for lab, m in lp["loop_at_a_time"].items():
+            lines.append(f"  loop at a time, axis {lab} (the others closed): GM = {f(m['gain_margin_dB'])} dB, PM = "
+                         f"{f(m['phase_margin_deg'])}°, peak |S| = {f(m['peak_sensitivity'])}, crossover "
+                         f"{f(m['w_gain_crossover_rad_s'])} rad/s")
+        lines.append(f"  MIMO: ‖S‖∞ = {f(lp['mimo_sensitivity_peak'])} at {f(lp['w_mimo_sensitivity_peak_rad_s'])} rad/s, "
+                     f"‖T‖∞ = {f(lp['mimo_complementary_peak'])}; {'stable' if lp['stable'] else 'UNSTABLE'} "
+                     f"(spectral radius {f(lp['spectral_radius'], '{:.6f}')})")
+    elif js.get("loop_note"):
+        lines.append(f"  no loop analysis: {js['loop_note']}")
     return "\n".join(lines)
 
 
