@@ -485,7 +485,7 @@ def tune(scn, controller="pid-tv", objective=None, limits=None, n_global=64, sta
     if not verified or tuned_m is None:
         tuned_m = _validated(prob, best_x)
     search, base_mb = _search_metrics(prob, backend, best_x, tuned_m, base_m)
-    zb = np.log(best_x)
+    zb = np.log(np.maximum(best_x, 1e-300))  # (a gain of 0: the scenario's own, at the lower bound)
     hist["at_bound"] = [p for k, p in enumerate(prob.params)
                         if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
     hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
