@@ -365,8 +365,10 @@ def workspace_numbers(mech, W: dict, path_measures: dict | None) -> dict:
           "reached_over_full_turns": int(reached.sum())}
     if box.any():
         xs, ys = X[..., 0][box], X[..., 1][box]
+        # ∫|det J_x| dq over the ranges: the nodes' mean |det J_x| times the ranges' area in the inputs
+        span = math.prod((hi - lo) if not per else 2 * math.pi for lo, hi, per in W["ranges"])
         ws.update(x_range_m=[float(xs.min()), float(xs.max())], y_range_m=[float(ys.min()), float(ys.max())],
-                  swept_area_m2=float(np.sum(np.abs(detJ[box])) * h * h))
+                  swept_area_m2=float(np.mean(np.abs(detJ[box])) * span))
     t1_in = bool((type1 & inside).any())
     edge_in = bool(box.sum() < inside.sum())
     sing = {
@@ -427,7 +429,7 @@ def analyze_multi(name, mech, drives, labels, path=None, options=None, grid: int
     maps: dict = {"labels": list(labels)}
     why_none = []
     if path is None:
-        why_none.append("no [path]: the scenario prescribes no motion, so there is no inverse dynamics to compute")
+        why_none.append("no [path]: no motion is prescribed, so there is no inverse dynamics to compute")
         res["inverse_dynamics"] = None
     else:
         info, arr = inverse_dynamics(mech, drives, labels, path)
@@ -641,7 +643,8 @@ def _wrap_to(q, axis):
 
 def summary_text(res: dict) -> str:
     """Plain-text summary printed by ``mjbench analyze`` (several motors)."""
-    lines = [f"scenario {res['scenario']} ({res['mechanism']}, {len(res['axes'])} axes: {', '.join(res['axes'])}): "
+    what = res["scenario"] if res.get("built_in_code") else f"scenario {res['scenario']}"
+    lines = [f"{what} ({res['mechanism']}, {len(res['axes'])} axes: {', '.join(res['axes'])}): "
              f"reduced model {res['reduced_model']}"]
     ti = res.get("table_info") or {}
     if ti:

@@ -618,7 +618,8 @@ def _multi_axis_parts(target: Any, options: Mapping[str, Any] | None) -> dict[st
     if isinstance(target, Mechanism):
         if not hasattr(target, "reduced_n"):
             return None
-        return {"mech": target, "drives": [None] * int(target.n_inputs), "labels": tuple(target.input_joints),
+        n_in, joints = int(getattr(target, "n_inputs")), tuple(getattr(target, "input_joints"))
+        return {"mech": target, "drives": [None] * n_in, "labels": joints,
                 "path": None, "options": machine_options(MACHINE_DT, {"multibody": options or {}})["multibody"],
                 "scn": None}
     scn = as_scenario(target)
