@@ -339,5 +339,9 @@ def test_every_command_works_on_fivebar_or_says_in_one_line_it_is_one_axis_only(
     assert len(fig.axes) == 3 and len(fig.axes[0].lines) == 2  # A and E
     df = res.to_pandas()
     assert {"A:current_A", "E:voltage_V"} <= set(df.columns)
+    for fn in (mjb.hold_point, mjb.step_check):  # the API's one-axis studies: one line each
+        with pytest.raises(mjb.ParameterError, match=rf"^{fn.__name__}: the machine has 2 axes \(A, E\); "
+                                                     rf"{fn.__name__} is one-axis only"):
+            fn("fivebar", **({"dq": 0.01} if fn is mjb.step_check else {}))
     run = mjb.simulate(mjb.load("fivebar").machine("ct"), backend="reduced", t_end=0.01)
     assert "2 axes (A: DC motor (z = 10" in run.describe() and "computed_torque controller" in run.describe()
