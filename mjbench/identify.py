@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from .errors import ParameterError
-from .machine import one_axis_only
+from .errors import one_axis_only
 from .trajectory import atomic_write
 from . import plots as P
 

@@ -17,24 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .drive import DCMotorDrive
-from .errors import ParameterError
+from .errors import OneAxisOnly, ParameterError, one_axis_only  # noqa: F401 - (one_axis_only: re-exported)
 from .mechanisms.base import Mechanism
-
-
-class OneAxisOnly(ParameterError, AttributeError):
-    """A one-axis quantity asked of a machine with several axes (one line naming it)."""
-
-
-#: where the docs say what works on a machine with several motors and what is one-axis only
-MULTI_AXIS_DOC = "docs/linkages.md §8"
-
-
-def one_axis_only(what: str, labels, why: str = "") -> OneAxisOnly:
-    """The one-line error for ``what`` (a command, an analysis) asked of a machine whose axes are
-    ``labels``: "export-fmu: the machine has 2 axes (A, E); export-fmu is one-axis only so far (why) …"."""
-    labels = list(labels)
-    return OneAxisOnly(f"{what}: the machine has {len(labels)} axes ({', '.join(labels)}); {what} is one-axis only "
-                       f"so far{f' ({why})' if why else ''}; {MULTI_AXIS_DOC}")
 
 
 class PerAxis(list):

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Union
 
 from .. import api  # the API's face: its functions are loaded on first use (mjbench/api/__init__.py)
 from ..errors import ParameterError
-from ..machine import one_axis_only
+from ..errors import one_axis_only
 from .. import scenario as S
 from ..outputs import OutputError
 from ..scenario import parse_value

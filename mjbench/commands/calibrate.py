@@ -9,7 +9,7 @@ import sys
 
 from . import add_fast_multibody, apply_fast_multibody, integer, quantity
 from ..preflight import check_machine
-from ..machine import one_axis_only
+from ..errors import one_axis_only
 from ..outputs import add_force_option, maybe_staged_dir
 from ..papers import incerti2012_calibration as C
 from .. import scenario as S

@@ -19,7 +19,7 @@ from ..design.pipeline import design
 from ..design.report import summary_text
 from ..design.requirements import builtin_names
 from ..errors import MjbenchError
-from ..machine import one_axis_only
+from ..errors import one_axis_only
 from .. import scenario as S
 
 #: the old paper-study spelling `mjbench design quickreturn`
