@@ -38,3 +38,19 @@ class ScenarioError(MjbenchError, ValueError):
     def __init__(self, message, problems=None):
         super().__init__(message)
         self.problems = list(problems or [])
+
+
+class OneAxisOnly(ParameterError, AttributeError):
+    """A one-axis quantity asked of a machine with several axes (one line naming it)."""
+
+
+#: where the docs say what works on a machine with several motors and what is one-axis only
+MULTI_AXIS_DOC = "docs/linkages.md §8"
+
+
+def one_axis_only(what: str, labels, why: str = "") -> OneAxisOnly:
+    """The one-line error for ``what`` (a command, an analysis) asked of a machine whose axes are
+    ``labels``: "export-fmu: the machine has 2 axes (A, E); export-fmu is one-axis only so far (why) …"."""
+    labels = list(labels)
+    return OneAxisOnly(f"{what}: the machine has {len(labels)} axes ({', '.join(labels)}); {what} is one-axis only "
+                       f"so far{f' ({why})' if why else ''}; {MULTI_AXIS_DOC}")

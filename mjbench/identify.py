@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from .errors import ParameterError
+from .errors import one_axis_only
 from .trajectory import atomic_write
 from . import plots as P
 from .plotstyle import new
@@ -171,6 +172,10 @@ def read_record(path, option="--data"):
                 raise ParameterError(f"{where} row {hline}: the columns are separated by {name}; mjbench reads "
                                      f"comma-separated values with a '.' decimal point (e.g. 0.5,12,3.1)")
     names = [h.strip() for h in next(csv.reader([head]))]
+    axes = sorted({n.split(":", 1)[0] for n in names if ":" in n and n.split(":", 1)[1] in COLUMNS["V"]})
+    if len(axes) > 1:  # a record of a machine with several motors (an mjbench run: A:voltage_V …)
+        raise one_axis_only("identify", axes, f"{where} is the record of a machine with several motors; the fit "
+                                              f"is one motor turning a constant inertia: record each motor on its own")
     cols = {}
     for key, cands in COLUMNS.items():
         for c in cands:

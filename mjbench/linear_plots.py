@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from . import linear as LN
+from .linear import multi as LM
 from . import plotstyle as ps
 from .plots import save
 
@@ -226,4 +227,87 @@ def family_figures(objs, out, name):
                                      objs["plant_multibody_input"], os.path.join(out, "plant.png"),
                                      objs.get("plant_multibody"),
                                      title=f"{name}: plant q̇/V, reduced vs multibody ({at})"))
+    return paths
+
+
+# ============================================================================ several motors
+def multi_figures(objs, out, name):
+    """The figures of a machine with several motors (:func:`mjbench.linear.multi.study_n`):
+    bode.png (each axis's loop at a time), sigma.png (singular values of S and T, ‖S‖∞),
+    poles.png, plant.png (every q̇_k/V_j, reduced and multibody)."""
+    import os
+
+    paths = []
+    op, lp, mg = objs["op"], objs.get("loop"), objs.get("margins")
+    labels = list(op.labels)
+    at = f"t = {op.t:.4g} s on the path" if op.source.startswith("the path") else op.source
+    if lp is not None:
+        fig, (am, ap) = ps.new(2, 1, figsize=(8.6, 6.6), sharex=True, layout="constrained")
+        om = _grid(next(iter(lp.at_a_time.values())))
+        txt = []
+        for k, (lab, Lk) in enumerate(lp.at_a_time.items()):
+            G = LN.response(Lk, om)
+            m = mg["loop_at_a_time"][lab]
+            am.semilogx(om, 20 * np.log10(np.abs(G)), color=f"C{k}", label=f"axis {lab}")
+            ap.semilogx(om, _unwrap_deg(G, om, m["w_gain_crossover_rad_s"]), color=f"C{k}")
+            txt.append(f"{lab}: GM {_fmt(m['gain_margin_dB'])} dB, PM {_fmt(m['phase_margin_deg'])}°, "
+                       f"peak |S| {_fmt(m['peak_sensitivity'])}")
+        am.axhline(0.0, color="0.4", lw=0.8, ls=":")
+        ap.axhline(-180.0, color="0.4", lw=0.8, ls=":")
+        am.text(0.99, 0.97, "\n".join(txt), transform=am.transAxes, ha="right", va="top", fontsize=8,
+                bbox=dict(boxstyle="round", fc="white", ec="0.7"))
+        am.set_ylabel(ps.label("|L_k|, one loop broken, the others closed", "dB"))
+        ap.set_ylabel(ps.label("phase", "deg"))
+        ap.set_xlabel(ps.label("frequency ω", "rad/s"))
+        am.legend(loc="lower left")
+        ps.finish(fig, f"{name}: each axis's loop at its plant input, the other loops closed ({at})")
+        paths.append(save(fig, os.path.join(out, "bode.png")))
+
+        fig, ax = ps.new(1, 1, figsize=(8.6, 5.0))
+        svS, svT = LM.sigma_curves(lp.S, om), LM.sigma_curves(lp.T, om)
+        for i in range(svS.shape[1]):
+            ax.semilogx(om, 20 * np.log10(svS[:, i]), color="tab:red", lw=1.4 if i == 0 else 0.9,
+                        ls="-" if i == 0 else "--", label="σ(S), sensitivity" if i == 0 else None)
+            ax.semilogx(om, 20 * np.log10(svT[:, i]), color="tab:blue", lw=1.4 if i == 0 else 0.9,
+                        ls="-" if i == 0 else "--", label="σ(T), complementary" if i == 0 else None)
+        ax.axhline(0.0, color="0.4", lw=0.8, ls=":")
+        ax.plot([mg["w_mimo_sensitivity_peak_rad_s"]], [20 * np.log10(mg["mimo_sensitivity_peak"])], "o",
+                color="tab:red", label=f"‖S‖∞ = {mg['mimo_sensitivity_peak']:.3g} at "
+                                       f"{mg['w_mimo_sensitivity_peak_rad_s']:.4g} rad/s")
+        ax.set_xlabel(ps.label("frequency ω", "rad/s"))
+        ax.set_ylabel(ps.label("singular values (solid: largest)", "dB"))
+        ax.legend(loc="lower left", fontsize=8)
+        ps.finish(fig, f"{name}: MIMO sensitivity and complementary sensitivity at the plant inputs ({at})")
+        paths.append(save(fig, os.path.join(out, "sigma.png")))
+    groups = [("plant (reduced, continuous)", LN.s_poles(objs["plant_reduced"]),
+               dict(marker="x", color="tab:orange", s=40), None)]
+    if "plant_multibody_input" in objs:
+        groups.append(("plant (multibody, mjd_transitionFD)", LN.s_poles(objs["plant_multibody_input"]),
+                       dict(marker="+", color="tab:blue", s=50), None))
+    if lp is not None:
+        groups.append(("closed loop", LN.s_poles(lp.feedback), dict(marker="o", facecolors="none", edgecolors="k",
+                                                                    s=60), None))
+    paths.append(poles(groups, os.path.join(out, "poles.png"), title=f"{name}: poles (s = ln z / T; {at})"))
+    if "plant_multibody_input" in objs:
+        red, mb = objs["plant_reduced"], objs["plant_multibody_input"]
+        fig, (am, ad) = ps.new(2, 1, figsize=(8.6, 6.8), sharex=True)
+        om = LN.frequency_grid(None, 0.1, 400, 1e4)
+        ins = list(red.input_labels)
+        for i, lab in enumerate(labels):
+            for j, u in enumerate(ins):
+                Gr = LN.response(red, om, f"qd_{lab}", u)
+                Gm = LN.response(mb, om, f"qd_{lab}", u)
+                col = f"C{i * len(ins) + j}"
+                am.semilogx(om, 20 * np.log10(np.abs(Gr)), color=col, ls="--", lw=1.2, label=f"q̇_{lab}/{u} reduced")
+                am.semilogx(om, 20 * np.log10(np.abs(Gm)), color=col, lw=0.8, label=f"q̇_{lab}/{u} multibody")
+                Gs = np.maximum(np.abs(Gr), 1e-300)
+                ad.loglog(om, np.abs(Gm - Gr) / np.maximum(Gs, np.abs(LN.response(red, om, f"qd_{labels[j]}", u))),
+                          color=col, lw=0.9, label=f"q̇_{lab}/{u}")
+        am.set_ylabel(ps.label("|q̇/V|", "dB (rad/s/V)"))
+        ad.set_ylabel("|Δ| / largest |q̇/V| of the input")
+        ad.set_xlabel(ps.label("frequency ω", "rad/s"))
+        am.legend(loc="lower left", fontsize=6.5, ncol=2)
+        ad.legend(loc="upper right", fontsize=6.5, ncol=2)
+        ps.finish(fig, f"{name}: plant, reduced n×n model vs MuJoCo (mjd_transitionFD, input coordinates; {at})")
+        paths.append(save(fig, os.path.join(out, "plant.png")))
     return paths

@@ -18,12 +18,8 @@ import numpy as np
 
 from .drive import DCMotorDrive
 from .drives import Drive
-from .errors import ParameterError
+from .errors import OneAxisOnly, ParameterError, one_axis_only  # noqa: F401 - (one_axis_only: re-exported)
 from .mechanisms.base import Mechanism
-
-
-class OneAxisOnly(ParameterError, AttributeError):
-    """A one-axis quantity asked of a machine with several axes (one line naming it)."""
 
 
 class PerAxis(list):
@@ -99,12 +95,10 @@ class Machine:
         for c, _ in self.controllers:
             c.reset()
 
-    def require_one_axis(self, what: str) -> None:
+    def require_one_axis(self, what: str, why: str = "") -> None:
         """One line when ``what`` (a command, an analysis) is asked of a machine with several axes."""
         if self.naxes > 1:
-            raise OneAxisOnly(f"{what}: the machine has {self.naxes} axes ({', '.join(self.axis_labels)}); {what} is "
-                              f"one-axis only so far (run, render, sweep, analyze and the API work on it; "
-                              f"docs/linkages.md §8)")
+            raise one_axis_only(what, self.axis_labels, why)
 
     # ------------------------------------------------------------------ what the kernel reads
     @property

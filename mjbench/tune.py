@@ -126,7 +126,20 @@ def tune_spec(name: str) -> TuneSpec:
     raise ParameterError(f"controller {name!r}: {why}; the tunable ones: {', '.join(specs)}")
 
 
-OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak")
+#: a machine with several motors following a [path]: the end effector's RMS / largest distance from
+#: the path [m] over the run (after ``metrics.settle_time``)
+MULTI_OBJECTIVES = ("ee_rms", "ee_max")
+OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak") + MULTI_OBJECTIVES
+
+
+def several_motors(scn) -> bool:
+    """Whether the scenario's machine has several motors (``mechanism.inputs``: read, not built)."""
+    return len(getattr(scn.mechanism, "inputs", None) or ()) > 1
+
+
+def default_objective(scn) -> str:
+    """``chi`` (one motor), ``ee_rms`` (several: the end effector's tracking of its path)."""
+    return "ee_rms" if several_motors(scn) else "chi"
 #: objectives measured against the controller's reference angle (a motion law, repeated or not)
 TRACKING = ("tracking_rms", "tracking_peak")
 PENALTY = 10.0
@@ -173,8 +186,19 @@ class Problem:
         if backend not in SEARCH_BACKENDS:
             raise ParameterError(f"--backend {backend!r}: choose one of {list(SEARCH_BACKENDS)}")
         spec = tune_spec(controller)
+        objective = default_objective(scn) if objective is None else objective
         if objective not in OBJECTIVES:
             raise ParameterError(f"--objective {objective!r}: choose one of {list(OBJECTIVES)}")
+        self.multi = several_motors(scn)
+        if self.multi and objective not in MULTI_OBJECTIVES:
+            raise ParameterError(f"--objective {objective}: a machine with several motors is tuned on its end "
+                                 f"effector's tracking of the path: choose {' or '.join(MULTI_OBJECTIVES)}")
+        if not self.multi and objective in MULTI_OBJECTIVES:
+            raise ParameterError(f"--objective {objective}: the end effector's tracking is for a machine with "
+                                 f"several motors following a [path]; scenario {scn.name!r} has one motor")
+        if self.multi and any(str(m).strip().startswith("bw") for m in margins):
+            raise ParameterError("--margin bw: a machine with several motors has no speed-loop bandwidth; bound pm, "
+                                 "gm (each axis's loop at a time, the others closed) or ms (‖S‖∞ of the MIMO loop)")
         ctype, self.params, fixed, self.intervals = spec.ctype, spec.params, spec.fixed, spec.intervals
         self.scn = scn
         self.mode = find_mode(scn, ctype)
@@ -197,7 +221,11 @@ class Problem:
             self.options["method"] = "rk4"  # the batched reduced model's integrator
         self.nthread, self.batch_size = nthread, batch_size
         base = S.make_machine(scn, self.mode)
-        sp = base.controller.setpoint(base)  # the controller's capability: its speed on both shafts
+        self._refs = linear.multi.path_references(base) if self.multi else None
+        if self.multi and self._refs is None:
+            raise ParameterError(f"tune: mode {self.mode!r} follows no [path]: a machine with several motors is tuned "
+                                 f"on its end effector's tracking of the path")
+        sp = None if self.multi else base.controller.setpoint(base)  # the controller's speed on both shafts
         self.setpoint = None if sp is None else float(sp["input_rad_s"])  # crank side [rad/s]
         self.limits = dict(limits or {})
         self.nfev = 0
@@ -216,7 +244,15 @@ class Problem:
         self._plants = None
         if self.margins:
             m0 = self.machine(self.x0)
-            self._plants = linear.plant_family(m0, float(scn.simulation.dt), margin_angles, t=self.t_end)
+            if self.multi:  # the MIMO loop at the path's point where the inputs move fastest
+                h = float(scn.simulation.dt)
+                op = linear.path_operating_point(m0)
+                A, B = linear.reduced_mechanics_n(m0, op)
+                N = linear.multi._period(m0, h)
+                self._plants = (op, linear.sample_n(linear.plant_n(A, B, m0.drives, m0.axis_labels, h=h), N,
+                                                    m0.axis_labels))
+            else:
+                self._plants = linear.plant_family(m0, float(scn.simulation.dt), margin_angles, t=self.t_end)
             self._with_bw = any(k == "bw" for k, _, _ in self.margins)
             self.linear_margins(self.x0)  # fails early (e.g. SMC without boundary layer)
 
@@ -232,12 +268,43 @@ class Problem:
                     raise ParameterError(f"tune: {p} = {v!r} is not a valid gain (admissible: {lo:g} ... {hi:g})")
         scn = self.scn
         if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
-            self._plant = S.make_mechanism(scn), S.make_drive(scn)
+            mech = S.make_mechanism(scn)
+            drives = ([(scn.drives.get(nm) or scn.drive).build() for nm in mech.input_joints] if self.multi
+                      else S.make_drive(scn))
+            self._plant = mech, drives
         mech, drive = self._plant
+        if self.multi:
+            return self._multi_machine(params, mech, drive)
         ctrl = CONTROLLERS.build(params, drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
+    def _multi_machine(self, params, mech, drives):
+        """A machine with several motors and the controller ``params``: one controller for all axes
+        (a class that says ``multi_axis``), else one per axis with that axis's joint trajectory
+        (the same gains on every axis: the scenario has one table per mode)."""
+        scn, init = self.scn, self.scn.initial
+        if getattr(CONTROLLERS.get(params.type), "multi_axis", False):
+            ctrl = CONTROLLERS.build(params, drive=drives[0], mechanism=mech, scenario=scn)
+        else:
+            ctrl = []
+            for k, d in enumerate(drives):
+                c = CONTROLLERS.build(params, drive=d, mechanism=mech, scenario=scn)
+                ref = getattr(c, "reference", None)
+                if hasattr(ref, "for_axis"):
+                    c.reference = ref.for_axis(k)
+                ctrl.append(c)
+        q0 = init.q0 if np.ndim(init.q0) else mech.stated_inputs
+        return Machine(mech, list(drives), ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
+
     def metrics(self, tr):
+        if self.multi:  # the worst axis's peaks; the end effector's distance from its path
+            ax = [tr.axis(lab) for lab in tr.axes]
+            out = {"peak_voltage_V": max(float(np.max(np.abs(a.voltage))) for a in ax),
+                   "peak_current_A": max(float(np.max(np.abs(a.current))) for a in ax)}
+            ee = self._refs.metrics(tr, _MechanismOnly(self._plant[0]),
+                                    self.scn.metrics)["end_effector"]
+            out.update(ee_rms=ee["rms_error_m"], ee_max=ee["max_error_m"])
+            return out
         t, om = tr.t, tr.omega
         out = {"peak_voltage_V": float(np.max(np.abs(tr.voltage))),
                "peak_current_A": float(np.max(np.abs(tr.current)))}
@@ -264,7 +331,17 @@ class Problem:
         if not self.margins:
             return {}
         mach = self.machine(x, params)
-        w = linear.family_margins(mach, self._plants, float(self.scn.simulation.dt), self._with_bw)
+        if self.multi:
+            op, P_T = self._plants
+            mg = linear.margins_n(linear.loop_n(P_T, linear.controller_n(mach, op, float(self.scn.simulation.dt)),
+                                                mach.axis_labels))
+            axes = mg["loop_at_a_time"].values()
+            w = {"phase_margin_deg": min(a["phase_margin_deg"] for a in axes),
+                 "gain_margin_dB": min(a["gain_margin_dB"] for a in axes),
+                 "peak_sensitivity": mg["mimo_sensitivity_peak"], "bandwidth_rad_s": float("nan"),
+                 "all_stable": mg["stable"]}
+        else:
+            w = linear.family_margins(mach, self._plants, float(self.scn.simulation.dt), self._with_bw)
         w["violation"] = linear.margin_violation(w, self.margins)
         return w
 
@@ -367,11 +444,18 @@ class Problem:
         return self.run(x, baseline, backend="multibody")
 
 
+class _MechanismOnly:
+    """What the path's tracking metric reads of a machine: its mechanism."""
+
+    def __init__(self, mechanism):
+        self.mechanism = mechanism
+
+
 def _parse_margin(text):
     return parse_margin(text)
 
 
-def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, starts=1, maxfev=80,
+def tune(scn, controller="pid-tv", objective=None, limits=None, n_global=64, starts=1, maxfev=80,
          span=10.0, bounds=None, seed=0, t_end=None, nthread=0, batch_size=64, log=print,
          backend="reduced", verify=3, margins=(), margin_mode="penalty", margin_angles=12) -> TuneResult:
     """Global (batched Sobol) + local (Nelder–Mead) search of the controller gains on ``backend``,
@@ -401,14 +485,14 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
     if not verified or tuned_m is None:
         tuned_m = _validated(prob, best_x)
     search, base_mb = _search_metrics(prob, backend, best_x, tuned_m, base_m)
-    zb = np.log(best_x)
+    zb = np.log(np.maximum(best_x, 1e-300))  # (a gain of 0: the scenario's own, at the lower bound)
     hist["at_bound"] = [p for k, p in enumerate(prob.params)
                         if min(zb[k] - lo[k], hi[k] - zb[k]) < 1e-3 * (hi[k] - lo[k])]
     hist["bounds"] = {p: [math.exp(lo[k]), math.exp(hi[k])] for k, p in enumerate(prob.params)}
     hist["evaluations"] = prob.nfev
     hist["seconds_search"] = t_search
     hist["seconds"] = time.perf_counter() - t0
-    return TuneResult(controller, objective, prob.mode, list(prob.params),
+    return TuneResult(controller, prob.objective, prob.mode, list(prob.params),
                       dict(zip(prob.params, map(float, best_x))), dict(zip(prob.params, map(float, prob.x0))),
                       {"tuned": tuned_m, "baseline": base_mb}, lim, hist, backend=backend, search=search,
                       verified=verified, margins=list(prob.margins))
@@ -591,7 +675,8 @@ def report(res: TuneResult) -> str:
     for p in res.params:
         at = "  (at a search bound)" if p in res.history.get("at_bound", []) else ""
         lines.append(f"  {p:<22s} {res.baseline[p]:>16.6g} {res.best[p]:>16.6g}{at}")
-    for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A")):
+    for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "ee_rms", "ee_max", "peak_voltage_V",
+                            "peak_current_A")):
         if k in v["baseline"] or k in v["tuned"]:
             lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
     for key, op, val in res.margins:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +21,7 @@ from .. import linear as LN
 from ..kernel import memory_limit
 from .. import units as U
 from .. import analyze as A
+from .. import analyze_multi as AM
 from .. import scenario as S
 from .simulation import MACHINE_DT, machine_options
 from ..plausibility import reduced_vs_mujoco
@@ -208,7 +210,7 @@ class LinearResult:
 
     def summary(self) -> str:
         """The text ``mjbench linearize`` prints."""
-        return linear_summary(self.data)
+        return linear_summary_n(self.data) if self.data.get("multi_axis") else linear_summary(self.data)
 
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``linear.json`` and the figures (bode.png, nyquist.png, poles.png, plant.png) into
@@ -217,7 +219,10 @@ class LinearResult:
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "linear.json"), self.data, indent=1)
             with plotstyle.context():
-                LP.family_figures(self.objects, os.fspath(out), self.scenario.name)
+                if self.data.get("multi_axis"):
+                    LP.multi_figures(self.objects, os.fspath(out), self.scenario.name)
+                else:
+                    LP.family_figures(self.objects, os.fspath(out), self.scenario.name)
         return Path(os.path.abspath(os.fspath(path)))
 
 
@@ -235,7 +240,11 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
         Operating point: input angle [rad], input speed [rad/s], current [A], time [s] of a K_p·t
         gain.  Default: the initial angle, the controller's running speed there, the current
         that sustains the speed on average over a turn (at rest: the one holding q̈ = 0; a running
-        linkage's q̈* ≠ 0 at the point), ``simulation.t_end`` for a K_p·t PID (else 0).
+        linkage's q̈* ≠ 0 at the point), ``simulation.t_end`` for a K_p·t PID (else 0).  A machine
+        with several motors: only ``t``, the time of the path's point (default: where the inputs
+        move fastest); the result is the MIMO plant and loop (``plant``: inputs ``V_A`` …, outputs
+        ``q_A``, ``qd_A``, ``I_A`` …; ``loop``: :class:`mjbench.linear.MultiLoop`; ``margins``:
+        loop-at-a-time margins per axis and ‖S‖∞), docs/linear.md §8.
     angles : int
         Frozen angles over one turn for the family of loops (0: none).
     multibody : bool
@@ -264,6 +273,13 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     scn = as_scenario(scenario)
     mode = scn.mode(mode)
     scn.check(mode)
+    if len(scn.axes) > 1:  # several motors: the MIMO plant and loop at the path's point at time t
+        for k in ("q", "qd", "I"):
+            if k in at:
+                raise ParameterError(f"linearize: {k}: a machine with several motors is linearised at its path's "
+                                     f"point at a time t (its inputs, speeds and currents follow from the path)")
+        res = LN.study_n(scn.spec, mode, t=at.get("t"), multibody=multibody)
+        return LinearResult(scn, res["json"], res["objects"])
     try:
         res = LN.study(scn.spec, mode, n_angles=int(angles), multibody=multibody, **at)
     except ArithmeticError as e:  # (ZeroDivisionError, OverflowError, FloatingPointError)
@@ -323,6 +339,34 @@ def linear_summary(js: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def linear_summary_n(js: dict[str, Any]) -> str:
+    """Text summary of the linear.json of a machine with several motors."""
+    f = number_text
+    op = js["operating_point"]
+    pts = "; ".join(f"{lab}: q {f(a['q_rad'])} rad, q̇ {f(a['qd_rad_s'])} rad/s, I {f(a['I_A'])} A, V {f(a['V_V'])} V"
+                    for lab, a in op["axes"].items())
+    lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}, {len(js['axes'])} axes): at t = "
+             f"{f(op['t_s'])} s ({op['source']}): {pts}"]
+    for w in js.get("warnings", []):
+        lines.append(f"WARNING: {w}")
+    a = (js.get("agreement") or {}).get("reduced_vs_multibody_input_coordinates")
+    if a:
+        lines.append(f"  MIMO plant q̇/V, reduced vs multibody (input coordinates): max relative difference "
+                     f"{f(a['max_rel'], '{:.2e}')} over {f(a['omega_lo_rad_s'])}-{f(a['omega_hi_rad_s'])} rad/s")
+    lp = js.get("loop")
+    if lp:
+        for lab, m in lp["loop_at_a_time"].items():
+            lines.append(f"  loop at a time, axis {lab} (the others closed): GM = {f(m['gain_margin_dB'])} dB, PM = "
+                         f"{f(m['phase_margin_deg'])}°, peak |S| = {f(m['peak_sensitivity'])}, crossover "
+                         f"{f(m['w_gain_crossover_rad_s'])} rad/s")
+        lines.append(f"  MIMO: ‖S‖∞ = {f(lp['mimo_sensitivity_peak'])} at {f(lp['w_mimo_sensitivity_peak_rad_s'])} rad/s, "
+                     f"‖T‖∞ = {f(lp['mimo_complementary_peak'])}; {'stable' if lp['stable'] else 'UNSTABLE'} "
+                     f"(spectral radius {f(lp['spectral_radius'], '{:.6f}')})")
+    elif js.get("loop_note"):
+        lines.append(f"  no loop analysis: {js['loop_note']}")
+    return "\n".join(lines)
+
+
 # ====================================================================== analyze
 @dataclass(frozen=True)
 class TransmissionAngle:
@@ -369,8 +413,16 @@ class Analysis:
         The scenario analysed (None for a mechanism or machine built in code).
     """
 
-    def __init__(self, scenario: Scenario | None, data: dict[str, Any]) -> None:
+    def __init__(self, scenario: Scenario | None, data: dict[str, Any], maps: dict[str, Any] | None = None) -> None:
         self.scenario, self.data = scenario, data
+        #: a machine with several motors: the arrays of its figures (the path, the workspace grid)
+        self.maps: dict[str, Any] = dict(maps or {})
+
+    @property
+    def multi_axis(self) -> bool:
+        """True for a machine with several motors (the path's inverse dynamics, the workspace,
+        singularities and conditioning; docs/linkages.md §8.6)."""
+        return bool(self.data.get("multi_axis"))
 
     @property
     def applicable(self) -> bool:
@@ -381,7 +433,8 @@ class Analysis:
     def curves(self) -> dict[str, np.ndarray]:
         """Curves over the revolution, each shape (points,): ``q`` [rad], ``J`` [kg·m²], ``dJ``,
         ``dEp``, ``Ep``, ``ratio:JOINT``, ``mu:JOINT`` [rad], per speed ``T_in@W``, ``T_m@W`` [N·m],
-        ``I@W`` [A], ``V@W`` [V]."""
+        ``I@W`` [A], ``V@W`` [V].  Several motors: along one cycle of the path, ``t`` [s] and per axis
+        ``q:A``, ``qd:A``, ``qdd:A``, ``tau:A`` (joint torque), ``tau_drive:A`` [N·m], ``I:A`` [A], ``V:A`` [V]."""
         return {k: np.asarray(v, float) for k, v in (self.data.get("curves") or {}).items()}
 
     @property
@@ -400,7 +453,13 @@ class Analysis:
         """The reduced model's disagreement with MuJoCo's, if any."""
 
         m = (self.data.get("plausibility") or {}).get("model")
-        return [w.replace("metrics.json", "analysis.json") for w in model_warnings(m)] if m else []
+        out = [w.replace("metrics.json", "analysis.json") for w in model_warnings(m)] if m else []
+        chk = (self.data.get("inverse_dynamics") or {}).get("checked_against_mujoco")
+        if chk and not chk.get("agree", True):
+            out.append(f"the inverse dynamics of the reduced model differs from MuJoCo's mj_inverse by "
+                       f"{chk['max_rel_diff']:.3g} (tolerance {chk['tolerance']:g}): analysis.json "
+                       f"\"inverse_dynamics_max_rel_diff_vs_mujoco\"")
+        return out
 
     def to_pandas(self) -> pandas.DataFrame:
         """:attr:`curves` as a DataFrame, one row per angle."""
@@ -409,8 +468,15 @@ class Analysis:
     def summary(self) -> str:
         """The text ``mjbench analyze`` prints."""
 
-        lines = [A.summary_text(self.data)]
         m = (self.data.get("plausibility") or {}).get("model") or {}
+        if self.multi_axis:
+            lines = [AM.summary_text(self.data)]
+            if m.get("applicable"):
+                lines.append(f"  reduced model vs MuJoCo at {m['n_points']} points: M̄ {m['M_rel_err']:.2g}, bias "
+                             f"{m['bias_rel_err']:.2g}, inverse dynamics {m['inverse_dynamics_rel_err']:.2g} "
+                             f"(relative; tolerance {m['tolerance']:g})")
+            return "\n".join(lines)
+        lines = [A.summary_text(self.data)]
         if m.get("applicable"):
             lines.append(f"  reduced model vs MuJoCo at {m['n_angles']} angles: J {m['J_rel_err']:.2g}, J' "
                          f"{m['dJ_rel_err']:.2g}, E_p' {m['dEp_rel_err']:.2g} (relative; tolerance {m['tolerance']:g})")
@@ -421,7 +487,10 @@ class Analysis:
         (``mjbench analyze --out``)."""
 
         with staged_dir(path, force=force, what=what) as out:
-            A.write(self.data, out)
+            if self.multi_axis:
+                AM.write(self.data, self.maps, out)
+            else:
+                A.write(self.data, out)
         return Path(os.path.abspath(os.fspath(path)))
 
 
@@ -458,7 +527,7 @@ def _is_number(text: str) -> bool:
 def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, Any] | Mechanism | Machine,
                       speeds: Iterable[float | str] | None = None, *, points: int = 720, mu_min_deg: float = 40.0,
                       check_model: bool = True, name: str | None = None,
-                      options: Mapping[str, Any] | None = None) -> Analysis:
+                      options: Mapping[str, Any] | None = None, grid: int | None = None) -> Analysis:
     """Analyse a mechanism over one input revolution (no simulation).
 
     Parameters
@@ -482,6 +551,12 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
     options : mapping, optional
         A mechanism's or machine's ``[multibody]`` options for that comparison (a scenario has its
         own table).
+    grid : int, optional
+        A machine with several motors: nodes per input of the workspace map (16 to 721, default
+        181).  Such a machine is analysed along its ``[path]`` (inverse dynamics per axis, checked
+        against MuJoCo's ``mj_inverse``), over its workspace (singularities, conditioning): not at
+        constant speeds (``speeds`` is refused) nor over a revolution (``points``, ``mu_min_deg``
+        unused); docs/linkages.md §8.6.
 
     Returns
     -------
@@ -496,6 +571,11 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
         raise ParameterError(f"mu_min_deg = {mu_min_deg}: must be 0 to 90 [deg]")
     ws = [input_speed(v) for v in (speeds or ())]
     analysis_size(int(points), len(ws))
+    multi = _multi_axis_parts(target, options)
+    if multi is not None:
+        return _analyze_multi(target, multi, ws, grid, check_model, name)
+    if grid is not None:
+        raise ParameterError("grid: the workspace map is for a machine with several motors; this one has one input")
     if isinstance(target, (Mechanism, Machine)):
 
         mech = target.mechanism if isinstance(target, Machine) else target
@@ -521,6 +601,63 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
         # the reduced model against MuJoCo's mass matrix and bias forces (analysis.json "plausibility")
         res["plausibility"] = {"model": reduced_vs_mujoco(mech, opts)}
     out = Analysis(scn, res)
+    warn(out.warnings)
+    return out
+
+
+def _multi_axis_parts(target: Any, options: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """For a machine with several motors: its mechanism, drives (None: a mechanism alone), axis
+    labels, ``[path]``, MuJoCo options and scenario; None for a one-axis machine."""
+    if isinstance(target, Machine):
+        mech = target.mechanism
+        if not hasattr(mech, "reduced_n"):  # a one-input model J(q)
+            return None
+        path = getattr(getattr(target.controller, "references", None), "path", None) or getattr(
+            getattr(getattr(target.controllers[0][0], "reference", None), "source", None), "path", None)
+        return {"mech": mech, "drives": target.drives, "labels": target.axis_labels,
+                "path": getattr(path, "p", None), "options": machine_options(MACHINE_DT, {"multibody": options or {}})
+                ["multibody"], "scn": None}
+    if isinstance(target, Mechanism):
+        if not hasattr(target, "reduced_n"):
+            return None
+        n_in, joints = int(getattr(target, "n_inputs")), tuple(getattr(target, "input_joints"))
+        return {"mech": target, "drives": [None] * n_in, "labels": joints,
+                "path": None, "options": machine_options(MACHINE_DT, {"multibody": options or {}})["multibody"],
+                "scn": None}
+    scn = as_scenario(target)
+    if getattr(scn.spec.mechanism, "inputs", None) is None:  # (read before building the mechanism)
+        return None
+    mech = S.make_mechanism(scn.spec)
+    if options is not None:
+        raise ParameterError("analyze_mechanism: options are a mechanism's or machine's; a scenario has its "
+                             "[multibody] table")
+    spec = scn.spec
+    drives = [(spec.drives.get(nm) or spec.drive).build() for nm in mech.input_joints]
+    return {"mech": mech, "drives": drives, "labels": tuple(mech.input_joints), "path": spec.path,
+            "options": spec.multibody_options(), "scn": scn}
+
+
+def _analyze_multi(target: Any, parts: dict[str, Any], speeds: list[float], grid: int | None, check_model: bool,
+                   name: str | None) -> Analysis:
+    """:func:`analyze_mechanism` of a machine with several motors (:mod:`mjbench.analyze_multi`)."""
+    t0 = (time.process_time(), time.perf_counter())
+    if speeds:
+        raise ParameterError("speeds: a machine with several motors is analysed along its [path] (the inverse "
+                             "dynamics of the prescribed motion), not at constant input speeds")
+    g = AM.GRID if grid is None else int(grid)
+    if not 16 <= g <= 721:
+        raise ParameterError(f"grid = {grid}: nodes per input of the workspace map must be 16 to 721")
+    mech, scn = parts["mech"], parts["scn"]
+    label = name or (scn.name if scn is not None else
+                     ("machine built in code" if isinstance(target, Machine) else "mechanism built in code"))
+    res, maps = AM.analyze_multi(label, mech, parts["drives"], parts["labels"], parts["path"], parts["options"],
+                                 grid=g, check=check_model, started=t0)
+    if scn is None:
+        res["built_in_code"] = True
+    if check_model:
+        # the n×n reduced model against MuJoCo's mass matrix, bias and inverse dynamics (random points)
+        res["plausibility"] = {"model": reduced_vs_mujoco(mech, parts["options"])}
+    out = Analysis(scn, res, maps)
     warn(out.warnings)
     return out
 

@@ -93,6 +93,7 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
     F.check_options(amplitude, band, period, periods, settle, lines)  # every value, before any work
     at = {k: v for k, v in (("q", q), ("qd", qd), ("I", I), ("t", t)) if v is not None}
     scn = as_scenario(scenario)
+    scn.require_one_axis("frest", "it measures one loop's frequency response at one drive's input")
     mode = scn.mode(mode)
     scn.check(mode)
     res = F.measure(scn.spec, mode, backend=backend, signal=signal, amplitude=amplitude, band=band, period=period,
@@ -173,6 +174,7 @@ def export_fmu(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
         raise ParameterError("export-fmu needs pythonfmu: pip install 'mjbench[fmi]' (or pip install pythonfmu)") from None
 
     scn = as_scenario(scenario)
+    scn.require_one_axis("export-fmu", "the FMU has one voltage input and one input joint's outputs")
     if controller:
         scn.mode(controller)  # an unknown mode: one error before any work
     with output_file(path, what, suffixes=(".fmu",)) as out:

@@ -315,7 +315,7 @@ class TuneResult:
 
 
 def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], controller: str = "pid-tv",
-               objective: str = "chi", *, limits: Mapping[str, float] | None = None,
+               objective: str | None = None, *, limits: Mapping[str, float] | None = None,
                bounds: Mapping[str, Sequence[float]] | None = None, span: float = 10.0, margins: Iterable[str] = (),
                margin_mode: str = "penalty", margin_angles: int = 12, n_global: int = 64, starts: int = 1,
                maxfev: int = 80, t_end: float | str | None = None, backend: str = "reduced", verify: int = 3,
@@ -331,10 +331,13 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
         too, :func:`mjbench.tune.tunable_controllers`).  Built in: ``pid``: constant K_p;
         ``pid-tv``: K_p·t (Incerti 2012 Eq 15); ``smc``: λ, K; ``servo``: the cascade servo tracking
         a motion law (K_pp, K_vp, K_vi; its feed-forward kept).
-    objective : {"chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak"}
+    objective : {"chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak", "ee_rms", "ee_max"}, optional
         χ on ``metrics.chi_window`` or the last crank cycle, a speed-error integral, or the RMS /
         peak crank-angle error [rad] to a motion-law reference (a law repeated per cycle too) over
-        ``metrics.chi_window`` (else the whole run).
+        ``metrics.chi_window`` (else the whole run).  A machine with several motors: the end
+        effector's RMS or largest distance from its path [m] (``ee_rms``, ``ee_max``); the gains are
+        the mode's, which every axis's controller uses (docs/linkages.md §8).  Default: ``chi``
+        (one motor), ``ee_rms`` (several).
     limits : mapping, optional
         ``{"voltage": V, "current": A}`` allowed peaks (default: those of the scenario's gains);
         an excess is penalised.
@@ -372,11 +375,11 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
     return TuneResult(scn, res, margin_mode)
 
 
-def _check_tune_args(T: Any, controller: str, objective: str, limits: Mapping[str, float] | None,
+def _check_tune_args(T: Any, controller: str, objective: str | None, limits: Mapping[str, float] | None,
                      bounds: Mapping[str, Sequence[float]] | None, margin_mode: str) -> None:
     """Names and values :func:`tune_gains` takes (one ParameterError naming the argument)."""
     gains = T.tune_spec(controller).params  # (an unknown or untunable controller: one message)
-    if objective not in T.OBJECTIVES:
+    if objective is not None and objective not in T.OBJECTIVES:
         raise ParameterError(f"objective = {objective!r}: choose one of {', '.join(T.OBJECTIVES)}")
     if margin_mode not in ("penalty", "constraint"):
         raise ParameterError(f"margin_mode = {margin_mode!r}: choose penalty or constraint")
@@ -403,9 +406,12 @@ def speed_figure(res: TuneResult, path: str) -> None:
             _, tr = prob.validate(np.array([gains[p] for p in prob.params]), baseline=gains is r.baseline)
         except MjbenchError:  # (a diverging closest candidate: drawn without it)
             continue
-        axes[0].plot(tr.t, tr.omega, label=label, **st)
-        axes[1].plot(tr.t, tr.voltage, **st)
-        axes[2].plot(tr.t, tr.current, **st)
+        views = [(f" ({lab})", tr.axis(lab), ls) for lab, ls in zip(tr.axes, ("-", "--", ":", "-."))] if tr.axes \
+            else [("", tr, "-")]
+        for suffix, v, ls in views:  # several motors: every axis, one line style each
+            axes[0].plot(v.t, v.omega, label=label + suffix, ls=ls, **st)
+            axes[1].plot(v.t, v.voltage, ls=ls, **st)
+            axes[2].plot(v.t, v.current, ls=ls, **st)
     if prob.window:
         for ax in axes:
             ax.axvspan(*prob.window, color="tab:orange", alpha=0.12)

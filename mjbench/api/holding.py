@@ -32,10 +32,17 @@ Target = Scenario | Machine | str | os.PathLike[str] | Mapping[str, Any]
 
 
 # ====================================================================== the machine of a target
+#: why the hold point and the step check are one-axis only (a machine with several motors)
+ONE_AXIS_WHY = "it holds one input at rest under one axis's controller"
+
+
 def _machine(target: Target, mode: str | None, dt: float | str | None,
-             options: Mapping[str, Mapping[str, Any]] | None) -> tuple[Machine, float, dict[str, dict[str, Any]]]:
-    """(machine, co-step h [s], backend options {backend: {...}}) of a scenario's mode or a machine."""
+             options: Mapping[str, Mapping[str, Any]] | None,
+             what: str = "hold_point") -> tuple[Machine, float, dict[str, dict[str, Any]]]:
+    """(machine, co-step h [s], backend options {backend: {...}}) of a scenario's mode or a machine
+    (one axis: ``what`` is refused in one line for a machine with several motors)."""
     if isinstance(target, Machine):
+        target.require_one_axis(what, ONE_AXIS_WHY)
         if mode is not None:
             raise ParameterError("mode is a scenario's; a Machine already holds its controller")
         h = seconds(dt if dt is not None else MACHINE_DT, "dt")
@@ -44,6 +51,7 @@ def _machine(target: Target, mode: str | None, dt: float | str | None,
         raise ParameterError("options are a machine's; a scenario has its [multibody] and [reduced] tables")
 
     scn = as_scenario(target)
+    scn.require_one_axis(what, ONE_AXIS_WHY)
     if dt is not None:
         scn = scn.with_values(**{"simulation.dt": seconds(dt, "dt")})
     mode = scn.mode(mode)
@@ -285,7 +293,7 @@ def step_check(target: Target, mode: str | None = None, *, q: float | None = Non
     ts, te = seconds(t_step, "t_step", allow_zero=True), seconds(t_end, "t_end")
     if not ts < te:
         raise ParameterError(f"step_check: t_step = {ts:g} s must come before t_end = {te:g} s")
-    machine, h, opts = _machine(target, mode, dt, options)
+    machine, h, opts = _machine(target, mode, dt, options, "step_check")
     q = float(machine.q0) if q is None else float(q)
     for name, v in (("q", q), ("qd", qd), ("t", t), ("dq", dq), ("dqd", dqd)):
         if not math.isfinite(float(v)):

@@ -88,6 +88,8 @@ def optimize_motion_law(scenario: Scenario | str | os.PathLike[str] | Mapping[st
     """
 
     scn = as_scenario(scenario)
+    scn.require_one_axis("optimize-law", "it optimises one axis's motion law against an elastic platform's residual "
+                                         "vibration")
     if progress:
         from tqdm import tqdm
 

@@ -153,7 +153,8 @@ class Run:
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
         """One panel per column against time, labelled with its quantity and unit; returns the
         matplotlib Figure (:class:`mjbench.plotstyle.Figure`: not pyplot's, so a notebook shows it
-        once and the user's matplotlib backend is left alone; ``fig.savefig(path)`` saves it)."""
+        once and the user's matplotlib backend is left alone; ``fig.savefig(path)`` saves it).
+        Several motors: a one-axis name draws every axis's column in its panel."""
         return plot_runs([self], columns)
 
 
@@ -266,7 +267,10 @@ class Result:
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
         """One panel per column against time, every backend drawn (multibody solid, reduced
         dashed), labelled with its quantity and unit; returns the matplotlib Figure
-        (:class:`mjbench.plotstyle.Figure`: shown once in a notebook, the backend left alone)."""
+        (:class:`mjbench.plotstyle.Figure`: shown once in a notebook, the backend left alone).
+        A machine with several motors: a one-axis name (``"current_A"``) draws every axis's
+        column (``A:current_A``, ``E:current_A``) in its panel, an axis's own name
+        (``"A:current_A"``) that axis only."""
         return plot_runs(list(self.runs.values()), columns,
                          title=f"{self.scenario.name} — {self.mode}" if self.scenario else machine_label(self.machine))
 
@@ -316,15 +320,23 @@ def machine_label(machine: Machine | None) -> str:
     if machine is None:
         return "machine built in code"
     mech = getattr(machine.mechanism, "type_name", type(machine.mechanism).__name__)
-    d = machine.drive
+    drives = [_drive_label(d) for d in machine.drives]
+    ctrls = sorted({str(getattr(c, "type_name", None) or type(c).__name__) for c, _ in machine.controllers})
+    if len(drives) == 1:
+        return f"machine built in code: {mech} mechanism, {drives[0]}, {ctrls[0]} controller"
+    axes = "; ".join(f"{lab}: {d}" for lab, d in zip(machine.axis_labels, drives))
+    return (f"machine built in code: {mech} mechanism, {len(drives)} axes ({axes}), "
+            f"{' / '.join(ctrls)} controller{'s' if len(machine.controllers) > 1 else ''}")
+
+
+def _drive_label(d: Any) -> str:
+    """"DC motor (z = 1, v_max 48 V)"."""
     parts = [f"z = {float(getattr(d, 'z', 1.0)):g}"]
     vmax = float(getattr(d, "v_max", float("inf")))
     if np.isfinite(vmax):
         parts.append(f"v_max {vmax:g} V")
     kind = str(getattr(d, "type_name", "") or "dcmotor")
-    drive = f"{DRIVE_NAMES.get(kind, kind + ' drive')} ({', '.join(parts)})"
-    ctrl = getattr(machine.controller, "type_name", None) or type(machine.controller).__name__
-    return f"machine built in code: {mech} mechanism, {drive}, {ctrl} controller"
+    return f"{DRIVE_NAMES.get(kind, kind + ' drive')} ({', '.join(parts)})"
 
 
 def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> Figure:
@@ -332,13 +344,24 @@ def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> F
 
     if isinstance(columns, str):
         columns = [columns]
+    labels = runs[0].trajectory.axes  # several motors: the axes' labels
+    panels = []
     for c in columns:
-        if c not in runs[0].columns:
+        if c in runs[0].columns:
+            panels.append((c, [c]))
+        elif labels and all(f"{lab}:{c}" in runs[0].columns for lab in labels):
+            panels.append((c, [f"{lab}:{c}" for lab in labels]))
+        else:
             raise ParameterError(f"plot: {c!r} is not a column; columns: {', '.join(runs[0].columns)}")
     fig, axes = new(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
-    for ax, c in zip(axes[:, 0], columns):
+    for ax, (c, cols) in zip(axes[:, 0], panels):
         for r in runs:
-            ax.plot(r.time, r[c], **BACKEND.get(r.backend, dict(label=r.backend)))
+            style = BACKEND.get(r.backend, dict(label=r.backend))
+            for k, col in enumerate(cols):
+                kw = dict(style)
+                if len(cols) > 1:  # one colour per axis, the backend's line style
+                    kw.update(color=f"C{k}", label=f"{col.split(':', 1)[0]}: {style.get('label', r.backend)}")
+                ax.plot(r.time, r[col], **kw)
         ax.set_ylabel(column_label(c))
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Union
 
 from .. import api  # the API's face: its functions are loaded on first use (mjbench/api/__init__.py)
 from ..errors import ParameterError
+from ..errors import one_axis_only
 from .. import scenario as S
 from ..outputs import OutputError
 from ..scenario import parse_value
@@ -95,6 +96,19 @@ class Scenario:
         """Default run length [s]: a manifest's, else ``simulation.t_end``."""
         t = self._defaults.get("t_end")
         return float(t if t is not None else self.spec.simulation.t_end)
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The axes of a machine with several motors (its input joints, ``mechanism.inputs``); ()
+        for a one-motor machine.  Read from the tables: nothing is built."""
+        inputs = getattr(self.spec.mechanism, "inputs", None)
+        return tuple(str(x) for x in inputs) if inputs else ()
+
+    def require_one_axis(self, what: str, why: str = "") -> None:
+        """One line (:class:`~mjbench.machine.OneAxisOnly`, exit 2 in the CLI) when ``what`` — a
+        command, an analysis — is asked of a scenario with several motors; nothing is built."""
+        if len(self.axes) > 1:
+            raise one_axis_only(what, self.axes, why)
 
     def mode(self, mode: str | None = None) -> str:
         """The mode a run uses: ``mode``, else a manifest's, else the scenario's default (checked:

@@ -65,8 +65,8 @@ def consumer(consume, backend: str):
 
 # ================================================================= models
 def _model_key(machine, o):
-    d = machine.drive
-    return (repr(machine.mechanism.describe()), float(d.J_eq), float(d.crank_damping),
+    """What makes two machines' models the same: the mechanism, every axis's J_eq and z²λ, the options."""
+    return (repr(machine.mechanism.describe()), tuple((float(d.J_eq), float(d.crank_damping)) for d in machine.drives),
             repr(sorted(o.items())))
 
 

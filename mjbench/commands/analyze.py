@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from . import cli_command, integer, quantity
+from . import cli_command, integer, quantity, refuse_unused
 from ..outputs import add_force_option
 from .. import api
 from .. import units as U
@@ -28,10 +28,15 @@ def register(sub):
     p.add_argument("--speed", action="append", default=[], metavar="SPEED",
                    help="constant input speed, e.g. 30 (rad/s) or '60 rpm'; repeat for several "
                         "(default: the set-points of the scenario's modes)")
-    p.add_argument("--points", type=integer(ge=16, le=MAX_POINTS), default=720,
+    p.add_argument("--points", type=integer(ge=16, le=MAX_POINTS), default=None,
                    help=f"samples over the revolution (16 to {MAX_POINTS:,}; default 720)")
-    p.add_argument("--mu-min", type=quantity("ratio", ge=0.0, le=90.0), default=40.0,
+    p.add_argument("--mu-min", type=quantity("ratio", ge=0.0, le=90.0), default=None,
                    help="transmission angle [deg] flagged as poor (0-90; default 40)")
+    p.add_argument("--grid", type=integer(ge=16, le=721), default=None,
+                   help="a machine with several motors: nodes per input of the workspace and singularity map over "
+                        "a full turn of each input (16-721; default 181); such a machine is analysed along its "
+                        "[path] (inverse dynamics per axis, checked against MuJoCo's mj_inverse) and over its "
+                        "workspace, not at constant speeds (docs/linkages.md §8.6)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value")
 
@@ -57,11 +62,22 @@ def cmd_analyze(args):
         if not (math.isfinite(v) and abs(v) <= 1e5):
             raise ParameterError(f"--speed {text!r}: must be a finite input speed up to 1e5 rad/s in magnitude")
         speeds.append(v)
-    analysis_size(args.points, len(speeds), "--points")
+    multi = getattr(scn.spec.mechanism, "inputs", None) is not None
+    if multi:  # several motors: along the path and over the workspace
+        for opt, v in (("--speed", args.speed), ("--points", args.points), ("--mu-min", args.mu_min)):
+            if v:
+                refuse_unused(opt, f"scenario {scn.name!r} has several motors: it is analysed along its [path] and "
+                                   f"over its workspace (--grid), not over one input revolution")
+    elif args.grid is not None:
+        refuse_unused("--grid", f"scenario {scn.name!r} has one motor: the workspace map is for several")
+    points = 720 if args.points is None else args.points
+    mu_min = 40.0 if args.mu_min is None else args.mu_min
+    analysis_size(points, len(speeds), "--points")
     if args.out:
 
         check_out_dir(args.out, force=args.force)  # refuse a bad --out before computing
-    res = api.analyze_mechanism(scn, speeds, points=args.points, mu_min_deg=args.mu_min)
+    kw = {"grid": args.grid} if multi else {}
+    res = api.analyze_mechanism(scn, speeds, points=points, mu_min_deg=mu_min, **kw)
     if args.out:
         res.save(args.out, force=args.force, what="--out")
     print(res.summary())

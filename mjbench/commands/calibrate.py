@@ -9,6 +9,7 @@ import sys
 
 from . import add_fast_multibody, apply_fast_multibody, integer, quantity
 from ..preflight import check_machine
+from ..errors import one_axis_only
 from ..outputs import add_force_option, maybe_staged_dir
 from ..papers import incerti2012_calibration as C
 from .. import scenario as S
@@ -64,6 +65,9 @@ def register(sub, paper_study=False):
 def cmd_calibrate(args):
 
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
+    inputs = getattr(scn.mechanism, "inputs", None)
+    if inputs and len(inputs) > 1:
+        raise one_axis_only("calibrate", inputs, "it fits the Incerti 2012 four-bar's missing values to the paper's χ")
     check_machine(scn)  # bad --set values: one message before any simulation
     names = args.params.split(",") if args.params else list(C.MISSING)
     C.check_params(names, scn)

@@ -17,6 +17,10 @@ from ..outputs import add_force_option
 from . import note, paper, refuse_unused
 from ..design.pipeline import design
 from ..design.report import summary_text
+from ..design.requirements import builtin_names
+from ..errors import MjbenchError
+from ..errors import one_axis_only
+from .. import scenario as S
 
 #: the old paper-study spelling `mjbench design quickreturn`
 PAPER_TARGETS = ("quickreturn",)
@@ -39,6 +43,21 @@ def register(sub):
     p.set_defaults(func=run)
 
 
+def _refuse_several_motors(requirements: str) -> None:
+    """A scenario of a machine with several motors given where the requirements go: one line saying
+    that design is one-axis only (anything else is left to the requirements' own errors)."""
+    if requirements in builtin_names():
+        return
+    try:
+        scn = S.load(requirements)
+    except MjbenchError:  # not a scenario: the requirements reader says what is wrong
+        return
+    inputs = getattr(scn.mechanism, "inputs", None)
+    if inputs and len(inputs) > 1:
+        raise one_axis_only("design", inputs, "it synthesises a one-motor linkage and sizes one drive from "
+                                              "requirements")
+
+
 def run(args) -> int:
 
     if args.requirements in PAPER_TARGETS:
@@ -53,6 +72,7 @@ def run(args) -> int:
     if used:
         refuse_unused(used[0], "it is an option of the Yiğit & Şen paper study (`mjbench paper yigit2023 design`)")
 
+    _refuse_several_motors(args.requirements)
     log = (lambda *a: None) if args.quiet else print
     res = design(args.requirements, out=args.out, force=args.force, log=log, verify=not args.no_verify,
                  tune=False if args.no_tune else None)

@@ -4,7 +4,7 @@ model (reduced and multibody), its loop, margins, poles and the frozen-angle fam
 from __future__ import annotations
 
 from ..outputs import add_force_option
-from . import cli_command, integer, parse_numbers
+from . import cli_command, integer, parse_numbers, refuse_unused
 from ..errors import ParameterError
 from .. import api
 from ..outputs import check_out_dir
@@ -27,7 +27,7 @@ def register(sub):
     p.add_argument("--mode", help="controller mode (default: the scenario's)")
     p.add_argument("--at", action="append", default=[], metavar="q=..,omega=..",
                    help="operating point: q [rad], omega [rad/s, input side], I [A], t [s] (comma-separated)")
-    p.add_argument("--angles", type=integer(ge=0, le=3600), default=36,
+    p.add_argument("--angles", type=integer(ge=0, le=3600), default=None,
                    help="frozen angles over one turn (0: none; default 36)")
     p.add_argument("--no-multibody", action="store_true", help="skip the MuJoCo linearisation")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
@@ -66,8 +66,17 @@ def cmd_linearize(args):
     at = parse_at(args.at)
     scn = api.load(args.scenario, args.overrides)
     scn.check(args.mode)
+    if len(scn.axes) > 1:  # several motors: the MIMO loop at the path's point at a time (docs/linear.md §8)
+        if args.angles is not None:
+            refuse_unused("--angles", f"scenario {scn.name!r} has several motors: it is linearised along its path "
+                                      f"(--at t=...), not at frozen angles of one input")
+        for k in ("q", "qd", "I"):
+            if k in at:
+                refuse_unused(f"--at {'omega' if k == 'qd' else k}", f"scenario {scn.name!r} has several motors: it "
+                                                                       f"is linearised at its path's point at --at t=...")
     check_out_dir(args.out, force=args.force)
-    res = api.linearize(scn, args.mode, angles=args.angles, multibody=not args.no_multibody, **at)
+    angles = 36 if args.angles is None else args.angles
+    res = api.linearize(scn, args.mode, angles=angles, multibody=not args.no_multibody, **at)
     res.save(args.out, force=args.force, what="--out")
     print(res.summary())
     print(f"results written to {args.out}")

@@ -24,11 +24,14 @@ def register(sub):
                    help="a controller type that declares its tunable gains (Controller.TUNABLE; `mjbench list` "
                         "shows them, plugins included): pid: constant K_p; pid-tv: K_p·t (Incerti 2012 Eq 15); "
                         "smc: sliding mode (λ, K); servo: cascade servo tracking a motion law (K_pp, K_vp, K_vi)")
-    p.add_argument("--objective", default="chi",
-                   choices=["chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak"],
+    p.add_argument("--objective", default=None,
+                   choices=["chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "tracking_peak", "ee_rms",
+                            "ee_max"],
                    help="chi: χ on the scenario's metrics.chi_window (default); chi_cycle: last crank cycle; "
                         "ise/iae/itae: crank-speed error to the set-point; tracking_rms/tracking_peak: crank-angle "
-                        "error to a motion-law reference (over metrics.chi_window, else the run)")
+                        "error to a motion-law reference (over metrics.chi_window, else the run); a machine with "
+                        "several motors: ee_rms (default) / ee_max, the end effector's RMS / largest distance from "
+                        "its path [m] (the mode's gains, used by every axis; docs/linkages.md §8)")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
     p.add_argument("--margin", action="append", default=[], metavar="'pm>=45'",

@@ -55,7 +55,8 @@ running speed, worst-case margins and where they occur, and the frozen-angle val
 (the inertia variation rate max|J'·q̇/J_tot| over the loop bandwidth).
 
 Layout (one module per concern; every name is importable from ``mjbench.linear``):
-``signals`` (constants, signal names), ``point`` (operating point), ``mechanics`` (the linearised
+``signals`` (constants, signal names), ``point`` (operating point), ``multi`` (a machine with
+several motors: the MIMO plant and loop, loop-at-a-time margins, ‖S‖∞; docs/linear.md §8), ``mechanics`` (the linearised
 reduced and MuJoCo mechanics), ``plant`` (plants, sampling, frequency responses, modes),
 ``controller`` (controller counterparts), ``loop`` (loop, margins, bandwidth), ``family``
 (frozen-angle families, margin constraints, the K_p·t ramp limit), ``steps`` (step responses and
@@ -80,6 +81,9 @@ from .family import (
 from .steps import (
     step_response, rise_time, StepRefP, step_reference_law, StepReference, step_check, agree_above)
 from .study import matrices, plain, study
+from .multi import (
+    MultiPoint, path_operating_point, reduced_mechanics_n, multibody_mechanics_n, plant_n, sample_n, controller_n,
+    multi_law_counterpart, MultiLoop, loop_n, margins_n, sigma_peak, study_n)
 
 __all__ = [
     "FD_Q", "FD_MB", "LOCK_FACTOR", "MEAS", "SETPOINTS", "LAW_INPUTS", "REF_INPUTS", "REF_OUTPUTS",
@@ -91,4 +95,6 @@ __all__ = [
     "Margins", "bandwidth", "loop_margins", "margins", "analyse", "Family", "VALID_BELOW", "FAILS_ABOVE",
     "frozen_angle_family", "worst_case", "frozen_validity", "MARGIN_KEYS", "parse_margin", "plant_family",
     "family_margins", "margin_violation", "kp_ramp_limit", "step_response", "rise_time", "StepRefP",
-    "step_reference_law", "StepReference", "step_check", "agree_above", "matrices", "plain", "study"]
+    "step_reference_law", "StepReference", "step_check", "agree_above", "matrices", "plain", "study",
+    "MultiPoint", "path_operating_point", "reduced_mechanics_n", "multibody_mechanics_n", "plant_n", "sample_n",
+    "controller_n", "multi_law_counterpart", "MultiLoop", "loop_n", "margins_n", "sigma_peak", "study_n"]

@@ -60,7 +60,10 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     ``poster_at`` of the video; not at rest at t = 0): the page's still image before the video
     plays (``info["poster"]``)."""
 
-    mech, drive = machine.mechanism, machine.drive
+    mech = machine.mechanism
+    if machine.naxes > 1:
+        return _render_multi_axis(machine, traj, out, fps, width, height, title, progress, t_end, options, crf)
+    drive = machine.drive
     if mech.render_view().kind == "top":  # the mechanism's class says how it is shown
         return _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf)
     idx = frame_indices(traj.t, fps, t_end)
@@ -114,6 +117,47 @@ def _write_png(path, img) -> None:
     from PIL import Image
 
     atomic_write(path, lambda f: Image.fromarray(np.ascontiguousarray(img)).save(f, format="PNG"), mode="wb")
+
+
+#: the traced point's trail behind the mechanism of a machine with several motors [s]
+TRAIL_S = 0.3
+
+
+def _render_multi_axis(machine, traj, out, fps, width, height, title, progress, t_end, options, crf):
+    """The video of a machine with several motors: the pose from every axis's recorded angle, the
+    traced point's whole recorded path and its last :data:`TRAIL_S` as the trail, and one overlay
+    line per axis (input speed, motor current and voltage)."""
+    mech, labels = machine.mechanism, machine.axis_labels
+    idx = frame_indices(traj.t, fps, t_end)
+    t = traj.t
+    axes = [traj.axis(lab) for lab in labels]
+    q = np.stack([a.q for a in axes], axis=1)
+    qd, cur, V = (np.stack([getattr(a, k) for a in axes], axis=1) for k in ("qd", "current", "voltage"))
+    t0 = time.perf_counter()
+    step = max(1, len(t) // 2000)
+    view = MechanismView(mech, width, height, bounds_q=q[idx], armature=tuple(float(d.J_eq) for d in machine.drives),
+                         options=options, overlay_lines=len(labels) + (2 if title else 1), path_q=q[::step])
+    n_render = 0.0
+    try:
+        with VideoWriter(out, width, height, fps, crf=crf) as writer, \
+                _frame_bar(len(idx), out, progress) as bar:
+            buf = np.empty((view.height, view.width, 3), np.uint8)
+            for i in idx:
+                lo = int(np.searchsorted(t, t[i] - TRAIL_S))
+                trail = q[lo: i + 1][:: max(1, (i - lo) // 40)] if i > lo else None
+                if trail is not None:
+                    trail = np.vstack([trail, q[i:i + 1]])
+                lines = ([title] if title else []) + [f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)"] + [
+                    f"{lab}: {qd[i, k]:6.2f} rad/s  I {cur[i, k]:6.2f} A  V {V[i, k]:6.2f} V"
+                    for k, lab in enumerate(labels)]
+                r0 = time.perf_counter()
+                img = view.frame(q[i], lines, trail_q=trail, out=buf)
+                n_render += time.perf_counter() - r0
+                writer.write(img)
+                bar.update(1)
+    finally:
+        view.close()
+    return _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
 
 
 def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,

@@ -17,7 +17,9 @@ class MechanismView:
     """Renders a mechanism at given input angles, with its traced path and an overlay."""
 
     def __init__(self, mechanism, width=960, height=540, bounds_q=None, armature=0.0, options=None,
-                 trail_turns=0.6, overlay_lines=4):
+                 trail_turns=0.6, overlay_lines=4, path_q=None):
+        """``path_q``: input values whose traced points are the static path (default: one turn of
+        the input from the first of ``bounds_q``; a machine with several inputs: give them, (k, n))."""
         import mujoco
 
         gl_setup()
@@ -25,7 +27,10 @@ class MechanismView:
             raise ParameterError(f"--width/--height = {width}x{height}: need even sizes >= 16 px (H.264)")
         self.mech = mechanism
         self.width, self.height = int(width), int(height)
-        q_b = np.asarray(bounds_q if bounds_q is not None else np.linspace(0, 2 * np.pi, 361), float)
+        n_in = int(getattr(mechanism, "n_inputs", 1) or 1)
+        if bounds_q is None:
+            bounds_q = np.linspace(0, 2 * np.pi, 361) if n_in == 1 else np.atleast_2d(mechanism.stated_inputs)
+        q_b = np.asarray(bounds_q, float)
         self.bounds = point_bounds(mechanism, q_b)
         self.model, self.grid_step, _ = build_render_model(mechanism, armature, options, self.bounds,
                                                            self.width, self.height)
@@ -43,7 +48,9 @@ class MechanismView:
         px = self.height / 540.0  # line widths [px] scale with the frame
         # static lines: grid on the backdrop, trace path over one crank turn from the first angle
         segs = [self._grid_segments()]
-        self.path = self._trace(np.linspace(q_b[0], q_b[0] + 2 * np.pi, 73))  # 5° per segment
+        if path_q is None:
+            path_q = np.linspace(q_b[0], q_b[0] + 2 * np.pi, 73) if n_in == 1 else q_b  # 5° per segment
+        self.path = self._trace(path_q)
         gain = self._line_gain()
         self._static = []  # ((k, 2, 3) segments, width px, rgba)
         self._static.append((segs[0], 1.0 * px, self._line_rgba(GRID_RGB + (1.0,), gain)))
@@ -108,7 +115,9 @@ class MechanismView:
             p = None
         if p is None:
             return None
-        x, y = (np.broadcast_to(np.asarray(c, float), np.shape(q)) for c in p)
+        x, y = (np.asarray(c, float) for c in p)
+        shape = np.broadcast_shapes(x.shape, y.shape) or np.shape(q)[:1]  # (k,) of k inputs, n each
+        x, y = (np.broadcast_to(c, shape).ravel() for c in (x, y))
         pts = np.stack([x, np.zeros_like(x), y], axis=1)  # paper (x, y) → MuJoCo (x, z)
         return pts[np.all(np.isfinite(pts), axis=1)]
 
@@ -145,7 +154,7 @@ class MechanismView:
         import mujoco
 
         m, d = self.model, self.data
-        d.qpos[:] = self.mech.initial_qpos(m, float(q))
+        d.qpos[:] = self.mech.initial_qpos(m, float(q) if np.ndim(q) == 0 else np.asarray(q, float))
         mujoco.mj_kinematics(m, d)
         if m.ntendon:  # springs drawn as spatial tendons: their paths come from mj_tendon
             mujoco.mj_tendon(m, d)

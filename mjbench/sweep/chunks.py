@@ -45,12 +45,30 @@ def _run_settings(scn, t_end_fixed, backend="multibody"):
             "steady_from": scn.metrics.steady_start, "band_rel": scn.metrics.band_rel}
 
 
-def row_metrics(traj, st) -> dict:
+def row_metrics(traj, st, machine=None) -> dict:
+    """A row's numeric metrics (:func:`mjbench.metrics.summary`).  Several motors: each axis's, named
+    ``A:peak_current_A`` …, and the end effector's tracking of the path (``end_effector_max_error_m``,
+    ``end_effector_rms_error_m``) when the machine's controllers track one."""
+    if traj.axes:
+        out = {}
+        for lab in traj.axes:
+            m = M.summary(traj.axis(lab), average=st["chi_average"])
+            out.update({f"{lab}:{k}": v for k, v in m.items() if _number(v)})
+        for c, _ in (machine.controllers if machine is not None else ()):
+            ee = (c.metrics(traj, machine, None) or {}).get("end_effector")
+            if ee:
+                out.update({f"end_effector_{k}": v for k, v in ee.items() if _number(v)})
+                break
+        return out
     win = st["chi_window"]
     drive, v_limit = st.get("duty") or (None, None)
     m = M.summary(traj, chi_window=win, average=st["chi_average"], steady_from=st.get("steady_from"),
                   band_rel=st.get("band_rel", 0.10), drive=drive, v_limit=v_limit)
-    return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    return {k: v for k, v in m.items() if _number(v)}
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
@@ -97,7 +115,8 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
                                      options=o, nthread=nthread, models=[models[i] for i in idx])
             else:  # metrics computed as each run ends: one record per thread in memory, not the batch's
                 res = simulate_many([machines[i] for i in idx], backend, st0["t_end"], record_dt=st0["record_dt"],
-                                    options=st0["options"], consume=lambda j, tr: _outcome(tr, sts[idx[j]]))
+                                    options=st0["options"],
+                                    consume=lambda j, tr: _outcome(tr, sts[idx[j]], machines[idx[j]]))
         except MjbenchError as e:
             for i in idx:
                 out[ok_rows[i]["row"]].update(status="error", message=str(e))
@@ -107,16 +126,16 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
             if res.diverged[j]:
                 rr.update(status="diverged", message=res.messages[j])
                 continue
-            rr.update(**(res.results[j] if res.results is not None else _outcome(res.trajectory(j), sts[i])))
+            rr.update(**(res.results[j] if res.results is not None else _outcome(res.trajectory(j), sts[i], machines[i])))
     return [out[r["row"]] for r in rows]
 
 
-def _outcome(traj, st) -> dict:
+def _outcome(traj, st, machine=None) -> dict:
     """The result cells of one run that ended: its metrics, or the error computing them."""
     if traj.meta.get("diverged"):
         return {}
     try:
-        return {"status": "ok", **row_metrics(traj, st)}
+        return {"status": "ok", **row_metrics(traj, st, machine)}
     except MjbenchError as e:
         return {"status": "error", "message": str(e)}
 

@@ -42,7 +42,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
         ax.set_yticks(range(0, len(ys), step[1]), [_tick(v) for v in ys[::step[1]]])
         fig.colorbar(im, ax=ax, label=metric)
         ax.set_title(f"{metric} (blank: diverged/error)")
-        paths.append(P.save(fig, os.path.join(out_dir, f"heatmap_{metric}.png")))
+        paths.append(P.save(fig, os.path.join(out_dir, f"heatmap_{_file_name(metric)}.png")))
     elif not spec.samples and len(gk) == 1:
         xs = [r[gk[0]] for r in ok]
         fig, ax = new(figsize=(6.4, 4))
@@ -50,7 +50,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
         ax.set_xlabel(gk[0])
         ax.set_ylabel(metric)
         ax.grid(alpha=0.3)
-        paths.append(P.save(fig, os.path.join(out_dir, f"line_{metric}.png")))
+        paths.append(P.save(fig, os.path.join(out_dir, f"line_{_file_name(metric)}.png")))
     if spec.samples:
         vals = np.array([r[metric] for r in ok])
         fig, ax = new(figsize=(6.4, 4))
@@ -63,7 +63,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
                          f"({len(results) - len(ok)} failed)", fontsize=9)
         ax.set_xlabel(metric)
         ax.set_ylabel("simulations")
-        paths.append(P.save(fig, os.path.join(out_dir, f"distribution_{metric}.png")))
+        paths.append(P.save(fig, os.path.join(out_dir, f"distribution_{_file_name(metric)}.png")))
     return paths
 
 
@@ -80,3 +80,8 @@ def _match(values, v):
         if x == v or (isinstance(x, (int, float)) and isinstance(v, (int, float)) and math.isclose(x, v, rel_tol=1e-12)):
             return x
     raise ValueError(v)
+
+
+def _file_name(metric: str) -> str:
+    """A metric's name in a file name (an axis's ``A:peak_current_A`` → ``A_peak_current_A``)."""
+    return metric.replace(":", "_")

@@ -71,8 +71,21 @@ def _number(text: str):
 # ======================================================================== driver
 def sweep_metrics(scn) -> dict:
     """The metrics a row of this scenario's sweep can hold ({name: description}): the numeric
-    metrics of :func:`mjbench.metrics.summary` (χ in the window only with ``metrics.chi_window``)."""
+    metrics of :func:`mjbench.metrics.summary` (χ in the window only with ``metrics.chi_window``).
+    Several motors: each axis's (``A:peak_current_A`` …) and the end effector's tracking error."""
+    inputs = getattr(scn.mechanism, "inputs", None)
+    if inputs is not None:
+        out = {f"{lab}:{k}": f"axis {lab}: {d}" for lab in inputs for k, d in M.SUMMARY_METRICS.items()
+               if k != "chi_window"}
+        out.update(MULTI_AXIS_METRICS)
+        return out
     return {k: d for k, d in M.SUMMARY_METRICS.items() if k != "chi_window" or scn.metrics.chi_window is not None}
+
+
+#: the machine-wide metrics of a sweep row of a machine with several motors (a path tracked)
+MULTI_AXIS_METRICS = {"end_effector_max_error_m": "largest distance of the end effector from its path [m]",
+                      "end_effector_rms_error_m": "RMS distance of the end effector from its path [m]",
+                      "end_effector_max_error_last_cycle_m": "largest distance over the last cycle of the path [m]"}
 
 
 def check_metric(metric, scn):
@@ -99,9 +112,10 @@ def plot_metric(results):
 
 
 def default_metric(results):
-    """The figure the best rows are ranked by (the smallest) when none is named: a χ (never a
-    speed, which nothing minimises)."""
-    for k in ("chi_window", "chi_last_cycle", "chi_steady_mean"):
+    """The figure the best rows are ranked by (the smallest) when none is named: a χ, or on a
+    machine with several motors the end effector's RMS distance from its path (never a speed,
+    which nothing minimises)."""
+    for k in ("chi_window", "chi_last_cycle", "chi_steady_mean", "end_effector_rms_error_m"):
         if any(k in r for r in results):
             return k
     return None

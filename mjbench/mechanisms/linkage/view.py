@@ -4,7 +4,7 @@ Over input angles q: velocity ratios of every joint, their limit positions (a ra
 refined by secant iterations on exact solves), strokes of the prismatic joints and swings of the
 oscillating ones, the input arcs of both strokes; transmission angles where a floating binary link
 drives a link farther from the input; toggles (two binary links through a joint collinear).
-Definitions: docs/linkages.md §8.
+Definitions: docs/linkages.md §9.
 """
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ class AnalysisViewMixin:
 
     def kinematic_analysis(self, q):
         """Over input angles q (array): velocity ratios of every joint, slide strokes, transmission
-        angles, toggle (collinear) and limit positions.  See docs/linkages.md §8 for definitions."""
+        angles, toggle (collinear) and limit positions.  See docs/linkages.md §9 for definitions."""
         c = self.c
         q = np.asarray(q, float)
         z, v, _ = c.exact(q)
