@@ -78,6 +78,8 @@ def corpus():
             if f.name == Path(__file__).name:  # (this file's own examples of what pint alone reads)
                 continue
             for m in QUOTED.finditer(f.read_text(encoding="utf-8")):
+                if "(" in m.group(1):  # a table cell such as "+3 (3 %)": prose, never a parameter's value
+                    continue
                 found.setdefault(m.group(1).strip(), f.relative_to(ROOT).as_posix())
     return found
 

@@ -14,7 +14,7 @@ from .cluster import _run_on_dask, connect
 from .plots import summary_plots
 from .rows import make_rows
 from .spec import RESULTS, SPEC, SweepSpec, auto_chunk
-from .table import check_metric, default_metric, read_table, write_table
+from .table import check_metric, default_metric, read_table, sweep_metrics, write_table
 
 
 def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = None, nthread: int = 0,
@@ -30,7 +30,9 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     scn = S.load(spec.scenario, spec.overrides)
     metric = check_metric(metric, scn)
     rows = make_rows(spec, scn)
-    if metric is None and scn.metrics.chi_window is None and spec.backend != "multibody" and spec.verify > 0:
+    multi_axis = "end_effector_rms_error_m" in sweep_metrics(scn)  # several motors: ranked by the path's tracking
+    if metric is None and not multi_axis and scn.metrics.chi_window is None and spec.backend != "multibody" \
+            and spec.verify > 0:
         # the default ranking is χ in the scenario's window: without one, the "best" rows would be
         # ranked by whatever figure happens to exist (once: the slowest machines, by mean speed)
         raise ParameterError(f"--metric: scenario {scn.name!r} has no metrics.chi_window, so the sweep has no default "
