@@ -242,6 +242,14 @@ class Scenario(Strict):
     def name(self) -> str:
         return self.scenario.name
 
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The input joints a machine described axis by axis names (``mechanism.inputs``: a list,
+        even of one); () for a mechanism whose one input is implicit.  The one place the tables are
+        read for it: nothing is built."""
+        inputs = getattr(self.mechanism, "inputs", None)  # only the generic linkage's Params declare inputs
+        return tuple(str(x) for x in inputs) if inputs else ()
+
     def mode(self, mode: str | None = None) -> str:
         """The mode to run: ``mode`` or the scenario's default, checked."""
         SE = ScenarioError

@@ -134,7 +134,7 @@ OBJECTIVES = ("chi", "chi_cycle", "ise", "iae", "itae", "tracking_rms", "trackin
 
 def several_motors(scn) -> bool:
     """Whether the scenario's machine has several motors (``mechanism.inputs``: read, not built)."""
-    return len(getattr(scn.mechanism, "inputs", None) or ()) > 1
+    return len(scn.axes) > 1
 
 
 def default_objective(scn) -> str:

@@ -625,7 +625,7 @@ def _multi_axis_parts(target: Any, options: Mapping[str, Any] | None) -> dict[st
                 "path": None, "options": machine_options(MACHINE_DT, {"multibody": options or {}})["multibody"],
                 "scn": None}
     scn = as_scenario(target)
-    if getattr(scn.spec.mechanism, "inputs", None) is None:  # (read before building the mechanism)
+    if not scn.axes:  # (read before building the mechanism)
         return None
     mech = S.make_mechanism(scn.spec)
     if options is not None:

@@ -101,8 +101,7 @@ class Scenario:
     def axes(self) -> tuple[str, ...]:
         """The axes of a machine with several motors (its input joints, ``mechanism.inputs``); ()
         for a one-motor machine.  Read from the tables: nothing is built."""
-        inputs = getattr(self.spec.mechanism, "inputs", None)
-        return tuple(str(x) for x in inputs) if inputs else ()
+        return self.spec.axes
 
     def require_one_axis(self, what: str, why: str = "") -> None:
         """One line (:class:`~mjbench.machine.OneAxisOnly`, exit 2 in the CLI) when ``what`` — a

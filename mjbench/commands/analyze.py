@@ -62,7 +62,7 @@ def cmd_analyze(args):
         if not (math.isfinite(v) and abs(v) <= 1e5):
             raise ParameterError(f"--speed {text!r}: must be a finite input speed up to 1e5 rad/s in magnitude")
         speeds.append(v)
-    multi = getattr(scn.spec.mechanism, "inputs", None) is not None
+    multi = bool(scn.axes)
     if multi:  # several motors: along the path and over the workspace
         for opt, v in (("--speed", args.speed), ("--points", args.points), ("--mu-min", args.mu_min)):
             if v:

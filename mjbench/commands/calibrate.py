@@ -65,8 +65,8 @@ def register(sub, paper_study=False):
 def cmd_calibrate(args):
 
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
-    inputs = getattr(scn.mechanism, "inputs", None)
-    if inputs and len(inputs) > 1:
+    inputs = scn.axes
+    if len(inputs) > 1:
         raise one_axis_only("calibrate", inputs, "it fits the Incerti 2012 four-bar's missing values to the paper's χ")
     check_machine(scn)  # bad --set values: one message before any simulation
     names = args.params.split(",") if args.params else list(C.MISSING)

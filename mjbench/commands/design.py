@@ -52,8 +52,8 @@ def _refuse_several_motors(requirements: str) -> None:
         scn = S.load(requirements)
     except MjbenchError:  # not a scenario: the requirements reader says what is wrong
         return
-    inputs = getattr(scn.mechanism, "inputs", None)
-    if inputs and len(inputs) > 1:
+    inputs = scn.axes
+    if len(inputs) > 1:
         raise one_axis_only("design", inputs, "it synthesises a one-motor linkage and sizes one drive from "
                                               "requirements")
 

@@ -73,8 +73,8 @@ def sweep_metrics(scn) -> dict:
     """The metrics a row of this scenario's sweep can hold ({name: description}): the numeric
     metrics of :func:`mjbench.metrics.summary` (χ in the window only with ``metrics.chi_window``).
     Several motors: each axis's (``A:peak_current_A`` …) and the end effector's tracking error."""
-    inputs = getattr(scn.mechanism, "inputs", None)
-    if inputs is not None:
+    inputs = scn.axes
+    if inputs:
         out = {f"{lab}:{k}": f"axis {lab}: {d}" for lab in inputs for k, d in M.SUMMARY_METRICS.items()
                if k != "chi_window"}
         out.update(MULTI_AXIS_METRICS)
