@@ -20,8 +20,10 @@ install: $(STAMP)
 demo: $(STAMP)
 	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/mjbench reproduce all --out results --force --jobs 2
 
+# the suite on two workers (pytest-xdist; a file's tests stay on one worker: its module fixtures are built once),
+# the slowest tests listed at the end
 test: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q -n $${MJBENCH_TEST_WORKERS:-2} --dist loadfile --durations=15
 
 # the bench also measures against Exudyn (optional extra `bench`, part scripts/bench_parts/exudyn.py)
 $(VENV)/.installed-bench: $(STAMP)
