@@ -3,6 +3,8 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# pytest-xdist workers of `make test` (the suite is sized for two cores)
+WORKERS ?= 2
 
 .PHONY: demo test install clean bench
 
@@ -23,7 +25,7 @@ demo: $(STAMP)
 # the suite on two workers (pytest-xdist; a file's tests stay on one worker: its module fixtures are built once),
 # the slowest tests listed at the end
 test: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q -n $${MJBENCH_TEST_WORKERS:-2} --dist loadfile --durations=15
+	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q -n $(WORKERS) --dist loadfile --durations=15
 
 # the bench also measures against Exudyn (optional extra `bench`, part scripts/bench_parts/exudyn.py)
 $(VENV)/.installed-bench: $(STAMP)
