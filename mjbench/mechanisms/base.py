@@ -403,6 +403,16 @@ class Mechanism(abc.ABC):
         out.setdefault("unavailable", {})
         return out
 
+    def model_at_pose(self, model, data) -> None:
+        """Bring a MuJoCo model whose constraints are updated every step (a cam's per-step equality,
+        :mod:`mjbench.mechanisms.cam`) to the pose in ``data.qpos`` before it is evaluated outside a
+        run (``mjbench.plausibility``); default nothing."""
+
+    def metrics(self, trajectory, machine, config) -> dict | None:
+        """Metric families the mechanism adds to every run's metrics (a cam's follower separation);
+        default none."""
+        return None
+
     def describe(self) -> dict:
         """Parameters as a plain dict (manifests, model cache keys)."""
         return {"type": self.type_name,
