@@ -413,6 +413,12 @@ class Mechanism(abc.ABC):
         default none."""
         return None
 
+    def analysis_rows(self, speeds, n: int) -> dict | None:
+        """What ``mjbench analyze`` adds for this mechanism family beyond the linkage rows (a cam: the
+        jump speed, pressure angle, curvature, contact force): a JSON-ready dict stored under
+        ``analysis.json[type_name]`` (its ``"top"`` entries also at the top level); default none."""
+        return None
+
     def describe(self) -> dict:
         """Parameters as a plain dict (manifests, model cache keys)."""
         return {"type": self.type_name,

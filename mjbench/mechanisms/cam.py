@@ -499,34 +499,64 @@ class Cam(Mechanism):
         return self.params.to_dict()
 
     # ------------------------------------------------------------------ the cam designer's rows
-    def cam_rows(self, speeds, n: int = 720) -> dict:
-        """What ``mjbench analyze`` adds for a cam: the predicted jump speed, the program, the
-        geometry checks and, per speed, the contact force along the cycle (curves for the figures)."""
+    def analysis_rows(self, speeds, n: int = 720) -> dict:
+        """What ``mjbench analyze`` adds for a cam (``analysis.json["cam"]``; ``jump_speed_rad_s`` also
+        at the top level): the predicted jump speed, the program, the geometry checks (pressure angle,
+        curvature, undercut), the spring and, per speed and at the jump speed, the contact force along
+        the cycle; the curves the figures draw (cam_plots.py)."""
         th = TWO_PI * np.arange(n) / n
         g = geometry(self.fol, self.program, th)
+        unit = 1000.0 if self.motion == "translating" else 180.0 / math.pi  # mm or degrees in the text
+        ustr = "mm" if self.motion == "translating" else "°"
         curves = {"theta": th + self.phase, "y": g["y"], "y1": g["y1"], "y2": g["y2"], "y3": g["y3"],
                   "pressure_angle": g["pressure_angle"], "rho_pitch": g["rho_pitch"], "rho_cam": g["rho_cam"],
                   "profile_x": g["profile"][:, 0], "profile_y": g["profile"][:, 1],
                   "pitch_x": g["pitch"][:, 0], "pitch_y": g["pitch"][:, 1]}
-        rows = []
-        speeds = list(speeds)
-        if self.jump["speed_rad_s"]:
-            speeds = speeds + [self.jump["speed_rad_s"]]
-        for i, w in enumerate(speeds):
+        wj = self.jump["speed_rad_s"]
+        rows, flags = [], []
+        all_speeds = [float(w) for w in speeds] + ([wj] if wj else [])
+        for i, w in enumerate(all_speeds):
             N = contact_force(self.load, g, w)
             key = f"N@{w:g}"
             curves[key] = N
-            rows.append({"cam_speed_rad_s": float(w), "cam_speed_rpm": float(w) * 30 / math.pi,
-                         "is_jump_speed": i == len(speeds) - 1 and bool(self.jump["speed_rad_s"]),
-                         "contact_force_N": {"min": float(np.min(N)), "max": float(np.max(N))},
-                         "theta_at_min_force_deg": float(np.degrees(th[int(np.argmin(N))] + self.phase) % 360),
-                         "separates": bool(np.min(N) < 0.0), "curve": key})
-        ratio = {f"{w:g}": (w / self.jump["speed_rad_s"] if self.jump["speed_rad_s"] else None)
-                 for w in speeds[:len(speeds) - (1 if self.jump['speed_rad_s'] else 0)]}
-        return {"follower": self.motion, "contact": self.params.contact, "lift": self.program.lift,
+            k = int(np.argmin(N))
+            row = {"cam_speed_rad_s": w, "cam_speed_rpm": w * 30.0 / math.pi,
+                   "is_jump_speed": bool(wj) and i == len(all_speeds) - 1,
+                   "speed_over_jump_speed": (w / wj) if wj else None,
+                   "contact_force_N": {"min": float(N[k]), "max": float(np.max(N))},
+                   "theta_at_min_force_deg": float(math.degrees(th[k] + self.phase) % 360.0),
+                   "follower_leaves_cam": bool(N[k] < 0.0), "curve": key}
+            rows.append(row)
+            if not row["is_jump_speed"] and wj and w >= wj:
+                flags.append({"kind": "jump", "where": f"{w:g} rad/s",
+                              "text": f"at {w:.4g} rad/s the follower leaves the cam (jump speed {wj:.4g} rad/s): the "
+                                      f"contact force would reach {N[k]:.3g} N at cam angle "
+                                      f"{row['theta_at_min_force_deg']:.1f}°"})
+        ck = self.check
+        summary = [f"cam program: " + ", ".join(f"{r['kind']} {r['end_deg'] - r['start_deg']:.0f}°"
+                                                + (f" ({r['law']})" if r["law"] else "") for r in self.program.segment_table())
+                   + f"; lift {self.program.lift * unit:.4g} {ustr}",
+                   f"pressure angle ≤ {ck['max_pressure_angle_deg']:.2f}° (at cam angle "
+                   f"{ck['theta_at_max_pressure_angle_deg']:.1f}°); smallest radius of curvature of the cam surface "
+                   + (f"{1000 * ck['min_convex_radius_of_curvature_m']:.3g} mm (convex)"
+                      if ck["min_convex_radius_of_curvature_m"] else "—")
+                   + (f", {1000 * ck['min_concave_radius_of_curvature_m']:.3g} mm (concave)"
+                      if ck["min_concave_radius_of_curvature_m"] else "") + "; no undercut",
+                   (f"jump speed {wj:.4g} rad/s ({wj * 30 / math.pi:.4g} rpm) at cam angle {self.jump['theta_deg']:.1f}°"
+                    if wj else "the follower never decelerates towards the cam: no jump speed")]
+        for r in rows:
+            if not r["is_jump_speed"]:
+                summary.append(f"at {r['cam_speed_rad_s']:.4g} rad/s: contact force {r['contact_force_N']['min']:.3g} … "
+                               f"{r['contact_force_N']['max']:.3g} N"
+                               + (f" ({r['speed_over_jump_speed']:.3f} of the jump speed)" if wj else ""))
+        return {"top": {"jump_speed_rad_s": wj, "jump_speed_rpm": (wj * 30.0 / math.pi) if wj else None,
+                        "jump_cam_angle_deg": self.jump["theta_deg"]},
+                "flags": flags, "summary": summary,
+                "follower": self.motion, "contact": self.params.contact, "lift": self.program.lift,
                 "lift_unit": self.lift_unit, "follower_geometry": self.fol.describe(),
-                "program": self.program.segment_table(), "checks": self.check,
-                "jump": self.jump, "speed_over_jump_speed": ratio,
+                "program": self.program.segment_table(), "jump": self.jump,
+                "checks": {**ck, "pressure_angle_limit_deg": (math.degrees(self.params.max_pressure_angle)
+                                                              if self.params.max_pressure_angle else None)},
                 "spring": {"rate": self.load.k, "preload": self.load.F0, "load": self.load.FL,
                            "damping": self.load.c, "moving_mass_or_inertia": self.M},
                 "speeds": rows, "curves": curves}
