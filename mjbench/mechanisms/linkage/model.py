@@ -16,6 +16,7 @@ import numpy as np
 
 from ..linkage_kin import KJoint, PlanarSystem
 from .assembly import AssemblyMixin
+from .gears import compile_gears
 from .description import LinkageParams
 from .kinematics import KinematicsMixin
 from .reduced import ReducedMixin
@@ -70,7 +71,8 @@ class _Compiled(TreeMixin, KinematicsMixin, AssemblyMixin, ReducedMixin):
         kin = p.joints[self.jindex[p.input]]
         la, lb = _ref(kin.at[0])[0], _ref(kin.at[1])[0]
         self.input_link = lb if la == GROUND else la
-        self.sys = PlanarSystem(n, self.kjoints, self.index[self.input_link], self.L)
+        self.gears = compile_gears(self)  # higher pairs: one solver row each (gears.py)
+        self.sys = PlanarSystem(n, self.kjoints, self.index[self.input_link], self.L, self.gears)
         self._tree()
         # springs, loads (points relative to G)
         self.springs = []
