@@ -377,11 +377,40 @@ class Cam(Mechanism):
                       quat=[0.7071068, 0.7071068, 0, 0], rgba=[0.3, 0.3, 0.35, 1], contype=0, conaffinity=0, mass=0)
 
     def initial_qpos(self, model, q0: float, x0=None) -> np.ndarray:
+        """The follower on the cam at q0, settled into MuJoCo's soft constraints: the static residual
+        r = −R·f/k of the cam-lift equality and of the follower_gap limit under the spring's load
+        (a = a* − R·f = 0 with a* = −k·r), so that a run does not start with a jolt (≈ 5e-6 rad on the
+        shipped cam; without it the follower's speed starts 6e-4 of its peak off for 1 ms)."""
+        import mujoco
+
         qpos = np.array(model.qpos0, dtype=float)
-        qpos[model.joint(INPUT_JOINT).qposadr[0]] = q0
-        qpos[model.joint("cam_lift").qposadr[0]] = float(self.follower_motion(float(q0))[0])
-        qpos[model.joint("follower_gap").qposadr[0]] = -1e-12  # in contact (the limit active from the start)
+        ia, il, ig = (int(model.joint(n).qposadr[0]) for n in (INPUT_JOINT, "cam_lift", "follower_gap"))
+        qpos[ia] = q0
+        y = float(self.follower_motion(float(q0))[0])
+        qpos[il], qpos[ig] = y, -1e-12  # in contact (the limit active from the start)
+        d = mujoco.MjData(model)
+        for _ in range(3):
+            d.qpos[:] = qpos
+            d.qvel[:] = 0.0
+            self.model_at_pose(model, d)
+            mujoco.mj_forward(model, d)
+            r = {}
+            for row in range(d.nefc):
+                kinv = _baumgarte_kinv(*self._row_sol(model, d, row))
+                r[int(d.efc_type[row])] = -float(d.efc_R[row]) * float(d.efc_force[row]) * kinv
+            qpos[il] = y + r.get(int(mujoco.mjtConstraint.mjCNSTR_EQUALITY), 0.0)
+            qpos[ig] = min(r.get(int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT), -1e-12), -1e-12)
         return qpos
+
+    @staticmethod
+    def _row_sol(model, data, row):
+        """(solref, solimp) of a constraint row (the cam-lift equality or the follower_gap limit)."""
+        import mujoco
+
+        i = int(data.efc_id[row])
+        if int(data.efc_type[row]) == int(mujoco.mjtConstraint.mjCNSTR_EQUALITY):
+            return model.eq_solref[i], model.eq_solimp[i]
+        return model.jnt_solref[i], model.jnt_solimp[i]
 
     def initial_qvel(self, model, q0: float, qd0: float, x0=None, xd0=None) -> np.ndarray:
         qvel = np.zeros(model.nv)

@@ -424,7 +424,7 @@ def checks(fol: Follower, prog: CamProgram, n: int = 7200, max_pressure_angle=No
         if bad.any():
             i = int(np.argmax(bad))
             raise GeometryError(
-                f"{where}: the cam is undercut at cam angle {math.degrees(th[i]):.1f}°: its pitch curve's radius of "
+                f"{where}.base_radius: the cam is undercut at cam angle {math.degrees(th[i]):.1f}°: its pitch curve's radius of "
                 f"curvature {1000 * float(np.min(g['rho_pitch'][bad])):.3g} mm is smaller than the roller radius "
                 f"{1000 * fol.Rr:.3g} mm (the surface would cross itself); enlarge the base circle (base_radius) or use a "
                 f"smaller roller")
@@ -432,7 +432,7 @@ def checks(fol: Follower, prog: CamProgram, n: int = 7200, max_pressure_angle=No
         if np.any(rho_c <= 0.0):
             i = int(np.argmin(rho_c))
             raise GeometryError(
-                f"{where}: a flat-faced follower needs a convex cam, but the surface's radius of curvature is "
+                f"{where}.base_radius: a flat-faced follower needs a convex cam, but the surface's radius of curvature is "
                 f"{1000 * float(rho_c[i]):.3g} mm at cam angle {math.degrees(th[i]):.1f}° (R_b + s + s'' ≤ 0 for a "
                 f"translating face); enlarge the base circle (base_radius)")
         fp = g["face_position"]
