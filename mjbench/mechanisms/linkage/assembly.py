@@ -52,6 +52,11 @@ class AssemblyMixin:
             w = np.where(symmetric_gears(self) & (np.abs(turns - w) > 1e-9), turns, w)
         pos_err = np.max(np.abs(np.delete(dz, np.s_[2::3]))) / self.L if self.n else 0.0
         ang_err = np.max(np.abs(dz[2::3] - TWO_PI * w))
+        if (pos_err > 1e-7 or ang_err > 1e-7) and any(g.type == "rack" for g in p.gears):
+            raise GeometryError(
+                f"linkage {p.name!r}: after one input turn from the stated pose the linkage does not come back "
+                f"(position gap {pos_err * self.L:.3g} m): a rack turned by a pinion that turns with the input moves on "
+                f"for ever; drive the rack to and fro (a crank and rod) so that the machine repeats every turn")
         if pos_err > 1e-7 or ang_err > 1e-7:
             raise GeometryError(
                 f"linkage {p.name!r}: after one input turn from the stated pose the linkage arrives in a different "
