@@ -168,6 +168,9 @@ class Cam(Mechanism):
 
     type_name = "cam"
     Params = CamParams
+    #: the MuJoCo load law edits the model (the cam-lift equality's polynomial) every step: a batch
+    #: gives every run its own compiled model (backends/batch.py)
+    edits_model = True
     reduced_source = "independent: the cam program's kinematic coefficients (the motion laws' closed forms)"
 
     def __init__(self, p: CamParams):
@@ -498,6 +501,16 @@ class Cam(Mechanism):
             return {k: (float(x[0]), float(y[0])) for k, (x, y) in out.items()}
         return out
 
+    def draw_profile(self, ax):
+        """The cam surface, its pitch curve and the base circle at θ = 0 on a Matplotlib axis [m]."""
+        th = TWO_PI * np.arange(721) / 720
+        g = geometry(self.fol, _Shifted(self.program, self.phase), th)
+        ax.fill(g["profile"][:, 0], g["profile"][:, 1], color="C1", alpha=0.3, lw=0)
+        ax.plot(g["profile"][:, 0], g["profile"][:, 1], color="C1", lw=1.2, label="cam surface")
+        if self.fol.contact == "roller":
+            ax.plot(g["pitch"][:, 0], g["pitch"][:, 1], color="C0", ls="--", lw=0.9, label="pitch curve")
+        ax.plot(self.fol.Rb * np.cos(th), self.fol.Rb * np.sin(th), color="0.5", ls=":", lw=0.8, label="base circle")
+
     def trace_point(self, q):
         pts = self.points(q)
         return pts.get("roller", pts["contact"])
@@ -592,10 +605,13 @@ class Cam(Mechanism):
 
     # ------------------------------------------------------------------ metrics of a run
     def metrics(self, traj, machine, config) -> dict:
-        """The follower's family: on MuJoCo the measured separation (``follower_gap`` above
-        GAP_TOL of the lift): ``follower_separation_fraction`` of the last complete cam cycle,
-        ``follower_first_separation_s`` (None: never), the largest gap; on both backends the
-        follower's peak speed and the predicted jump speed.  Needs ``[simulation] record_joints``."""
+        """The follower's family (:data:`mjbench.metrics.FOLLOWER_METRICS`): the measured separation
+        (the joint ``follower_gap`` more than GAP_TOL of the lift above the cam — on the reduced backend
+        always 0: it holds the follower on): ``follower_separation_fraction`` of the last complete cam
+        cycle's travel, ``follower_first_separation_s`` (None: never) with the cam's speed and angle
+        then, the largest gap [m at the contact]; the follower's peak speed and its largest distance
+        from the program at the recorded cam angle; the predicted jump speed.  Needs ``[simulation]
+        record_joints`` (the follower's joints)."""
         out = {"follower_jump_speed_rad_s": self.jump["speed_rad_s"]}
         t = traj.t
         q = traj.q
@@ -615,10 +631,11 @@ class Cam(Mechanism):
         tol = GAP_TOL * self.program.lift
         sep = gap > tol
         first = float(t[int(np.argmax(sep))]) if sep.any() else None
+        u = "m" if self.motion == "translating" else "rad"
         out.update({"follower_first_separation_s": first,
-                    "follower_max_gap_m": float(np.max(gap)) * self._gap_scale(),
-                    "follower_peak_speed": float(np.max(np.abs(v))),
-                    "follower_displacement_vs_program_max": float(np.max(np.abs(lift + gap - y))),
+                    "follower_max_gap_m": max(float(np.max(gap)), 0.0) * self._gap_scale(),
+                    f"follower_peak_speed_{u}_s": float(np.max(np.abs(v))),
+                    f"follower_vs_program_max_{u}": float(np.max(np.abs(lift + gap - y))),
                     "follower_gap_tolerance_m": tol * self._gap_scale()})
         from .. import metrics as M
 
