@@ -171,6 +171,8 @@ class Cam(Mechanism):
     #: the MuJoCo load law edits the model (the cam-lift equality's polynomial) every step: a batch
     #: gives every run its own compiled model (backends/batch.py)
     edits_model = True
+    #: a video draws the recorded follower (off the cam when it jumps), not the one on the cam at q
+    frames_from_joints = True
     reduced_source = "independent: the cam program's kinematic coefficients (the motion laws' closed forms)"
 
     def __init__(self, p: CamParams):
@@ -346,7 +348,7 @@ class Cam(Mechanism):
         if self.motion == "translating":
             stem_top = 1.2 * self.program.lift + 6 * rad
             if fol.contact == "roller":
-                body.add_geom(name="roller", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[fol.Rr, 1.5 * rad, 0],
+                body.add_geom(name="shape_roller", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[fol.Rr, 1.5 * rad, 0],
                               quat=[0.7071068, 0.7071068, 0, 0], rgba=col, contype=0, conaffinity=0, mass=0)
                 a = fol.Rr
             else:
@@ -366,7 +368,7 @@ class Cam(Mechanism):
             L = fol.arm
             body.add_geom(name="arm", type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, L, 0, 0],
                           size=[0.8 * rad, 0, 0], rgba=col, contype=0, conaffinity=0, mass=0)
-            body.add_geom(name="roller", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[fol.Rr, 1.5 * rad, 0],
+            body.add_geom(name="shape_roller", type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[fol.Rr, 1.5 * rad, 0],
                           pos=[L, 0, 0], quat=[0.7071068, 0.7071068, 0, 0], rgba=col, contype=0, conaffinity=0,
                           mass=0)
         else:
@@ -492,6 +494,8 @@ class Cam(Mechanism):
         th = np.atleast_1d(qa)
         C = g["contact_fixed"]
         out = {"O": (np.zeros(th.shape), np.zeros(th.shape)), "contact": (C[:, 0], C[:, 1])}
+        r, a = self._tip
+        out["cam_tip"] = (r * np.cos(th + a), r * np.sin(th + a))  # the cam's farthest point (framing)
         if self.fol.contact == "roller":
             Rc, _, _, _ = self.fol.roller_centre(g["y"])
             out["roller"] = (Rc[:, 0], Rc[:, 1])
@@ -510,6 +514,16 @@ class Cam(Mechanism):
         if self.fol.contact == "roller":
             ax.plot(g["pitch"][:, 0], g["pitch"][:, 1], color="C0", ls="--", lw=0.9, label="pitch curve")
         ax.plot(self.fol.Rb * np.cos(th), self.fol.Rb * np.sin(th), color="0.5", ls=":", lw=0.8, label="base circle")
+
+    @property
+    def _tip(self):
+        """(radius, angle at θ = 0) of the cam surface's farthest point."""
+        if not hasattr(self, "_tip_cache"):
+            g = geometry(self.fol, _Shifted(self.program, self.phase), TWO_PI * np.arange(720) / 720)
+            r = np.hypot(g["profile"][:, 0], g["profile"][:, 1])
+            k = int(np.argmax(r))
+            self._tip_cache = (float(r[k]), float(math.atan2(g["profile"][k, 1], g["profile"][k, 0])))
+        return self._tip_cache
 
     def trace_point(self, q):
         pts = self.points(q)

@@ -22,7 +22,10 @@ def simulate_for_video(scn, mode: str | None = None, t_end: float | None = None)
     machine = scenario_mod.make_machine(scn, mode)
     t_end = float(t_end if t_end is not None else scn.simulation.t_end)
     h = scn.simulation.dt
-    traj = multibody.simulate(machine, t_end, record_dt=h, options=scn.multibody_options())
+    o = scn.multibody_options()
+    if getattr(machine.mechanism, "frames_from_joints", False):  # its pose is more than q (a cam's follower)
+        o = {**o, "record_joints": True}
+    traj = multibody.simulate(machine, t_end, record_dt=h, options=o)
     return machine, traj
 
 
@@ -38,6 +41,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     t0 = time.perf_counter()
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
                          overlay_lines=4 if title else 3)
+    poses = _recorded_poses(view.model, traj) if getattr(mech, "frames_from_joints", False) else None
     # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
@@ -56,13 +60,35 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
                     f"voltage {V[i]:7.2f} V   grid {view.grid_step * 1000:g} mm",
                 ]
                 r0 = time.perf_counter()
-                img = view.frame(q[i], lines, trail_q=trail, out=buf)
+                img = view.frame(q[i], lines, trail_q=trail, out=buf, qpos=None if poses is None else poses(i))
                 n_render += time.perf_counter() - r0
                 writer.write(img)
                 bar.update(1)
     finally:
         view.close()
     return _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
+
+
+def _recorded_poses(model, traj):
+    """pose(i) → the recorded qpos of row i from the joint columns (``record_joints``), or None when
+    the run did not record every joint of the model."""
+    from ..backends.joints import joint_list
+
+    joints = joint_list(model)
+    cols = []
+    for stem, kind, qa, _ in joints:
+        name = f"{stem}_rad" if kind == "hinge" else f"{stem}_m"
+        if name not in traj.columns:
+            return None
+        cols.append((qa, traj.columns.index(name)))
+    data = traj.data
+
+    def pose(i):
+        qpos = np.array(model.qpos0, float)
+        for qa, c in cols:
+            qpos[qa] = data[i, c]
+        return qpos
+    return pose
 
 
 def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,

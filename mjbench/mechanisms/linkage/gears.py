@@ -404,7 +404,8 @@ def add_gear_geoms(mech, bodies, rad):
                 continue
             name = c.links[b]
             own = _own_centre(c, name, kg)
-            bodies[name].add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[r, 0.4 * rad, 0],
+            bodies[name].add_geom(name=f"shape_pitch_{kg.spec.label}_{name}".replace("/", "_"),
+                                  type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[r, 0.4 * rad, 0],
                                   pos=[own[0], 1.5 * rad, own[1]], quat=[0.7071068, 0.7071068, 0, 0],
                                   rgba=[0.75, 0.7, 0.3, 0.6], contype=0, conaffinity=0, mass=0)
 
