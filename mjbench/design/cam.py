@@ -37,6 +37,7 @@ from pydantic_core import PydanticCustomError
 from .. import units as U
 from ..errors import GeometryError, ParameterError
 from ..fields import OptQ, Q, Strict
+from ..mechanisms import from_dict
 from ..mechanisms.cam_profile import CamProgram, Follower, FollowerLoad, checks, jump_speed
 from .synthesis.common import constraint
 
@@ -143,8 +144,6 @@ class CamSynthesis:
     def check(self, table) -> dict:
         """The designed cam re-checked as the mechanism mjbench builds from its table (profile checks,
         jump speed): what the pipeline's solver check is for a linkage."""
-        from ..mechanisms import from_dict
-
         mech = from_dict(table)
         return {"max_pressure_angle_deg": mech.check["max_pressure_angle_deg"],
                 "min_convex_radius_of_curvature_m": mech.check["min_convex_radius_of_curvature_m"],

@@ -40,6 +40,7 @@ from pydantic import Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from .. import compiled as C
+from .. import metrics as M
 from .. import units as U
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
@@ -438,10 +439,11 @@ class Cam(Mechanism):
     def joint_write_form(self, model):
         """The reduced backend's joint columns as a law (:func:`cam_joints_write`): the cam, the
         cam-lift y(θ) and the gap 0, exact (the program's laws), in the model's joint order."""
-        from ..backends.joints import joint_list
+        import mujoco
 
-        names = [j[0] for j in joint_list(model)]
-        k = {n: names.index(f"joint_{n}") for n in (INPUT_JOINT, "cam_lift", "follower_gap")}
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)
+                 if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+        k = {n: names.index(n) for n in (INPUT_JOINT, "cam_lift", "follower_gap")}  # the joint columns' order
         return C.Form(cam_joints_write, CamJointsP(k[INPUT_JOINT], k["cam_lift"], k["follower_gap"], self.phase,
                                                    self.program.P))
 
@@ -651,8 +653,6 @@ class Cam(Mechanism):
                     f"follower_peak_speed_{u}_s": float(np.max(np.abs(v))),
                     f"follower_vs_program_max_{u}": float(np.max(np.abs(lift + gap - y))),
                     "follower_gap_tolerance_m": tol * self._gap_scale()})
-        from .. import metrics as M
-
         turns = M.cycles(t, q)
         if len(turns):
             a, b = turns[-1]

@@ -5,6 +5,7 @@ import time
 
 import numpy as np
 
+from ..backends.joints import joint_list
 from ..errors import ParameterError
 from .gl import gl_setup
 from .platform import _render_platform_run
@@ -72,8 +73,6 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
 def _recorded_poses(model, traj):
     """pose(i) → the recorded qpos of row i from the joint columns (``record_joints``), or None when
     the run did not record every joint of the model."""
-    from ..backends.joints import joint_list
-
     joints = joint_list(model)
     cols = []
     for stem, kind, qa, _ in joints:

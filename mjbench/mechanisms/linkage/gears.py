@@ -48,7 +48,7 @@ from ... import compiled as C
 from ...compiled import law
 from ...errors import GeometryError
 from ...fields import OptQ, Strict
-from ..base import closure_solref
+from ..base import closure_solref, connect_site_pairs
 from .topology import GROUND, _ref
 
 GEAR_KINDS = ("external", "internal", "belt", "chain", "rack")
@@ -461,8 +461,6 @@ class GearsMixin:
         if not self.c.gears:
             return super().closure_form(model, data)
         import mujoco
-
-        from ..base import connect_site_pairs
 
         pairs = connect_site_pairs(model)
         idx = np.array([(3 * a + j, 3 * b + j) for a, b in pairs for j in range(3)], dtype=np.int64).reshape(-1, 2)
