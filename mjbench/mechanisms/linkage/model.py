@@ -16,8 +16,8 @@ import numpy as np
 
 from ..linkage_kin import KJoint, PlanarSystem
 from .assembly import AssemblyMixin
-from .gears import compile_gears
 from .description import LinkageParams
+from .gears import compile_gears
 from .kinematics import KinematicsMixin
 from .reduced import ReducedMixin
 from .topology import GROUND, TreeMixin, _ref
