@@ -34,11 +34,12 @@ from typing import Literal
 
 from pydantic import Field
 
-from mjbench.errors import ParameterError
+from mjbench.errors import MjbenchError, ParameterError, RunFailed
 from mjbench.fields import OptQ, Q, Strict
 
 from . import register
 from .base import Controller, Measurement
+from .reference import ConstantSpeed
 
 #: measurement signals an FMU input may take
 SIGNALS = ("t", "q", "qd", "qdd", "phi", "omega", "omega_dot", "current")
@@ -58,6 +59,26 @@ class FMUParams(Strict):
     period: Q("time", gt=0.0, plausible=False) = Field(description="sampling period: one doStep per sample")
     parameters: dict[str, float] = Field(default_factory=dict, description="FMU parameter start values (SI)")
     omega0: OptQ("angular_velocity") = Field(None, description="motor-speed set-point for the *_ref signals")
+
+
+def _first_line(e) -> str:
+    text = (str(e).strip().splitlines() or [""])[0][:300]
+    return f"{type(e).__name__}: {text}" if text else type(e).__name__
+
+
+def _model_description(read, path: str, where: str):
+    """FMPy's reading of the FMU's modelDescription.xml, its failures as one line naming the mode."""
+    import zipfile
+
+    try:
+        return read(path)
+    except zipfile.BadZipFile:
+        raise ParameterError(f"{where}.path = {path!r}: not an FMU (an FMU is a zip archive; this file is not "
+                             f"one)") from None
+    except KeyError:
+        raise ParameterError(f"{where}.path = {path!r}: not an FMU (the archive holds no modelDescription.xml)") from None
+    except Exception as e:  # noqa: BLE001 - lxml, FMPy's schema checks: the file is not a usable FMU
+        raise ParameterError(f"{where}.path = {path!r}: invalid modelDescription.xml ({_first_line(e)})") from None
 
 
 def _resolve(path: str, source: str) -> str:
@@ -87,6 +108,8 @@ class _Handle:
         if f is not None and self.live:
             try:
                 f.terminate()
+            except Exception:  # noqa: BLE001 - an instance in the error/fatal state may refuse; it is freed anyway
+                pass
             finally:
                 f.freeInstance()
                 self.live = False
@@ -107,49 +130,77 @@ class FMUController(Controller):
     type_name = "fmu"
     Params = FMUParams
 
-    def __init__(self, path, inputs, output, period, parameters=None, omega0=None):
+    def __init__(self, path, inputs, output, period, parameters=None, omega0=None, mode=None):
         from fmpy import read_model_description
 
+        #: how messages name this controller: its scenario mode, ``modes.NAME``
+        self.where = f"modes.{mode}" if mode else "the FMU controller"
+        where = self.where
+        if os.path.isdir(path):
+            raise ParameterError(f"{where}.path = {os.fspath(path)!r} is a folder, not an .fmu file")
         if not os.path.isfile(path):
-            raise ParameterError(f"modes.<mode>.path = {path!r}: no such FMU file")
+            raise ParameterError(f"{where}.path = {os.fspath(path)!r}: no such FMU file")
         self.path, self.output, self.period = os.fspath(path), str(output), float(period)
         if not (math.isfinite(self.period) and self.period > 0):
             raise ParameterError(f"FMU controller period = {period!r}: must be a time > 0 [s]")
         self.inputs = dict(inputs or {})
         self.parameters_start = {k: float(v) for k, v in (parameters or {}).items()}
         self.omega0 = omega0
-        md = read_model_description(self.path)
+        md = _model_description(read_model_description, self.path, where)
         if md.coSimulation is None:
-            raise ParameterError(f"{path}: not a co-simulation FMU (FMI 2.0 CS needed)")
-        if not md.fmiVersion.startswith("2."):
-            raise ParameterError(f"{path}: FMI {md.fmiVersion}; the FMU controller supports FMI 2.0")
+            raise ParameterError(f"{where}.path = {self.path!r}: not a co-simulation FMU (FMI 2.0 CS needed)")
+        if not str(md.fmiVersion).startswith("2."):
+            raise ParameterError(f"{where}.path = {self.path!r}: FMI {md.fmiVersion}; the FMU controller supports "
+                                 f"FMI 2.0")
+        from fmpy import platform, supported_platforms
+
+        have = [x for x in supported_platforms(self.path) if x != "c-code"]
+        if platform not in have:
+            raise ParameterError(f"{where}.path = {self.path!r}: the FMU has no binary for this platform ({platform}; "
+                                 f"it has {', '.join(have) or 'none'}): export it for {platform}, or build it from "
+                                 f"its sources")
         var = {v.name: v for v in md.modelVariables}
         for name, sig in self.inputs.items():
             v = var.get(name)
             if v is None or v.causality != "input":
-                raise ParameterError(f"FMU input {name!r}: {path} has no input variable of that name; inputs: "
-                                     f"{', '.join(k for k, x in var.items() if x.causality == 'input')}")
+                raise ParameterError(f"{where}.inputs.{name}: {self.path} has no input variable of that name; inputs: "
+                                     f"{', '.join(k for k, x in var.items() if x.causality == 'input') or 'none'}")
+            if v.type != "Real":
+                raise ParameterError(f"{where}.inputs.{name}: the FMU's input is of type {v.type}; a measurement "
+                                     f"signal needs a Real input")
             allowed = SIGNALS + (REF_SIGNALS if omega0 is not None else ())
             if sig not in allowed:
-                raise ParameterError(f"FMU input {name} = {sig!r}: choose one of {', '.join(allowed)}"
+                raise ParameterError(f"{where}.inputs.{name} = {sig!r}: choose one of {', '.join(allowed)}"
                                      + ("" if omega0 is not None else " (phi_ref, omega_ref, omega_dot_ref need omega0)"))
         v = var.get(self.output)
         if v is None or v.causality != "output":
-            raise ParameterError(f"FMU output {self.output!r}: {path} has no output variable of that name; outputs: "
-                                 f"{', '.join(k for k, x in var.items() if x.causality == 'output')}")
-        for name in self.parameters_start:
+            raise ParameterError(f"{where}.output = {self.output!r}: {self.path} has no output variable of that name; "
+                                 f"outputs: {', '.join(k for k, x in var.items() if x.causality == 'output') or 'none'}")
+        if v.type != "Real":
+            raise ParameterError(f"{where}.output = {self.output!r}: the FMU's output is of type {v.type}; the drive "
+                                 f"needs a Real output")
+        for name, value in self.parameters_start.items():
             p = var.get(name)
             if p is None or p.causality not in ("parameter", "input"):
-                raise ParameterError(f"FMU parameter {name!r}: {path} has no parameter of that name")
+                raise ParameterError(f"{where}.parameters.{name}: {self.path} has no parameter of that name")
+            if p.type in ("Integer", "Enumeration") and value != int(value):
+                raise ParameterError(f"{where}.parameters.{name} = {value!r}: the FMU's parameter is an {p.type}; give "
+                                     f"a whole number")
+            if p.type == "String":
+                raise ParameterError(f"{where}.parameters.{name}: the FMU's parameter is a String; only numbers and "
+                                     f"booleans can be set")
         self._md = md
         self._vr_in = [var[n].valueReference for n in self.inputs]
         self._sig = [self.inputs[n] for n in self.inputs]
         self._vr_out = [var[self.output].valueReference]
-        self._vr_par = [var[n].valueReference for n in self.parameters_start]
-        self._par = list(self.parameters_start.values())
+        self._par = {}  # FMI type → ([value references], [values])
+        for n, x in self.parameters_start.items():
+            kind = {"Enumeration": "Integer"}.get(var[n].type, var[n].type)
+            refs, vals = self._par.setdefault(kind, ([], []))
+            refs.append(var[n].valueReference)
+            vals.append(int(x) if kind == "Integer" else (bool(x) if kind == "Boolean" else float(x)))
         self.reference = None
         if omega0 is not None:
-            from .reference import ConstantSpeed
 
             self.reference = ConstantSpeed(omega0)
         self._h = _Handle()
@@ -159,7 +210,9 @@ class FMUController(Controller):
     @classmethod
     def from_params(cls, p, drive=None, mechanism=None, scenario=None):
         source = getattr(scenario, "source", "") if scenario is not None else ""
-        return cls(_resolve(p.path, source), p.inputs, p.output, p.period, p.parameters, p.omega0)
+        modes = getattr(scenario, "modes", None) or {}
+        mode = next((k for k, v in modes.items() if v is p), None)  # (its name, for the messages)
+        return cls(_resolve(p.path, source), p.inputs, p.output, p.period, p.parameters, p.omega0, mode=mode)
 
     # ------------------------------------------------------------------ the FMU instance
     def _open(self, t0: float):
@@ -168,22 +221,38 @@ class FMUController(Controller):
 
         h = self._h
         h.close(free_library=False)
-        if h.dir is None:
-            h.dir = extract(self.path)
-        md = self._md
-        if h.fmu is None:
-            h.fmu = FMU2Slave(guid=md.guid, unzipDirectory=h.dir, modelIdentifier=md.coSimulation.modelIdentifier,
-                              instanceName="mjbench_controller")
-        f = h.fmu
-        f.instantiate()
-        h.live = True
-        if self._vr_par:
-            f.setReal(self._vr_par, self._par)
-        f.setupExperiment(startTime=t0)
-        f.enterInitializationMode()
-        f.exitInitializationMode()
+        try:
+            if h.dir is None:
+                h.dir = extract(self.path)
+            md = self._md
+            if h.fmu is None:
+                h.fmu = FMU2Slave(guid=md.guid, unzipDirectory=h.dir, modelIdentifier=md.coSimulation.modelIdentifier,
+                                  instanceName="mjbench_controller")
+            f = h.fmu
+            f.instantiate()
+            h.live = True
+            for kind, (refs, vals) in self._par.items():  # setReal, setInteger, setBoolean
+                getattr(f, f"set{kind}")(refs, vals)
+            f.setupExperiment(startTime=t0)
+            f.enterInitializationMode()
+            f.exitInitializationMode()
+        except MjbenchError:
+            raise
+        except Exception as e:  # noqa: BLE001 - FMPy and the FMU's own library: one line naming the mode
+            why = _first_line(e)
+        else:
+            why = None
+        if why is not None:  # (raised outside the handler: no reference to FMPy's exception and its frames)
+            self._release()
+            raise RunFailed(f"{self.where} ({self.path}): the FMU could not be started at t = {t0:.6g} s ({why})", t=t0)
         if self.reference is not None:
             self.reference.reset()
+
+    def _release(self) -> None:
+        import contextlib
+
+        with contextlib.suppress(Exception):
+            self.close()
 
     def close(self) -> None:
         """Terminate the FMU instance and release its library and extracted files (a later call
@@ -209,10 +278,25 @@ class FMUController(Controller):
             else:
                 vals.append(float(getattr(y, s)))
         f = self._h.fmu
-        if self._vr_in:
-            f.setReal(self._vr_in, vals)
-        f.doStep(currentCommunicationPoint=t, communicationStepSize=self.period)  # FMPy raises on an error status
-        return float(f.getReal(self._vr_out)[0])
+        try:
+            if self._vr_in:
+                f.setReal(self._vr_in, vals)
+            f.doStep(currentCommunicationPoint=t, communicationStepSize=self.period)  # FMPy raises on a status
+            u = float(f.getReal(self._vr_out)[0])  # above warning (discard, error, fatal)
+        except Exception as e:  # noqa: BLE001 - FMPy and the FMU's own library: one line naming the mode, the time
+            why = _first_line(e)
+        else:
+            why = None
+        if why is not None:
+            # the instance is unusable (error, fatal, discard): released here, now, not by the garbage
+            # collector (a pythonfmu FMU's library must not be unloaded from inside a collection)
+            self._release()
+            raise RunFailed(f"{self.where} ({self.path}): the FMU's doStep at t = {t:.6g} s (step {self.period:g} s) "
+                            f"failed: {why}", t=t)
+        if not math.isfinite(u):
+            raise RunFailed(f"{self.where} ({self.path}): the FMU's output {self.output!r} is {u} after its doStep at "
+                            f"t = {t:.6g} s", t=t)
+        return u
 
     def describe(self) -> dict:
         return {"type": self.type_name, "period_s": self.period, "path": self.path, "inputs": dict(self.inputs),

@@ -4,7 +4,8 @@ from __future__ import annotations
 from collections import namedtuple
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
+from pydantic_core import PydanticCustomError
 
 from mjbench.compiled import law
 from mjbench.fields import Q, Strict
@@ -19,6 +20,26 @@ class OpenParams(Strict):
     type: Literal["open"] = "open"
     voltage: Q("voltage", finite=True) = Field(description="armature voltage")
     t_ramp: Q("time", ge=0.0, plausible=False) = Field(0.0, description="linear ramp from 0 over t_ramp (0: step)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _signal_hint(cls, data):
+        """A step or a time series is a ``signal`` mode: say so instead of a type error."""
+        if isinstance(data, dict):
+            v = data.get("voltage")
+            key = "voltage" if isinstance(v, (list, tuple)) else next((k for k in ("t_step", "t", "file") if k in data),
+                                                                       None)
+            if key is not None:
+                raise PydanticCustomError(
+                    "mjbench_value", "{key} = {val}: type = \"open\" is a constant voltage (optionally ramped over "
+                    "t_ramp); for a step or any time series use type = \"signal\" with t = [...] and voltage = [...] "
+                    "(a step at 0.1 s: t = [0, 0.1], voltage = [0, 24], interpolation = \"hold\")",
+                    {"key": key, "val": repr(data[key])})
+        return data
+
+    def command_bound(self) -> float:
+        """The largest |voltage| the mode commands [V] (the duty figures: a limiter at or above it never acts)."""
+        return abs(float(self.voltage))
 
 
 OpenP = namedtuple("OpenP", "voltage t_ramp")
@@ -57,6 +78,10 @@ class ConstantVoltage(Controller):
 
     def parameters(self, T, z):
         return OpenP(float(self.voltage), float(self.t_ramp))
+
+    def command_bound(self) -> float:
+        """The largest |voltage| it commands [V]."""
+        return abs(float(self.voltage))
 
     def linear(self, machine, op, T, h, angle="state"):
         """None: open loop, no feedback to linearise (the plant alone is the system)."""

@@ -41,8 +41,11 @@ from . import register
 from mjbench.control import LAW_INPUTS, ConstantSpeed, Controller
 from .references.coupler_speed import CouplerSpeedParams
 from .references.law import LawReferenceParams
+from mjbench.taskpath import PathReferenceParams
+from . import references
 
-ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams], Field(discriminator="type")]
+ReferenceParams = Annotated[Union[CouplerSpeedParams, LawReferenceParams, PathReferenceParams],
+                            Field(discriminator="type")]
 
 
 class PIDParams(Strict):
@@ -53,7 +56,10 @@ class PIDParams(Strict):
     kp: Q("gain_v_per_rad_s") = Field(description="proportional gain (×t with kp_ramp) [V·s/rad]")
     ki: Q("gain_v_per_rad") = Field(description="integral gain [V/rad]")
     kd: Q("gain_v_per_rad_s2") = Field(description="derivative gain [V·s²/rad]")
-    omega0: OptQ("angular_velocity") = Field(None, description="motor-speed set-point (or a reference table)")
+    omega0: OptQ("angular_velocity") = Field(None, description="speed set-point on the MOTOR shaft, φ̇ (the crank "
+                                                                  "turns at omega0 / z); or omega_crank, or a reference table")
+    omega_crank: OptQ("angular_velocity") = Field(None, description="speed set-point on the CRANK (input) shaft, α̇: "
+                                                                       "the motor's is z·omega_crank")
     kp_ramp: Bool = Field(False, description="time-varying gain K_p·t (seed 000 Eq 15)")
     t_ramp_max: Q("time", gt=0.0, finite=False, plausible=False) = Field(math.inf, description="bound of the K_p·t ramp")
     v_limit: OptQ("voltage", gt=0.0) = Field(None, description="output clip + anti-windup (none: plain Eq 16)")
@@ -63,11 +69,20 @@ class PIDParams(Strict):
 
     @model_validator(mode="after")
     def _ref(self):
-        if self.reference is None and self.omega0 is None:
-            raise PydanticCustomError("mjbench_value", "needs omega0 (motor-speed set-point [rad/s]) or a [reference] table")
-        if self.reference is not None and self.omega0 is not None:
-            raise PydanticCustomError("mjbench_value", "give omega0 or a [reference] table, not both")
+        given = [k for k in ("omega0", "omega_crank", "reference") if getattr(self, k) is not None]
+        if not given:
+            raise PydanticCustomError("mjbench_value", "needs a set-point: omega0 (motor shaft [rad/s]), omega_crank "
+                                      "(crank shaft [rad/s]) or a [reference] table")
+        if len(given) > 1:
+            raise PydanticCustomError("mjbench_value", "give one of omega0 (motor shaft), omega_crank (crank shaft) or "
+                                      "a [reference] table, not {keys}", {"keys": " and ".join(given)})
         return self
+
+    def motor_setpoint(self, z: float):
+        """The motor-shaft speed set-point [rad/s]: omega0, or z·omega_crank (None: a reference table)."""
+        if self.omega0 is not None:
+            return float(self.omega0)
+        return None if self.omega_crank is None else float(z) * float(self.omega_crank)
 
 
 #: the PID law's parameters (motor-side gains, K_p·t ramp and its bound, output clip, gear ratio)
@@ -136,10 +151,17 @@ class PID(Controller):
             kp, ki, kd = kp / drive.z, ki / drive.z, kd / drive.z
         reference = None
         if p.reference is not None:
-            from . import references
             reference = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)
-        return cls(kp, ki, kd, reference=reference, omega0=p.omega0, kp_ramp=p.kp_ramp,
-                   t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)
+        omega0 = p.omega0
+        if p.omega_crank is not None:
+            if drive is None:
+                raise ParameterError("PID omega_crank needs the drive (gear ratio z)")
+            omega0 = p.motor_setpoint(drive.z)
+        c = cls(kp, ki, kd, reference=reference, omega0=omega0, kp_ramp=p.kp_ramp,
+                t_ramp_max=p.t_ramp_max, v_limit=p.v_limit, period=p.period)
+        if p.omega_crank is not None:
+            c.setpoint_given = "omega_crank (crank shaft)"
+        return c
 
     def parameters(self, T, z):
         vl = math.inf if self.v_limit is None else float(self.v_limit)
@@ -177,10 +199,13 @@ class PID(Controller):
             c.kp_ramp = False
         return c
 
+    #: the parameter the constant set-point was given by (``from_params``: omega0 or omega_crank)
+    setpoint_given = "omega0 (motor shaft)"
+
     def setpoint(self, machine):
-        sp = super().setpoint(machine)
-        if sp is not None and self.reference is not None and getattr(self.reference, "omega0", None) is not None:
-            sp["source"] = "omega0 (motor-shaft speed set-point)"
+        sp = super().setpoint(machine)  # (the constant-speed reference's; a reference table: None)
+        if sp is not None:
+            sp["source"] = self.setpoint_given
         return sp
 
     def hold_offset(self, machine, op):

@@ -30,6 +30,7 @@ from mjbench.fields import OptQ, Q, Strict
 from . import register
 from mjbench.control import LAW_INPUTS, Controller
 from .references.law import LawReferenceParams
+from . import references
 
 Auto = Union[Literal["auto"], float]
 
@@ -95,7 +96,6 @@ class CascadeServo(Controller):
 
     @classmethod
     def from_params(cls, p, drive=None, mechanism=None, scenario=None, reference=None):
-        from . import references
 
         if reference is None:
             reference = references.build(p.reference, drive=drive, mechanism=mechanism, scenario=scenario)

@@ -50,6 +50,7 @@ from mjbench.fields import Bool, OptQ, Q, Strict
 
 from . import register
 from mjbench.control import FD_Q, LAW_INPUTS, Controller
+from mjbench import compiled as C
 
 
 class SMCParams(Strict):
@@ -162,7 +163,6 @@ class SlidingMode(Controller):
         own mechanism, built once; also when ``mechanism`` is the machine's drive-train wrapper of
         it — the controller models the mechanism it was built for, not the drive-train elements),
         or :func:`no_model` with ``model = false``."""
-        from mjbench import compiled as C
 
         if not self.model:
             return C.Form(no_model)
@@ -186,7 +186,6 @@ class SlidingMode(Controller):
 
     def form(self, T, machine):
         """``Form(smc_law, P, S0, fn_args=(model,))`` with the machine's mechanism's model law."""
-        from mjbench import compiled as C
 
         mf = self.model_form(machine.mechanism if machine is not None else None)
         return C.Form(smc_law, self._parameters(T, mf), self.initial_state(), fn_args=(mf,))
@@ -226,8 +225,8 @@ class SlidingMode(Controller):
 
     def setpoint(self, machine):
         z = float(machine.drive.z)
-        return {"input_rad_s": self.omega_d, "motor_rad_s": self.omega_d * z,
-                "source": "omega_d (crank-speed set-point)"}
+        return {"input_rad_s": self.omega_d, "motor_rad_s": self.omega_d * z, "z": z,
+                "source": "omega_d (crank shaft)"}
 
     def linear(self, machine, op, T, h, angle="state"):
         """Inside the boundary layer, |s| < φ: the computed-torque part linearised at the point

@@ -30,6 +30,11 @@ import numpy as np
 
 from . import scenario as S
 from .errors import ParameterError
+from .mechanisms.fourbar import _angle_ranges
+from .manifest import write_json
+from . import cam_plots
+from . import plotstyle as ps
+from .plots import save
 
 MU_MIN_DEG = 40.0  #: transmission angle below which force transmission is flagged as poor
 DEAD_DEG = 1.0  #: transmission angle below which a position is flagged as a dead centre
@@ -186,7 +191,6 @@ def _transmission_flags(name, q, mu_d, mu_min_deg) -> list:
     for lim, kind in ((DEAD_DEG, "dead_centre"), (mu_min_deg, "poor_transmission")):
         low = mu_d < lim
         if np.any(low):
-            from .mechanisms.fourbar import _angle_ranges
 
             for lo, hi in _angle_ranges(q, low):
                 flags.append({"kind": kind, "where": name, "q_from": float(lo), "q_to": float(hi),
@@ -285,9 +289,13 @@ def _kinematics(mech, q) -> dict:
 
 
 # ============================================================================ outputs
+#: the figures of a mechanism family's own analysis rows (``analysis.json["family"]``, from
+#: :meth:`~mjbench.mechanisms.base.Mechanism.analysis_rows`), drawn after the linkage figures
+FAMILY_FIGURES = {"cam": cam_plots.figures}
+
+
 def write(res: dict, out_dir) -> list:
     """analysis.json and the figures into ``out_dir``; returns the written paths."""
-    from .manifest import write_json
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -295,16 +303,13 @@ def write(res: dict, out_dir) -> list:
     write_json(paths[0], res)
     if res.get("applicable"):
         paths += figures(res, out)
-        if res.get("family") == "cam":
-            from . import cam_plots  # (matplotlib)
-
-            paths += cam_plots.figures(res, out)
+        family = FAMILY_FIGURES.get(res.get("family"))  # a family's own figures (a cam's S-V-A-J …)
+        if family is not None:
+            paths += family(res, out)
     return paths
 
 
 def figures(res: dict, out: Path) -> list:
-    from . import plotstyle as ps
-    from .plots import save
 
     c = {k: np.asarray(v) for k, v in res["curves"].items()}
     deg = res["input_unit"] == "rad"

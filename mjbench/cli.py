@@ -7,6 +7,8 @@ import os
 import pkgutil
 import sys
 
+from . import environment  # (the standard library only: checked before any command)
+from ._version import __version__
 from .errors import MjbenchError
 
 
@@ -57,7 +59,7 @@ def build_parser(argv=None):
     if cmd in COMMAND_MODULES:
         names = [COMMAND_MODULES[cmd]]
     else:
-        from . import commands
+        from . import commands  # help or an unknown command: every command module (--version imports none)
         names = [i.name for i in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name)]
     for name in names:
         mod = importlib.import_module(f"mjbench.commands.{name}")
@@ -72,7 +74,6 @@ def version() -> str:
     try:
         return _v("mjbench")
     except PackageNotFoundError:
-        from . import __version__
         return __version__
 
 
@@ -81,8 +82,36 @@ def main(argv=None) -> int:
     if argv[:1] == ["--version"]:
         print(f"mjbench {version()}")
         return 0
-    from .render.gl import check_gl_env
+    from . import outputs  # (the standard library only: cheap)
 
+    # first of all, before MuJoCo, NumPy or a command module is imported (≈ 0.4 s): Ctrl-C or SIGTERM
+    # at any moment is one line and exit status 130 / 143, never a traceback
+    restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
+    try:
+        return _main(argv, outputs)
+    except KeyboardInterrupt as e:
+        return _interrupted(getattr(e, "signum", 2))
+    except BaseException:  # an interrupt turned into another error on its way (an extension's import)
+        if outputs.interrupted_by() is None:
+            raise
+        return _interrupted(outputs.interrupted_by())
+    finally:
+        restore()
+
+
+def _interrupted(signum) -> int:
+    print(f"mjbench: interrupted ({'SIGTERM' if signum == 15 else 'SIGINT'})", file=sys.stderr)
+    return 128 + signum
+
+
+def _main(argv, outputs) -> int:
+    from .render.gl import check_gl_env  # not for --version, which imports nothing of ours
+
+    try:
+        environment.check()  # every MJBENCH_* variable, before anything runs (mjbench/environment.py)
+    except MjbenchError as e:
+        print(f"mjbench: error: {e}", file=sys.stderr)
+        return 2
     check_gl_env()  # a MUJOCO_GL typo is replaced (with a warning) before MuJoCo is imported
     cmd = _command_in(argv)
     gl = os.environ.get("MUJOCO_GL")
@@ -97,14 +126,15 @@ def main(argv=None) -> int:
             raise
         if os.environ.get("MUJOCO_GL") == "disable" and gl != "disable":
             import mujoco  # noqa: F401 - imported once without its GL context
+        outputs.raise_if_interrupted()  # a Ctrl-C the import system swallowed ("Exception ignored")
+    except MjbenchError as e:  # an environment variable or a plugin found wrong while the command loads
+        print(f"mjbench: error: {e}", file=sys.stderr)
+        return 2
     finally:
         if gl is None:
             os.environ.pop("MUJOCO_GL", None)
         else:
             os.environ["MUJOCO_GL"] = gl
-    from . import outputs
-
-    restore = outputs.install_signal_handlers()  # SIGTERM cleans up like Ctrl-C (mjbench/outputs.py)
     try:
         if not getattr(args, "gl", False):  # render/reproduce/demo choose the OpenGL backend first
             outputs.route_mujoco_log()
@@ -122,12 +152,6 @@ def main(argv=None) -> int:
         print("mjbench: error: out of memory: the command needs more memory than is available (shorten the "
               "run, raise simulation.record_dt, or use fewer points/rows)", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as e:
-        signum = getattr(e, "signum", 2)
-        print(f"mjbench: interrupted ({'SIGTERM' if signum == 15 else 'SIGINT'})", file=sys.stderr)
-        return 128 + signum
-    finally:
-        restore()
 
 
 def os_error_text(e: OSError) -> str:

@@ -42,10 +42,10 @@ import numpy as np
 from . import compiled as C
 from . import signals as SIG
 from .errors import ParameterError
+from .linearise import LAW_INPUTS, hold_offset, law_counterpart
 from .registry import GROUPS, Registry
+from .signals import call_law, law_signals  # noqa: F401 - part of the component interface
 
-#: inputs of a control law's linear counterpart (the reference's outputs, input side, then the measurements)
-LAW_INPUTS = ("q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I")
 #: inputs and outputs of a reference's linear counterpart
 REF_INPUTS = ("q_set", "qd_set", "q", "qd")
 REF_OUTPUTS = ("q_ref", "qd_ref", "qdd_ref")
@@ -79,40 +79,6 @@ class Measurement:
     def signals(self) -> dict:
         """The measurement as named signals (:mod:`mjbench.signals`)."""
         return {"t": self.t, "q": self.q, "qd": self.qd, "qdd": self.qdd, "I": self.current, "z": self.z}
-
-
-def law_signals(fn, nfn: int = 0) -> list[str]:
-    """The signal names a law reads (its parameters after ``nfn`` function arguments, before P, S)."""
-    from .kernel.wiring import law_parameters
-
-    return law_parameters(fn, nfn)
-
-
-def call_law(fn, values: dict, P, S, nfn: int = 0):
-    """Run a control law outside the kernel with the signals given by name (absent ones: 0; the
-    earlier names ``phi_r`` … are read as ``phi_ref`` …)."""
-    names = _names(fn, nfn)
-    return fn(*[float(values.get(SIG.ALIASES.get(n, n), 0.0)) for n in names], P, S)
-
-
-_NAMES: dict = {}
-
-
-def _names(fn, nfn):
-    """The signal names ``fn`` reads (cached per law; a partial — a law with its function arguments
-    bound — by its law and the number of bound arguments)."""
-    import functools
-    import inspect
-
-    base, skip = fn, nfn
-    if isinstance(fn, functools.partial):
-        base, skip = fn.func, nfn + len(fn.args)
-    key = (base, skip)
-    n = _NAMES.get(key)
-    if n is None:
-        params = list(inspect.signature(base).parameters)
-        n = _NAMES[key] = params[skip:-2]
-    return n
 
 
 class Controller(abc.ABC):
@@ -172,7 +138,7 @@ class Controller(abc.ABC):
         ``__call__`` in a Python adapter)."""
         if self.law is None:
             return None
-        z = float(machine.drive.z) if machine is not None else 1.0
+        z = float(machine.drives[self.axis].z) if machine is not None else 1.0
         return C.Form(type(self).law, self.parameters(T, z), self.initial_state(), children=self._children(T, z),
                       what=f"controller {self.type_name or type(self).__name__!r}")
 
@@ -241,8 +207,6 @@ class Controller(abc.ABC):
         a class may write its own (the tests compare both)."""
         if not self.closed_loop:
             return None
-        from .linearise import law_counterpart
-
         return law_counterpart(self, machine, op, T, h, angle)
 
     def linear_reference(self, machine, op, T: float, h: float, feedback: bool = True):
@@ -262,8 +226,9 @@ class Controller(abc.ABC):
         return 0.0 if v is None else float(v)
 
     def setpoint(self, machine) -> dict | None:
-        """The speed the controller holds, on both shafts: ``{"input_rad_s", "motor_rad_s", "source"}``
-        (``source`` says where it comes from, e.g. ``"omega0 (motor shaft)"``), or None when it has
+        """The speed the controller holds, on both shafts: ``{"input_rad_s", "motor_rad_s", "z", "source"}``
+        (``source``: the parameter it was given by and its shaft, e.g. ``"omega_crank (crank shaft)"``;
+        ``metrics.json "setpoint"``, the printed summary), or None when it has
         no constant set-point (a motion law, an open-loop command).  Default: from the reference's
         constant speed, if any."""
         fn = getattr(self.reference, "setpoint", None)
@@ -275,8 +240,6 @@ class Controller(abc.ABC):
         steady).  Default: found numerically from the law — the offset q_off at which the law,
         fed the point's measurement and a constant-speed reference through q* + q_off, outputs V*
         (a controller whose output does not depend on the angle error raises)."""
-        from .linearise import hold_offset
-
         return hold_offset(self, machine, op)
 
     def hold(self, machine, op):
@@ -411,8 +374,8 @@ class ConstantSpeed(Reference):
 
     def setpoint(self, machine) -> dict:
         z = float(machine.drive.z)
-        return {"input_rad_s": float(self.omega0) / z, "motor_rad_s": float(self.omega0),
-                "source": "constant motor-shaft speed ω₀"}
+        return {"input_rad_s": float(self.omega0) / z, "motor_rad_s": float(self.omega0), "z": z,
+                "source": "omega0 (motor shaft)"}
 
     @property
     def phi_start(self):
@@ -449,7 +412,7 @@ def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
     if reset is not None:  # a plain Python controller keeps its state in itself: start it afresh
         reset()
     axis = int(getattr(ctrl, "axis", 0) or 0)
-    y = Measurement(z=machine.drive.z)
+    y = Measurement(z=machine.drives[axis].z)
     idx = {n: SIG.index(n, axis) for n in SIG.AXIS}
     it = SIG.index("t")
     takes = _takes_signals(ctrl)
@@ -461,7 +424,7 @@ def controller_form(ctrl, h: float, every: int, machine) -> C.Form:
             return ctrl(t, y, {n: Y[i] for n, i in idx.items()})
         return ctrl(t, y)
 
-    return C.python_form(adapter, f"{type(ctrl).__name__} has no compiled form (no law)")
+    return C.python_form(adapter, f"{type(ctrl).__name__} has no compiled form (no law): the CPython loop runs it")
 
 
 def _takes_signals(ctrl) -> bool:
@@ -575,7 +538,8 @@ def _plain(v):
 #: built-in controller types → the module that registers them (imported on first use, by name: the
 #: engine finds controllers through this registry, never by importing them)
 BUILTIN = {"open": "controllers.openloop", "pid": "controllers.pid", "smc": "controllers.smc",
-           "servo": "controllers.servo", "fmu": "controllers.fmu", "constant": "controllers.constant"}
+           "servo": "controllers.servo", "fmu": "controllers.fmu", "constant": "controllers.constant",
+           "computed_torque": "controllers.computed_torque", "signal": "controllers.signal"}
 
 #: the controller registry (built-ins, plugins of entry-point group ``mjbench.controllers``, registered classes)
 REGISTRY = Registry("controller", Controller, BUILTIN, GROUPS[1], prefix=("modes", "{typ}"),

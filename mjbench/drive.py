@@ -40,8 +40,12 @@ from . import compiled as C
 from .compiled import clip, sgn
 from .drivetrain.amplifier import current_limited_voltage
 from .drives import Drive, register
+from .drives.datasheet import MotorDatasheet, expand as expand_datasheet
 from .errors import ParameterError
 from .fields import Q, Strict
+from .drivetrain import DriveTrain
+from .drivetrain.params import check_against
+from .drives.ideal import mode_output_problems
 
 
 class DriveParams(Strict):
@@ -63,6 +67,11 @@ class DriveParams(Strict):
     lam: Q("rot_damping", ge=0.0) = Field(description="viscous friction λ on the motor shaft")
     v_max: Q("voltage", gt=0.0, finite=False) = Field(math.inf, description="voltage limiter ±v_max (inf: none)")
     i_max: Q("current", gt=0.0, finite=False) = Field(math.inf, description="amplifier current limit ±i_max (inf: none)")
+    i_rated: Q("current", gt=0.0, finite=False) = Field(
+        math.inf, description="the motor's continuous (thermal) current rating, compared with the steady-state RMS "
+                              "current (inf: none stated)")
+    datasheet: MotorDatasheet | None = Field(None, description="the motor by its catalogue values: R, k_m, lam, L, J_m "
+                                                               "(z, gear efficiency, i_rated) derived from them")
     # optional drive-train elements (docs/drivetrain.md); None = ideal
     pwm: PWMParams | None = Field(None, description="PWM H-bridge amplifier (none: ideal voltage source)")
     encoder: EncoderParams | None = Field(None, description="incremental encoder (none: exact angle)")
@@ -71,8 +80,17 @@ class DriveParams(Strict):
     friction: FrictionParams | None = Field(None, description="dry friction on the motor and on joints")
     current_loop: CurrentLoopParams | None = Field(None, description="inner PI current loop (mode output = current reference)")
 
+    @staticmethod
+    def expand(raw: dict) -> tuple[dict, list]:
+        """The table with the values its ``datasheet`` gives filled in, and the problems
+        (:func:`mjbench.drives.datasheet.expand`); validate the result."""
+        return expand_datasheet(raw)
+
+    def datasheet_warnings(self) -> list[str]:
+        """Redundant datasheet values that disagree (:meth:`MotorDatasheet.consistency`)."""
+        return self.datasheet.consistency() if self.datasheet is not None else []
+
     def build(self) -> "DCMotorDrive":
-        from .drivetrain import DriveTrain
 
         d = DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive) if f.name != "train"})
         d.train = DriveTrain.from_params(self, d)
@@ -81,7 +99,7 @@ class DriveParams(Strict):
     def model_dump(self, **kw):
         """As pydantic's, without the drive-train tables that are off (manifests stay as before)."""
         out = super().model_dump(**kw)
-        for k in SUBTABLES:
+        for k in SUBTABLES + ("datasheet",):
             if out.get(k, 0) is None:
                 del out[k]
         return out
@@ -89,8 +107,6 @@ class DriveParams(Strict):
     def check_against(self, scn) -> list[str]:
         """Cross-checks of the drive-train tables against the scenario's modes and step; a mode
         whose output is not a voltage (``type = "constant"``: a torque or a speed) is refused."""
-        from .drivetrain.params import check_against
-        from .drives.ideal import mode_output_problems
 
         return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 
@@ -108,7 +124,9 @@ class DCMotorDrive(Drive):
     (motor, pinion on the motor shaft, gear on the crank shaft), z = φ̇/α̇ (gear ratio, motor
     turns per crank turn), T_0 [N·m] constant and λ [N·m·s/rad] viscous friction on the motor
     shaft (Eq 6), v_max [V] voltage limiter (symmetric, ``inf`` = none), i_max [A] optional
-    current limit of the amplifier (``inf`` = none; the current is clipped after each step).
+    current limit of the amplifier (``inf`` = none; the current is clipped after each step),
+    i_rated [A] the motor's continuous current rating (``inf`` = none stated; the duty figures
+    compare the steady-state RMS current with it, nothing in the loop uses it).
     """
 
     R: float = 1.0
@@ -122,6 +140,7 @@ class DCMotorDrive(Drive):
     lam: float = 0.08
     v_max: float = math.inf
     i_max: float = math.inf
+    i_rated: float = math.inf
     #: optional drive-train elements (:class:`mjbench.drivetrain.DriveTrain`), None = ideal
     train: object = field(default=None, compare=False, repr=False)
     #: ``[drive] type`` of this class (mjbench.drives) and its table
@@ -149,11 +168,11 @@ class DCMotorDrive(Drive):
             if f.name == "train":
                 continue
             v = np.asarray(getattr(self, f.name), dtype=float)
-            if not np.all(np.isfinite(v)) and f.name not in ("v_max", "i_max"):
+            if not np.all(np.isfinite(v)) and f.name not in ("v_max", "i_max", "i_rated"):
                 bad(f.name, "must be finite")
             if np.any(np.isnan(v)):
                 bad(f.name, "must not be NaN")
-        for name in ("R", "k_m", "z", "v_max", "i_max"):
+        for name in ("R", "k_m", "z", "v_max", "i_max", "i_rated"):
             if np.any(np.asarray(getattr(self, name)) <= 0):
                 bad(name, "must be > 0")
         for name in ("L", "J_m", "J_a", "J_b", "T_0", "lam"):
@@ -172,11 +191,11 @@ class DCMotorDrive(Drive):
             return False
         for n, v in zip(names, vals):
             x = float(v)
-            if not math.isfinite(x) and n not in ("v_max", "i_max"):
+            if not math.isfinite(x) and n not in ("v_max", "i_max", "i_rated"):
                 bad(n, "must be finite")
             if math.isnan(x):
                 bad(n, "must not be NaN")
-        for n in ("R", "k_m", "z", "v_max", "i_max"):
+        for n in ("R", "k_m", "z", "v_max", "i_max", "i_rated"):
             if float(getattr(self, n)) <= 0:
                 bad(n, "must be > 0")
         for n in ("L", "J_m", "J_a", "J_b", "T_0", "lam"):

@@ -22,6 +22,15 @@ class SimulationDiverged(MjbenchError, RuntimeError):
         self.state = state
 
 
+class RunFailed(MjbenchError, RuntimeError):
+    """A component failed during a run — an FMU's step, a cluster that lost its workers (the message
+    names the component and, where there is one, the time ``t`` [s])."""
+
+    def __init__(self, message, t=None):
+        super().__init__(message)
+        self.t = t
+
+
 class ScenarioError(MjbenchError, ValueError):
     """A scenario file or a --set override is malformed or names an unknown key.  ``problems``:
     one line per problem (``path: message``) when the scenario failed validation."""

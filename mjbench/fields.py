@@ -15,7 +15,7 @@ import math
 import typing
 from typing import Annotated
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
+from pydantic import AllowInfNan, BaseModel, BeforeValidator, ConfigDict, ValidationError
 from pydantic_core import PydanticCustomError
 
 from . import units as U
@@ -52,15 +52,16 @@ def _converter(kind, bound, allow_none=False):
 
 
 def Q(kind: str, *, gt=None, ge=None, lt=None, le=None, finite=True, what="", plausible=True):
-    """A physical float field of ``kind`` (SI unit of :data:`mjbench.units.KINDS`) with bounds."""
+    """A physical float field of ``kind`` (SI unit of :data:`mjbench.units.KINDS`) with bounds
+    (``finite=False``: ±inf allowed, e.g. a limit that is off)."""
     b = U.Bound(gt, ge, lt, le, finite)
-    return Annotated[float, BeforeValidator(_converter(kind, b)), UnitMeta(kind, what, plausible)]
+    return Annotated[float, AllowInfNan(not finite), BeforeValidator(_converter(kind, b)), UnitMeta(kind, what, plausible)]
 
 
 def OptQ(kind: str, *, gt=None, ge=None, lt=None, le=None, finite=True, what="", plausible=True):
     """Like :func:`Q` but ``None`` / ``"none"`` is accepted (feature off)."""
     b = U.Bound(gt, ge, lt, le, finite)
-    return Annotated[float | None, BeforeValidator(_converter(kind, b, allow_none=True)),
+    return Annotated[float | None, AllowInfNan(not finite), BeforeValidator(_converter(kind, b, allow_none=True)),
                      UnitMeta(kind, what, plausible)]
 
 
@@ -76,8 +77,9 @@ Bool = Annotated[bool, BeforeValidator(_strict_bool)]
 class Strict(BaseModel):
     """Base of every scenario table: unknown keys are errors; values validated on assignment."""
 
+    # (allow_inf_nan=False: a plain number field refuses nan and ±inf; a Q(..., finite=False) limit takes inf)
     model_config = ConfigDict(extra="forbid", validate_default=True, validate_assignment=True,
-                              arbitrary_types_allowed=True, frozen=False)
+                              arbitrary_types_allowed=True, frozen=False, allow_inf_nan=False)
 
     def to_dict(self) -> dict:
         """Plain, JSON-ready dict (SI floats; ±inf written as the strings "inf"/"-inf")."""

@@ -46,9 +46,30 @@ import numpy as np
 from .control import Controller
 
 from .errors import ParameterError
+from .backends import simulate
+from .runner import backend_options
+from .linear import response
+from . import linear as LN
+from . import scenario as S
+from .kernel import control_every
+from .plotstyle import subplots
 
 SIGNALS = ("multisine", "sine")
 DRIVETRAIN = ("pwm", "encoder", "sensor", "gear", "friction", "current_loop")
+
+#: the settling check: the lowest line's response (plant input and speed over the excitation) from the
+#: measured periods against the same number of periods one period earlier may differ by at most this
+#: fraction; otherwise a default settling time is doubled (up to :data:`SETTLE_GROWTH` ×) and the
+#: measurement repeated, a settling time given by the caller is kept and the result flagged
+SETTLE_TOL = 1e-4
+SETTLE_GROWTH = 8
+
+#: a measurement whose voltage limiter is active over more than this fraction of the measured samples
+#: is flagged saturated (a describing function of the limiter, not the loop's linear response)
+SAT_FRACTION = 0.01
+
+#: the multisine's period holds at least this many control periods (its lines lie below Nyquist)
+MIN_PERIOD_SAMPLES = 8
 
 
 # ============================================================================ excitation
@@ -93,7 +114,7 @@ def multisine(N: int, lines, amplitude: float) -> np.ndarray:
 def harmonic_lines(f0: float, f_lo: float, f_hi: float, n: int, avoid=()) -> np.ndarray:
     """Up to n distinct harmonic indices k (frequency k·f0) log-spaced over [f_lo, f_hi], skipping
     the indices in ``avoid`` (the rotation's harmonics of a linkage)."""
-    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0))), max(1, int(math.floor(f_hi / f0)))
+    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0 - 1e-9))), int(math.floor(f_hi / f0 + 1e-9))
     if k_hi < k_lo:
         raise ParameterError(f"frest: the band {f_lo:g}-{f_hi:g} Hz holds no harmonic of the period's {f0:g} Hz; "
                              f"widen --band or lengthen the period")
@@ -101,8 +122,9 @@ def harmonic_lines(f0: float, f_lo: float, f_hi: float, n: int, avoid=()) -> np.
     bad = set(int(a) for a in avoid)
     cand = np.array([k for k in cand if k not in bad], dtype=int)
     if len(cand) == 0:
-        raise ParameterError(f"frest: no free harmonic of {f0:g} Hz in {f_lo:g}-{f_hi:g} Hz (the rotation's harmonics "
-                             f"take them all): lengthen --period or widen --band")
+        why = " (the rotation's harmonics take them all)" if bad else ""
+        raise ParameterError(f"frest: no free harmonic of {f0:g} Hz in {f_lo:g}-{f_hi:g} Hz{why}: lengthen --period "
+                             f"or widen --band")
     if len(cand) > n:
         cand = cand[np.unique(np.round(np.linspace(0, len(cand) - 1, n)).astype(int))]
     return cand
@@ -138,7 +160,7 @@ def free_lines(f0: float, f_lo: float, f_hi: float, n: int, turns: int, orders: 
     measured too), no line on a rotation harmonic (k = m·turns: the machine's own fluctuation) or on
     its own mirror (2k = m·turns, m ≤ reach).  Each target takes the nearest free index within half a
     log step; a target with none is dropped."""
-    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0))), max(1, int(math.floor(f_hi / f0)))
+    k_lo, k_hi = max(1, int(math.ceil(f_lo / f0 - 1e-9))), int(math.floor(f_hi / f0 + 1e-9))
     if k_hi < k_lo:
         raise ParameterError(f"frest: the band {f_lo:g}-{f_hi:g} Hz holds no harmonic of the period's {f0:g} Hz; "
                              f"widen --band or lengthen the period")
@@ -370,8 +392,6 @@ def compare(G, G_lin, band_mask) -> dict:
 
 # ============================================================================ the measurement
 def _simulate(mach, backend, t_end, h, T, scn):
-    from .backends import simulate
-    from .runner import backend_options
 
     o = backend_options(scn, backend)
     return simulate(mach, backend, t_end, record_dt=T, options=o)
@@ -394,12 +414,33 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
         raise ParameterError(f"--signal {signal!r}: choose one of {', '.join(SIGNALS)}")
     if backend not in ("reduced", "multibody"):
         raise ParameterError(f"--backend {backend!r}: choose reduced or multibody")
+    check_options(amplitude, band, period, periods, settle, n_lines)
+    periods, n_lines = int(periods), int(n_lines)
     pt = _operating_point(scn, mode, q, qd, I, t)
+    check_timing(pt.T, band, period, n_lines)
     lin = _linearisation(pt, scn, backend) if linear else {"loop": None, "plant": None, "family": None, "note": ""}
+    own_settle = settle is None
     if settle is None:
         settle = _settle_time(lin, pt.T)
     ex = _excitation(pt, scn, signal, amplitude, band, period, periods, settle, n_lines)
     meas = _measure_runs(pt, scn, backend, ex)
+    settling = {"settle_s": ex.nset * ex.period, "tolerance": SETTLE_TOL, "lowest_line_change": meas.settle_change,
+                "extended_from_s": None, "change_before_extension": None, "automatic": own_settle}
+    nset0 = ex.nset
+    while (own_settle and meas.settle_change is not None and meas.settle_change > SETTLE_TOL
+           and ex.nset < SETTLE_GROWTH * max(nset0, 1)):
+        if settling["change_before_extension"] is None:
+            settling["change_before_extension"] = meas.settle_change
+        more = _more_periods(meas.settle_change, meas.settle_change_before, ex.nset)
+        # the same lines and period, settled longer (from the start: the runs are repeated)
+        ex = _with_settle(ex, signal, min(ex.nset + more, SETTLE_GROWTH * max(nset0, 1)))
+        meas = _measure_runs(pt, scn, backend, ex)
+        settling.update(settle_s=ex.nset * ex.period, lowest_line_change=meas.settle_change,
+                        extended_from_s=nset0 * ex.period)
+    settling["settled"] = meas.settle_change is not None and meas.settle_change <= SETTLE_TOL
+    settling["note"] = settle_note(settling, ex.period)
+    if not settling["settled"]:
+        pt.notes.append(f"warning: {settling['note']}")
     if ex.notes_period:
         pt.notes.append(ex.notes_period)
     omega = 2 * np.pi * ex.f0 * np.asarray(ex.lines, dtype=float)
@@ -407,7 +448,6 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     Sm = meas.V / meas.D
     Pm = meas.Y / meas.V
     Lm = 1.0 / Sm - 1.0 if closed else None
-    from .linear import response
 
     P_lin = response(lin["plant"], omega, "qd", "V") if lin["plant"] is not None else None
     L_lin = response(lin["loop"].L, omega) if lin["loop"] is not None else None
@@ -420,8 +460,9 @@ def measure(scn, mode=None, q=None, qd=None, I=None, t=None, backend="reduced", 
     if closed:
         frd["loop"] = ct.frd(Lm, omega, name="L_measured")
     js = _report(scn, pt, backend, signal, ex, meas, omega, Pm, Sm, Lm, rate, band_lo, lin)
+    js["settling"] = settling
+    js["saturation"] = saturation(js["limiter_active_fraction"], meas.vlim)
     _compare_linear(js, Pm, Lm, P_lin, L_lin, fam, in_band, lin, closed, omega, meas.sides, ex)
-    from . import linear as LN
 
     return {"json": LN.plain(js), "frd": frd, "omega": omega, "P": Pm, "L": Lm, "S": Sm, "P_lin": P_lin,
             "L_lin": L_lin, "coherence": np.minimum(meas.coh_v, meas.coh_y), "family": fam, "in_band": in_band}
@@ -433,12 +474,10 @@ def _operating_point(scn, mode, q, qd, I, t):
     what they change is measured): a namespace of both, the point, h, T and the notes so far."""
     from types import SimpleNamespace
 
-    from . import linear as LN
-    from . import scenario as S
-    from .kernel import control_every
 
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
+    mach.require_one_axis("frest")
     ctrl = mach.controller
     h = float(scn.simulation.dt)
     N_every = control_every(ctrl, h)
@@ -466,7 +505,6 @@ def _operating_point(scn, mode, q, qd, I, t):
 def _linearisation(pt, scn, backend) -> dict:
     """The linear machine at the point (the same held machine): its plant lifted to the control
     period and, with feedback, its loop and margins (``note``: why not, when it has none)."""
-    from . import linear as LN
 
     lin = {"loop": None, "plant": None, "family": None, "note": ""}
     op, h = pt.op, pt.h
@@ -500,7 +538,6 @@ def _settle_time(lin, T) -> float:
 def _rotation(scn, pt):
     """(running, inertia rate, rotation orders) of the held machine: a rigid linkage that turns is
     angle-periodic (:func:`rotation_orders`); the rate max|J'·q̇*|/J_tot sets the frozen band."""
-    from . import scenario as S
 
     running = len(S.make_mechanism(scn).internal) == 0 and pt.op.qd != 0.0
     mech, J_eq = pt.held_lin.mechanism, pt.held_lin.drive.J_eq
@@ -526,19 +563,97 @@ def _excitation(pt, scn, signal, amplitude, band, period, periods, settle, n_lin
         if math.isfinite(vmax):
             amplitude = min(amplitude, 0.1 * max(vmax - abs(op.V), 0.0)) or 0.02 * vmax
     amplitude = float(amplitude)
-    nset = int(math.ceil(settle / period))
+    nset = max(1, int(math.ceil(settle / period))) if settle > 0 else 0
     P = int(periods)
-    if signal == "multisine":
-        one = multisine(N, lines, amplitude)
-        runs = [(np.tile(one, nset + P), lines, N)]
-    else:
-        runs = []
-        for k in lines:
-            n = np.arange((nset + P) * N)
-            runs.append((amplitude * np.sin(2 * np.pi * k * n / N), np.array([k]), N))
-    return SimpleNamespace(runs=runs, lines=lines, f0=f0, period=period, N=N, P=P, nset=nset,
-                           t_end=(nset + P) * period, amplitude=amplitude, notes_period=notes_period,
+    return SimpleNamespace(runs=_runs(signal, N, lines, amplitude, nset, P), lines=lines, f0=f0, period=period, N=N,
+                           P=P, nset=nset, t_end=(nset + P) * period, amplitude=amplitude, notes_period=notes_period,
                            running=running, rate=rate, orders=orders, turns=turns)
+
+
+def _runs(signal, N, lines, amplitude, nset, P):
+    """The disturbance sequences [(d, lines, N)] over ``nset`` settling + ``P`` measured periods."""
+    if signal == "multisine":
+        return [(np.tile(multisine(N, lines, amplitude), nset + P), lines, N)]
+    n = np.arange((nset + P) * N)
+    return [(amplitude * np.sin(2 * np.pi * k * n / N), np.array([k]), N) for k in lines]
+
+
+def _with_settle(ex, signal, nset):
+    """``ex`` with ``nset`` settling periods (the same lines, period and amplitude)."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{**vars(ex), "nset": nset, "t_end": (nset + ex.P) * ex.period,
+                              "runs": _runs(signal, ex.N, ex.lines, ex.amplitude, nset, ex.P)})
+
+
+def check_options(amplitude, band, period, periods, settle, n_lines) -> None:
+    """Every option value, before any work: one error naming it (the CLI checks them when parsing)."""
+    def bad(x):
+        try:
+            return not math.isfinite(float(x))
+        except (TypeError, ValueError):
+            return True
+
+    if amplitude is not None and (bad(amplitude) or not float(amplitude) > 0):
+        raise ParameterError(f"--amplitude {amplitude!r}: must be a finite excitation peak > 0 (V; A with a current "
+                             f"loop)")
+    def whole(x, lo, hi):
+        try:
+            return not isinstance(x, bool) and float(x) == int(x) and lo <= int(x) <= hi
+        except (TypeError, ValueError, OverflowError):
+            return False
+
+    if not whole(n_lines, 1, 1000):
+        raise ParameterError(f"--lines {n_lines!r}: must be a whole number of excited frequencies in 1 … 1000")
+    if not whole(periods, 2, 1000):
+        raise ParameterError(f"--periods {periods!r}: must be a whole number in 2 … 1000 (the coherence needs two "
+                             f"periods)")
+    if period is not None and (bad(period) or not float(period) > 0):
+        raise ParameterError(f"--period {period!r}: must be a finite time > 0 [s]")
+    if settle is not None and (bad(settle) or not float(settle) >= 0):
+        raise ParameterError(f"--settle {settle!r}: must be a finite time >= 0 [s]")
+    if band is not None:
+        lo, hi = band
+        if bad(lo) or bad(hi) or not 0 < float(lo) < float(hi):
+            raise ParameterError(f"--band {tuple(band)!r}: need 0 < LO < HI, finite [rad/s]")
+
+
+def check_timing(T, band, period, n_lines) -> None:
+    """The options against the control period T: the band below the Nyquist frequency π/T, the
+    multisine's period at least :data:`MIN_PERIOD_SAMPLES` control periods."""
+    nyq = math.pi / T
+    if band is not None and band[1] > nyq * (1 + 1e-12):
+        raise ParameterError(f"--band {band[0]:g},{band[1]:g}: the upper edge is above the Nyquist frequency of the "
+                             f"control period ({T:g} s): π/T = {nyq:.6g} rad/s; a sampled loop has no response there")
+    if period is not None and round(period / T) < MIN_PERIOD_SAMPLES:
+        raise ParameterError(f"--period {period:g} s: shorter than {MIN_PERIOD_SAMPLES} control periods "
+                             f"({MIN_PERIOD_SAMPLES} × {T:g} s = {MIN_PERIOD_SAMPLES * T:g} s): its harmonics would "
+                             f"all lie above the Nyquist frequency")
+
+
+def settle_note(st: dict, period: float) -> str:
+    """One sentence on the settling check (frest.json ``settling.note``)."""
+    ch = st["lowest_line_change"]
+    if ch is None:
+        return "settling not checked (no settling period before the measured ones: --settle 0)"
+    txt = (f"the lowest line changed by {ch:.2g} of its value between the measured periods and the same periods one "
+           f"period ({period:g} s) earlier, after {st['settle_s']:g} s of settling")
+    if st["extended_from_s"] is not None:
+        txt += f" (extended from {st['extended_from_s']:g} s, where it changed by {st['change_before_extension']:.2g})"
+    if ch <= st["tolerance"]:
+        return txt + f": settled (≤ {st['tolerance']:g})"
+    how = "lengthen --settle" if not st["automatic"] else f"the settling was extended {SETTLE_GROWTH}× at most"
+    return txt + f": NOT settled (> {st['tolerance']:g}; {how}): the responses still carry the start's transient"
+
+
+def saturation(fraction: float, vlim: float) -> dict:
+    """frest.json ``saturation``: whether the limiter was active over more than :data:`SAT_FRACTION`
+    of the measured samples, and what that means."""
+    sat = bool(fraction > SAT_FRACTION)
+    note = (f"the voltage limiter (±{vlim:g} V) was active in {100 * fraction:.3g} % of the measured samples (over "
+            f"{100 * SAT_FRACTION:g} %): the loop is saturated, the measured responses and margins describe the limiter, "
+            f"not the linear loop; lower --amplitude or move the operating point away from the limit" if sat else "")
+    return {"saturated": sat, "limiter_active_fraction": float(fraction), "limit_fraction": SAT_FRACTION, "note": note}
 
 
 def _measure_runs(pt, scn, backend, ex):
@@ -553,14 +668,18 @@ def _measure_runs(pt, scn, backend, ex):
     Dl, Vl, Yl, Cv, Cy, Dist, Sat, Vs, Ys = [], [], [], [], [], [], [], [], []
     vlim = voltage_limit(pt.mach.drive)
     meta = {"loop": base.meta.get("loop"), "loop_reason": base.meta.get("loop_reason")}
-    for d, ks, NN in ex.runs:
+    change = change0 = None
+    for i, (d, ks, NN) in enumerate(ex.runs):
         exr = _simulate(dataclasses.replace(held, controller=Excited(held.controller, d, T)), backend, ex.t_end, h, T,
                         scn)
         n = min(len(exr.t), len(base.t), len(d))
         dV = exr.voltage[:n] - base.voltage[:n]
-        if math.isfinite(vlim):
-            Sat.append(float(np.mean(np.abs(exr.voltage[:n]) >= 0.999 * vlim)))
+        if math.isfinite(vlim):  # over the measured periods
+            Sat.append(float(np.mean(np.abs(exr.voltage[:n][-P * NN:]) >= 0.999 * vlim)))
         dY = exr.qd[:n] - base.qd[:n]
+        if i == 0 and ex.nset >= 1:  # the settling check on the lowest line (module constants)
+            change = _settle_change(dV, dY, NN, P, int(ks[0]))
+            change0 = _settle_change(dV, dY, NN, P, int(ks[0]), shift=1) if ex.nset >= 2 else None
         D = _spectra(d[:n], NN, P, ks)
         V = _spectra(dV, NN, P, ks)
         Y = _spectra(dY, NN, P, ks)
@@ -576,7 +695,34 @@ def _measure_runs(pt, scn, backend, ex):
     D, V, Y = (np.concatenate(a) for a in (Dl, Vl, Yl))
     sides = (np.concatenate(Vs, axis=1) / D, np.concatenate(Ys, axis=1) / D) if Vs else None
     return SimpleNamespace(D=D, V=V, Y=Y, coh_v=np.concatenate(Cv), coh_y=np.concatenate(Cy), Dist=Dist, Sat=Sat,
-                           meta=meta, vlim=vlim, sides=sides, q_turn=base.q[:n][-ex.N:])
+                           meta=meta, vlim=vlim, sides=sides, q_turn=base.q[:n][-ex.N:], settle_change=change,
+                           settle_change_before=change0)
+
+
+def _settle_change(dV, dY, N, P, k, shift=0) -> float:
+    """Relative change of the lowest line (index k) of ΔV and Δq̇ between the last P periods and the
+    P periods one period earlier (the excitation repeats every period: a settled machine gives the
+    same spectrum); ``shift``: the same, ``shift`` periods earlier."""
+    out = 0.0
+    for x in (dV, dY):
+        x = np.asarray(x, dtype=float)
+        ref = abs(_spectra(x, N, P, [k]).mean())
+        y = x[:len(x) - shift * N]
+        now = _spectra(y, N, P, [k]).mean()
+        before = _spectra(y[:-N], N, P, [k]).mean()
+        out = max(out, float(abs(now - before) / max(ref, 1e-300)))
+    return out
+
+
+def _more_periods(c1, c0, nset) -> int:
+    """Settling periods to add so that the lowest line's change falls to half the tolerance: a
+    transient decaying by r = c1/c0 per period (c1: the last change, c0: the one a period before)
+    needs ln(tol/2c1)/ln r more periods (× 1.25); without a decay seen, as many again as now."""
+    if c0 is not None and 0 < c1 < c0:
+        r = c1 / c0
+        k = math.log(0.5 * SETTLE_TOL / c1) / math.log(r)
+        return max(1, int(math.ceil(1.25 * k)))
+    return max(1, nset)
 
 
 def _distortion(dY, P, N, ks) -> float:
@@ -600,8 +746,6 @@ def _frozen_family(pt, omega, n_angles, notes, ex=None, meas=None):
     """The frozen-angle family's loops and plants at the lines, and (with the runs ``ex``, ``meas``)
     the family followed along the baseline's turn (:func:`along_turn_prediction`); None, with a note,
     if it cannot be computed.  ``n_angles=None``: enough angles for the inertia's harmonics."""
-    from . import linear as LN
-    from .linear import response
 
     op = pt.op
     if n_angles is None:  # follow the inertia's harmonics along the turn without aliasing
@@ -699,16 +843,11 @@ def family_comparison(fam, Pm, Lm, Sm, in_band, cmp, sides=None) -> dict:
 def figure(res, path, title=""):
     """Bode plot of the measured plant and loop (dots) with the linearisation (line), the frozen-angle
     envelope (band), the family followed along the turn (dashed) and the coherence."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     w = res["omega"]
     rows = [("plant q̇/V", res["P"], res["P_lin"], "P")]
     if res["L"] is not None:
         rows.append(("loop L at the plant input", res["L"], res["L_lin"], "L"))
-    fig, ax = plt.subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
+    fig, ax = subplots(3, len(rows), figsize=(6 * len(rows), 8), squeeze=False, sharex=True)
     for j, (name, G, Gl, key) in enumerate(rows):
         ax[0, j].loglog(w, np.abs(G), "o", ms=3, label="measured (nonlinear machine)")
         ax[1, j].semilogx(w, np.degrees(np.unwrap(np.angle(G))), "o", ms=3)
@@ -733,4 +872,3 @@ def figure(res, path, title=""):
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

@@ -38,6 +38,9 @@ import math
 import numpy as np
 
 from .errors import ParameterError
+from .trajectory import atomic_write
+from . import plots as P
+from .plotstyle import new
 
 PARAMS = ("R", "L", "K", "J", "b", "T_c")
 UNITS = {"R": "Ω", "L": "H", "K": "V·s/rad", "J": "kg·m²", "b": "N·m·s/rad", "T_c": "N·m"}
@@ -126,7 +129,6 @@ def synthetic_record(theta: dict, t_end=2.0, dt=1e-3, noise_speed=0.05, noise_cu
 
 
 def write_record(path, rec, current=True):
-    from .trajectory import atomic_write
 
     cols = ["t_s", "voltage_V", "motor_speed_rad_s"] + (["current_A"] if current else [])
     arr = np.column_stack([rec["t"], rec["V"], rec["omega"]] + ([rec["I"]] if current else []))
@@ -396,12 +398,10 @@ def report(res, truth=None) -> str:
 
 
 def plot(rec, res, path):
-    from . import plots as P
-    import matplotlib.pyplot as plt
 
     has_i = rec.get("I") is not None
     nrow = 3 if has_i else 2
-    fig, axes = plt.subplots(nrow + 1, 1, figsize=(8, 2.6 * (nrow + 1)), sharex=True)
+    fig, axes = new(nrow + 1, 1, figsize=(8, 2.6 * (nrow + 1)), sharex=True)
     t = rec["t"]
     axes[0].plot(t, rec["V"], color="k", lw=1)
     axes[0].set_ylabel("voltage [V]")
@@ -418,7 +418,7 @@ def plot(rec, res, path):
     if has_i:
         axes[-1].plot(t, rec["I"] - res["I_fit"], color="tab:red", lw=0.6, alpha=0.7, label="current residual [A]")
     axes[-1].set_ylabel("residual")
-    axes[-1].set_xlabel("t [s]")
+    axes[-1].set_xlabel("time t [s]")
     axes[-1].legend(loc="upper right")
     p = res["params"]
     axes[0].set_title("  ".join(f"{k}={v['value']:.4g}" for k, v in p.items()), fontsize=8)

@@ -28,8 +28,11 @@ import numpy as np
 
 from . import compiled as C
 from . import signals as SIG
-from .control import LAW_INPUTS, call_law, law_signals
 from .errors import ParameterError
+from .signals import call_law, law_signals
+
+#: inputs of a control law's linear counterpart (the reference's outputs, input side, then the measurements)
+LAW_INPUTS = ("q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I")
 
 #: how many samples the law runs at the point before it is differentiated (fills "previous sample" states)
 SETTLE = 3

@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from . import outputs
+from ._version import __version__
+from .scenario import check_model_files  # noqa: F401 - the manifest's check, beside the loading it guards
 
 
 def versions() -> dict:
@@ -19,7 +21,6 @@ def versions() -> dict:
     a run need not import matplotlib or scipy to state their versions)."""
     import mujoco
 
-    from . import __version__
 
     return {"mjbench": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__,
             "scipy": _dist_version("scipy"), "matplotlib": _dist_version("matplotlib"),
@@ -57,6 +58,9 @@ def manifest(scn, argv=None, extra=None) -> dict:
     files = model_files(scn)
     if files:
         out["model_files"] = files
+    ds = getattr(scn.drive, "datasheet", None)
+    if ds is not None:  # the drive's values derived from the motor's datasheet, with their formulas
+        out["drive_from_datasheet"] = ds.conversion()
     out.update(extra or {})
     return out
 
@@ -86,28 +90,6 @@ def copy_model_files(scn, out_dir) -> None:
         dst = Path(out_dir) / info["copy"]
         dst.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(path, dst)
-
-
-def check_model_files(man: dict, where: str) -> None:
-    """Refuse to repeat a run whose model file changed (or vanished) since the manifest was
-    written: its results would silently differ.  ``where``: the manifest's path (messages)."""
-    from .errors import ScenarioError
-
-    for path, info in (man.get("model_files") or {}).items():
-        want = info.get("sha256") if isinstance(info, dict) else None
-        if not want:
-            continue
-        copy = os.path.join(os.path.dirname(os.path.abspath(where)), info.get("copy", "")) if info.get("copy") else ""
-        keep = f"; the run's copy is {copy}" if copy and os.path.isfile(copy) else ""
-        if not os.path.isfile(path):
-            raise ScenarioError(f"{where}: the model file {path} of that run no longer exists, so the manifest cannot "
-                                f"repeat it{keep}")
-        with open(path, "rb") as f:
-            now = hashlib.sha256(f.read()).hexdigest()
-        if now != want:
-            raise ScenarioError(f"{where}: the model file {path} changed since that run (SHA-256 {want[:12]}… then, "
-                                f"{now[:12]}… now): the manifest would run another model; restore the file{keep}, or "
-                                f"run the scenario TOML to simulate the new model")
 
 
 def json_default(o):

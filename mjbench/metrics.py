@@ -16,6 +16,8 @@ computed by ``mjbench run`` whenever the controller tracks a ``coupler_speed`` r
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import ParameterError
@@ -56,6 +58,33 @@ SUMMARY_METRICS = {
     "speed_settling_time_s": "time from which the crank speed stays within the settling band around its value at "
                              "t_end until the end [s] (t_s[0] if always inside)",
 }
+#: the duty figures of :func:`duty` (numeric, over the steady-state window ``duty_window_s`` =
+#: [steady_from_s, t_end_s]; "steady" in every name says so)
+DUTY_METRICS = {
+    "current_rms_steady_A": "RMS motor current over the steady-state window [A] (what a motor's continuous "
+                            "rating is compared with)",
+    "current_peak_steady_A": "peak |motor current| over the steady-state window [A]",
+    "torque_motor_rms_steady_Nm": "RMS electromagnetic motor torque k_m·I on the motor shaft over the steady-state "
+                                  "window [N·m]",
+    "torque_output_rms_steady_Nm": "RMS torque at the gearbox output (crank shaft) over the steady-state window [N·m]: "
+                                   "z·(k_m·I − T_0·sgn φ̇) through the gear efficiency, − z²·λ·α̇ − (J_m + J_a)·z²·α̈",
+    "torque_output_peak_steady_Nm": "peak |torque at the gearbox output| over the steady-state window [N·m]",
+    "current_rated_A": "the motor's continuous current rating drive.i_rated [A] (when stated)",
+    "current_limit_A": "the current limit the run had: drive.i_max [A]",
+    "current_limit_fraction_steady": "fraction of the steady-state window's samples with |I| at the current limit",
+    "voltage_limit_V": "the voltage limit the run had: the smaller of drive.v_max and the controller's v_limit [V]",
+    "voltage_limit_fraction_steady": "fraction of the steady-state window's samples with |V| at the voltage limit",
+}
+SUMMARY_METRICS.update(DUTY_METRICS)
+#: a limit active over more than this fraction of the steady state is a warning (:func:`duty_warnings`)
+LIMIT_FRACTION_WARN = 0.01
+#: |V| ≥ v_limit·(1 − VOLTAGE_LIMIT_TOL) counts as "at the voltage limit" (the limiter clips the
+#: command onto it, to rounding)
+VOLTAGE_LIMIT_TOL = 1e-6
+#: |I| ≥ i_max·(1 − CURRENT_LIMIT_TOL) counts as "at the current limit": the amplifier lowers the
+#: voltage so that the current ends each step within ±i_max, and the recorded current of a
+#: current-limited motor sits just below it (4.9977 A under a 5 A limit at h = 0.1 ms, L/R = 0.4 ms)
+CURRENT_LIMIT_TOL = 5e-3
 #: the numeric metrics of :func:`coupler_tracking` (``coupler_speed.<name>`` in a run's metrics)
 COUPLER_METRICS = (
     "settle_time_s", "band_rel", "rise_fraction", "crank_error_band_rad_s", "t_end_s", "vc_desired_mean_m_s",
@@ -358,12 +387,14 @@ def energy(t, p, t0=None, t1=None):
     return float(np.trapezoid(p[sel], t[sel]))
 
 
-def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.10):
+def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.10, drive=None, v_limit=None):
     """Standard metrics of a machine trajectory (dict of floats, SI units in the key names).
 
     chi_window: (t0, t1) for the windowed χ; steady_from: start of the 'steady state' [s]
-    (default: half the run) for the mean speed and the per-cycle χ statistics; band_rel: the
-    settling band of :func:`end_state` as a fraction of the final speed (``[metrics] band_rel``).
+    (default: half the run) for the mean speed, the per-cycle χ statistics and the duty figures
+    (:func:`duty`: ``drive`` the run's drive object, ``v_limit`` its controller's output clip [V]);
+    band_rel: the settling band of :func:`end_state` as a fraction of the final speed
+    (``[metrics] band_rel``).
     Per-cycle metrics (χ) describe a periodic steady state; the ``final_*`` ones and the speed's
     settling time (:func:`end_state`) describe where a transient run ends.
     """
@@ -384,6 +415,7 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
         "max_closure_error_m": float(np.max(traj.closure)),
     }
     out.update(end_state(traj, band_rel))
+    out.update(duty(traj, steady_from, drive, v_limit))
     cyc = cycles_of(traj)
     vals = np.array([chi_of(traj, a, b, average) for a, b in cyc])
     # two readings of "χ over the last cycle" (docs/validation.md): the last complete cycle
@@ -421,6 +453,168 @@ def _peak_voltage(traj) -> float:
     if traj.stat("voltage_applied_V:max") is None:
         return float(np.max(np.abs(traj.voltage)))
     return peak_abs(traj, "voltage_applied_V")
+
+
+# ============================================================================ duty figures
+def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
+    """The duty figures of a run over its steady-state window t ≥ ``steady_from`` (SI, keys of
+    :data:`DUTY_METRICS`; ``duty_window_s`` = [steady_from, t_end]):
+
+    * the motor current's RMS √(mean I²) and peak max|I|; the electromagnetic motor torque's RMS,
+      k_m·RMS(I) — what a motor is sized by (its continuous rating);
+    * the torque at the gearbox output (the crank shaft, which drives the flywheel J_b and the
+      mechanism): T_out = z·η(k_m·I − T_0·sgn φ̇) − z²·λ·α̇ − (J_m + J_a)·z²·α̈, i.e. the recorded
+      drive torque on the crank less what accelerates the motor-side inertias, the gear's
+      efficiency η (``[drive.gear]``, by the power flow's direction) applied as the kernel applies
+      it; RMS and peak — what a gearbox is sized by.  Not given behind a compliant gear (its mesh
+      torque is not a recorded column);
+    * the fraction of the window's samples at the current limit (|I| within 0.5 % of
+      ``drive.i_max``: :data:`CURRENT_LIMIT_TOL`) and at the voltage limit (|V| at the smaller of
+      ``drive.v_max`` and the controller's ``v_limit``; ``v_limit`` may be (v_limit, largest
+      |command|) for a mode whose command is known — an open loop at or below the limit is never
+      limited, 0); a limit that is not set (inf) is not listed.
+
+    Means over the record's samples (uniform in time).  An ideal torque or speed source has no
+    current: its output torque (the recorded drive torque less J·α̈) only.  The current's peak is
+    taken over every co-step of the window (the kernel's interval statistics, :func:`peak_abs`); the
+    output torque's over the recorded samples (:func:`duty_peaks`)."""
+    t = traj.t
+    t0 = float(steady_from if steady_from is not None else t[-1] / 2)
+    sel = t >= t0 - 1e-12
+    if sel.sum() < 1:
+        return {}
+    out = {"duty_window_s": [t0, float(t[-1])]}
+    I = np.asarray(traj.current, dtype=float)[sel]
+    qd, qdd = np.asarray(traj.qd, dtype=float)[sel], np.asarray(traj.qdd, dtype=float)[sel]
+    electric = bool(np.all(np.isfinite(I)))
+    out_torque = _output_torque(traj, sel, drive, I, qd, qdd) if drive is not None else None
+    peaks = duty_peaks({"current": I if electric else None, "torque_output": out_torque})
+    if electric:
+        out["current_rms_steady_A"] = float(np.sqrt(np.mean(I * I)))
+        # the peak over every co-step of the window (the interval statistics), not only the samples
+        out["current_peak_steady_A"] = peak_abs(traj, "current_A", t0, float(t[-1])) \
+            if traj.stat("current_A:max") is not None else peaks["current"]
+        if drive is not None and hasattr(drive, "k_m"):
+            out["torque_motor_rms_steady_Nm"] = float(drive.k_m) * out["current_rms_steady_A"]
+    if out_torque is not None:
+        out["torque_output_rms_steady_Nm"] = float(np.sqrt(np.mean(out_torque * out_torque)))
+        out["torque_output_peak_steady_Nm"] = peaks["torque_output"]
+    if electric and drive is not None:
+        i_rated = float(getattr(drive, "i_rated", math.inf))
+        if math.isfinite(i_rated):
+            out["current_rated_A"] = i_rated
+        i_max = float(getattr(drive, "i_max", math.inf))
+        if math.isfinite(i_max):
+            out["current_limit_A"] = i_max
+            out["current_limit_fraction_steady"] = float(np.mean(np.abs(I) >= i_max * (1.0 - CURRENT_LIMIT_TOL)))
+        v_limit, bound = v_limit if isinstance(v_limit, tuple) else (v_limit, math.inf)
+        v_lim = min(float(getattr(drive, "v_max", math.inf)), math.inf if v_limit is None else float(v_limit))
+        if math.isfinite(v_lim):
+            V = np.asarray(traj.voltage, dtype=float)[sel]
+            out["voltage_limit_V"] = v_lim
+            if bound <= v_lim:  # the command never exceeds the limit (an open loop at or below it): never limited
+                out["voltage_limit_fraction_steady"] = 0.0
+            else:
+                out["voltage_limit_fraction_steady"] = float(np.mean(np.abs(V) >= v_lim * (1.0 - VOLTAGE_LIMIT_TOL)))
+    return out
+
+
+def duty_peaks(signals: dict) -> dict:
+    """max |x| of each signal {name: array or None} over the window's recorded samples (None stays
+    None).  The one place the duty peaks are taken: the exact extrema over every co-step can replace
+    the recorded samples' here."""
+    return {k: (None if x is None or len(x) == 0 else float(np.max(np.abs(x)))) for k, x in signals.items()}
+
+
+def _output_torque(traj, sel, drive, I, qd, qdd):
+    """Torque at the gearbox output over the window (:func:`duty`), or None where it is not defined."""
+    if not hasattr(drive, "k_m"):  # an ideal torque or speed source: its torque less its own inertia J
+        T = np.asarray(traj["torque_crank_Nm"], dtype=float)[sel]
+        return T - float(getattr(drive, "J", 0.0)) * qdd if np.all(np.isfinite(T)) else None
+    train = getattr(drive, "train", None)
+    gear = getattr(train, "gear", None)
+    if gear is not None and gear.compliant:
+        return None
+    z, km, T0, lam = (float(getattr(drive, k)) for k in ("z", "k_m", "T_0", "lam"))
+    w = z * qd
+    Tm = km * I - T0 * np.sign(w)
+    if gear is not None and gear.lossy:
+        Tm = np.asarray(gear.transmitted_torque(Tm, w), dtype=float)
+    return z * Tm - z * z * lam * qd - (float(drive.J_m) + float(drive.J_a)) * z * z * qdd
+
+
+def duty_warnings(backend_metrics: dict, threshold: float = LIMIT_FRACTION_WARN) -> list:
+    """Warning lines for a limit active over more than ``threshold`` of the steady state, one per
+    limit (every backend's fraction on it), and for a steady-state RMS current above the drive's
+    continuous rating ``i_rated`` when the run states it (``current_rated_A`` in the metrics)."""
+    out = []
+    for key, what, lim in (("current_limit_fraction_steady", "the current is at its limit", "current_limit_A"),
+                           ("voltage_limit_fraction_steady", "the voltage is at its limit", "voltage_limit_V")):
+        hits = {b: m for b, m in backend_metrics.items() if (m or {}).get(key, 0.0) > threshold}
+        if not hits:
+            continue
+        m0 = next(iter(hits.values()))
+        unit = "A" if key.startswith("current") else "V"
+        frac = ", ".join(f"{100 * m[key]:.1f} % ({b})" for b, m in hits.items())
+        t0, t1 = m0["duty_window_s"]
+        out.append(f"{what} {m0[lim]:g} {unit} during {frac} of the steady state t = {t0:g}–{t1:g} s (more than "
+                   f"{100 * threshold:g} %): the drive cannot give what the controller asks, so the speed and the "
+                   f"other figures are the limited machine's (metrics.json \"{key}\")")
+    over = {b: m for b, m in backend_metrics.items()
+            if (m or {}).get("current_rated_A") is not None and m.get("current_rms_steady_A", 0.0) > m["current_rated_A"]}
+    if over:
+        m0 = next(iter(over.values()))
+        rms = ", ".join(f"{m['current_rms_steady_A']:.3g} A ({b})" for b, m in over.items())
+        t0, t1 = m0["duty_window_s"]
+        out.append(f"the RMS motor current {rms} over the steady state t = {t0:g}–{t1:g} s exceeds the motor's continuous "
+                   f"rating drive.i_rated = {m0['current_rated_A']:g} A: it would overheat in continuous duty")
+    return out
+
+
+# ============================================================================ process loads
+def loads(mech, traj) -> dict:
+    """Each process load of the mechanism (a linkage's ``[[mechanism.loads]]``, by name) along the
+    recorded motion: ``peak_abs`` its largest |force| [N] (|torque| [N·m] for a torque load) and
+    ``active_fraction`` the fraction of the samples where it is not zero, from the mechanism's own
+    load law at the recorded angles (``load_forces``); {} for a mechanism without loads."""
+    if not hasattr(mech, "load_forces") or not getattr(mech, "load_specs", None):
+        return {}
+    out = {}
+    for name, ld, (s, _, F) in zip(mech.load_names(), mech.load_specs, mech.load_forces(traj.q, traj.qd)):
+        F = np.asarray(F, dtype=float) + 0.0 * np.asarray(traj.q)
+        entry = {"peak_abs": float(np.max(np.abs(F))), "active_fraction": float(np.mean(F != 0.0)),
+                 "unit": "N" if ld.link is None else "N·m"}
+        if ld.point is not None:
+            s = np.asarray(s, dtype=float) + 0.0 * F
+            entry.update(point=ld.point, direction=[float(x) for x in ld.direction], s_reached_m=[float(s.min()),
+                                                                                                  float(s.max())])
+            if ld.s is not None:
+                entry["s_table_m"] = [float(ld.s[0]), float(ld.s[-1])]
+        out[name] = entry
+    return out
+
+
+def load_warnings(backend_metrics: dict) -> list:
+    """A load that never acts along the motion (zero at every recorded sample of every backend that
+    ran): one warning naming it, where its table is and where its point went."""
+    out, seen = [], set()
+    for m in backend_metrics.values():
+        for name, e in ((m or {}).get("loads") or {}).items():
+            if name in seen or e["peak_abs"] > 0.0:
+                continue
+            if any(((x or {}).get("loads") or {}).get(name, {}).get("peak_abs", 0.0) > 0.0
+                   for x in backend_metrics.values()):
+                continue
+            seen.add(name)
+            where = ""
+            if "s_table_m" in e:
+                (a, b), (c, d) = e["s_table_m"], e["s_reached_m"]
+                where = (f": its table spans s = {1e3 * a:.4g} … {1e3 * b:.4g} mm along {tuple(e['direction'])}, the "
+                         f"point {e['point']} moved over s = {1e3 * c:.4g} … {1e3 * d:.4g} mm")
+            out.append(f"load {name!r} never acts along the motion (zero at every recorded sample){where}; check the "
+                       f"mechanism's assembly (a link angle's sign), the load's direction and active stroke, or give it "
+                       f"over the stroke (profile: distance before the stroke's end)")
+    return out
 
 
 #: the trajectory columns whose last value is an end-state metric (``final_<column>``)

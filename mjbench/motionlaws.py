@@ -26,7 +26,7 @@ exponents γ for the pseudo-polynomial law, the interior ordinates normalised by
 ``MOTION(t, order, P) → (φ, φ̇, φ̈, φ⃛)`` (:func:`pseudopoly_motion`, :func:`bezier_motion`; derivatives
 above ``order`` are 0) from coefficient arrays in ``P`` (:meth:`MotionLaw.motion_form`).  The
 methods ``evaluate``/``position``/``velocity``/… apply it elementwise to arrays; the servo's
-reference (:class:`controllers.references.law.LawReference`) calls the same law in the co-step
+reference (:class:`mjbench.law_reference.LawReference`) calls the same law in the co-step
 kernel, compiled or not.  The Bezier curves are evaluated in the Bernstein basis by a Horner
 scheme in λ/(1 − λ) (or (1 − λ)/λ past the middle), the derivative curves from the derivative
 polygons (Eq 13).
@@ -37,11 +37,11 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from scipy.interpolate import BPoly
-from scipy.special import comb
 
 from .compiled import law
 from .errors import ParameterError
+from .law_reference import LawReference
+from . import compiled as C
 
 #: two exponents closer than this (relative) make Z̄ numerically singular
 GAMMA_TOL = 1e-9
@@ -66,7 +66,6 @@ class MotionLaw:
     def motion_form(self):
         """The law's compiled form: ``Form(MOTION, P)`` with ``MOTION(t, order, P) → (φ, φ̇, φ̈, φ⃛)``
         [rad, rad/s, rad/s², rad/s³] at time t [s] (at rest outside [0, T])."""
-        from . import compiled as C
 
         if type(self).evaluate is not MotionLaw.evaluate:  # a law with its own Python evaluation
             ev = self.evaluate
@@ -117,10 +116,8 @@ class MotionLaw:
                 "jerk": float(np.max(np.abs(j[1:-1])))}
 
     def as_reference(self, scale: float = 1.0, t0: float = 0.0):
-        """A motor-side reference (:class:`controllers.references.law.LawReference`) tracking this
+        """A motor-side reference (:class:`mjbench.law_reference.LawReference`) tracking this
         law (times ``scale``), starting at ``t0`` [s]."""
-        from controllers.references.law import LawReference
-
         return LawReference(self, scale, t0)
 
 
@@ -228,7 +225,6 @@ def shaped_motion(BASE, t, order, P):
 
 def shaped_form(base: "MotionLaw", amplitudes, times):
     """``Form(shaped_motion, ShapedP, fn_args=(base law,))`` of an impulse sequence applied to ``base``."""
-    from . import compiled as C
 
     bf = base.motion_form()
     A = np.ascontiguousarray(amplitudes, dtype=float)
@@ -307,7 +303,6 @@ class PseudoPolynomialLaw(MotionLaw):
         return PseudoPolynomialLaw(self.Phi, self.T, x)
 
     def motion_form(self):
-        from . import compiled as C
 
         g, Cc, Phi, T = self.gammas, self.C, self.Phi, self.T
         f = [(-1.0) ** (k + 1) * Phi / T ** k for k in (1, 2, 3)]
@@ -329,6 +324,8 @@ class PseudoPolynomialLaw(MotionLaw):
 def bernstein(n: int, i: int, lam):
     """B(n, i, λ) = C(n, i)·λ^i·(1 − λ)^{n−i} (seed 003 Eq 11, corrected exponent n − i)."""
     lam = np.asarray(lam, dtype=float)
+    from scipy.special import comb
+
     return comb(n, i) * lam ** i * (1.0 - lam) ** (n - i)
 
 
@@ -400,7 +397,7 @@ class BezierLaw(MotionLaw):
         return np.linspace(0.0, self.T, self.n_s + 1 - k)
 
     def motion_form(self):
-        from . import compiled as C
+        from scipy.special import comb
 
         n = self.n_s
         polys = self.polygons()
@@ -412,6 +409,8 @@ class BezierLaw(MotionLaw):
     def accel_bpoly(self):
         """The acceleration curve as a ``scipy.interpolate.BPoly`` (its derivatives at the ends:
         the analytic residual-vibration integral of :mod:`mjbench.vibration`)."""
+        from scipy.interpolate import BPoly
+
         return BPoly(self.polygons()[2][:, None], [0.0, self.T])
 
     def describe(self):
@@ -460,8 +459,6 @@ class CycloidalLaw(MotionLaw):
         return CycloidalLaw(self.Phi, self.T)
 
     def motion_form(self):
-        from . import compiled as C
-
         return C.Form(cycloidal_motion, CycloidalP(self.Phi, self.T))
 
     def describe(self):

@@ -99,24 +99,48 @@ def _test_hook(event: str):
 _critical = 0
 _deferred = None
 _installed = False
+_received = None  #: the last signal our handler turned into :class:`Interrupted` (see interrupted_by)
 
 
 def _handler(signum, frame):
-    global _deferred
+    global _deferred, _received
+    _received = signum
     if _critical:  # Python runs signal handlers in the main thread, between bytecodes
         _deferred = signum
         return
     raise Interrupted(signum)
 
 
+def interrupted_by():
+    """The signal number our handler received since it was installed (None: none).  An
+    :class:`Interrupted` raised where Python cannot pass it on — inside an extension module's
+    initialisation (it becomes "ImportError: initialization failed"), a weak-reference callback
+    of the import system ("Exception ignored") — is still known here (mjbench/cli.py)."""
+    return _received
+
+
+def raise_if_interrupted():
+    """Raise :class:`Interrupted` if a signal arrived and was swallowed on its way (see
+    :func:`interrupted_by`)."""
+    if _received is not None:
+        raise Interrupted(_received)
+
+
 def install_signal_handlers():
     """SIGINT and SIGTERM raise :class:`Interrupted` (a KeyboardInterrupt) in the main thread, so
     a terminated run cleans up exactly like Ctrl-C.  Returns a function restoring the previous
     handlers.  Only handlers still at their defaults are replaced."""
-    global _installed
+    global _installed, _received
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
+    _received = None
     old = {}
+    hook = sys.unraisablehook
+
+    def quiet(u):  # an interrupt swallowed by a callback: no "Exception ignored" traceback (see interrupted_by)
+        if not isinstance(u.exc_value, Interrupted):
+            hook(u)
+    sys.unraisablehook = quiet
     for sig, default in ((signal.SIGINT, signal.default_int_handler), (signal.SIGTERM, signal.SIG_DFL)):
         cur = signal.getsignal(sig)
         if cur in (default, signal.SIG_DFL, _handler):
@@ -128,6 +152,7 @@ def install_signal_handlers():
         global _installed
         for sig, h in old.items():
             signal.signal(sig, h)
+        sys.unraisablehook = hook
         _installed = False
     return restore
 
@@ -292,6 +317,17 @@ def _sweep_leftovers(parent: Path, name: str):
     return restored
 
 
+def force_name(what: str) -> str:
+    """How the caller says "replace it": the option ``--force`` on the command line (``what`` is an
+    option such as ``--out``), the keyword ``force=True`` from Python (``what`` names a call)."""
+    return "--force" if str(what).startswith("--") else "force=True"
+
+
+def force_hint(what: str) -> str:
+    """"add --force" (a command's option) or "pass force=True" (a Python call)."""
+    return "add --force" if str(what).startswith("--") else "pass force=True"
+
+
 def check_out_dir(out, what="--out", force=False, must_be_empty=True) -> Path:
     """Refuse an output folder path that cannot be used, before any work starts.  A symbolic link
     to a folder stands for that folder (the outputs are staged beside the link's target)."""
@@ -311,12 +347,12 @@ def check_out_dir(out, what="--out", force=False, must_be_empty=True) -> Path:
                 shown = ", ".join(entries[:4]) + (", ..." if len(entries) > 4 else "")
                 n = f"{len(entries)} entr{'y' if len(entries) == 1 else 'ies'}"
                 raise OutputError(
-                    f"{what} {out} already holds {n} ({shown}); add --force to replace "
+                    f"{what} {out} already holds {n} ({shown}); {force_hint(what)} to replace "
                     f"the whole folder (the old one is kept until the new outputs are complete), or "
-                    f"choose another {what}")
+                    f"choose another {what if str(what).startswith('--') else 'folder'}")
             why = _dangerous(out)
             if why:
-                raise OutputError(f"{what} {out}: refusing to replace it even with --force: {why}")
+                raise OutputError(f"{what} {out}: refusing to replace it even with {force_name(what)}: {why}")
     return out
 
 
@@ -422,7 +458,7 @@ def _swap(staging: Path, out: Path, force: bool, what: str):
             raise OutputError(f"{what} {out}: cannot move the outputs into place ({e.strerror})") from None
     if not force:  # it was empty or missing when the run started
         raise OutputError(f"{what} {out} was filled by another process during the run; the new outputs "
-                          f"were not moved in (add --force to replace it)")
+                          f"were not moved in ({force_hint(what)} to replace it)")
     old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-{os.getpid()}-", dir=out.parent))
     os.rmdir(old)
     os.rename(out, old)

@@ -40,13 +40,14 @@ def backends(compare: dict, tolerance: float = BACKENDS_TOLERANCE) -> dict:
 
 def warnings_of(res: dict) -> list:
     """Warning lines for the CLI from a mode's metrics dict (runner.mode_metrics): the backends'
-    agreement, the reduced model against MuJoCo's (``model``), the step size (``step``)."""
+    agreement, the reduced model against MuJoCo's (``model``), the step size (``step``), then the
+    run's own ``warnings`` (a limit active over the steady state, a load never engaged ...)."""
     p = res.get("plausibility") or {}
     out = model_warnings(p.get("model"))
     for b, st in (p.get("step") or {}).items():
         if not st.get("step_ok", True):
             out.append(f"{b}: {st['note']} (metrics.json \"plausibility\": {{\"step\": ...}})")
-    return _backend_warnings(p) + out
+    return _backend_warnings(p) + out + [str(w) for w in res.get("warnings") or []]
 
 
 def _backend_warnings(p: dict) -> list:
@@ -72,6 +73,83 @@ MODEL_ANGLES = 24
 MODEL_TOLERANCE = 1e-5
 
 
+#: the n-input model check's tolerance (relative, the reduced model solved exactly against MuJoCo's)
+MODEL_TOLERANCE_N = 1e-6
+
+
+def reduced_vs_mujoco_n(mech, options=None, n: int = MODEL_ANGLES, seed: int = 0) -> dict:
+    """The n-input reduced model (solved exactly, no table) against MuJoCo's own dynamics of the
+    machine's MJCF at ``n`` points of the input ranges with random input rates (rng ``seed``): at
+    each, Γ = ∂qpos/∂q (n columns, from the mechanism's kinematics; constraint forces do no work
+    along it) and its rate Γ̇q̇ (central differences of Γq̇ along q̇), then
+
+    * M̄_mj = Γᵀ·M·Γ (``mj_fullM``);
+    * the bias b_mj = Γᵀ·(qfrc_bias − qfrc_passive + M·Γ̇q̇) — the velocity terms, gravity, springs
+      and dampers — against c̄(q, q̇) + ḡ(q) + D̄(q)·q̇;
+    * the inverse dynamics along a random q̈: Γᵀ·``mj_inverse``(q, Γq̇, Γq̈ + Γ̇q̇) with the constraints
+      off, against M̄q̈ + c̄ + ḡ + D̄q̇ (what ``analyze`` reports as ``inverse_dynamics_max_rel_diff_vs_mujoco``).
+
+    Errors relative to max|M̄| (M̄), and to max(|b|, max|M̄|·1 rad/s²) (bias, inverse dynamics)."""
+    import mujoco
+
+    nin = int(mech.n_inputs)
+    out = {"n_points": int(n), "tolerance": MODEL_TOLERANCE_N,
+           "method": "M̄ = Γᵀ M Γ (mj_fullM); bias Γᵀ(qfrc_bias − qfrc_passive + M Γ̇q̇); inverse dynamics "
+                     "Γᵀ·mj_inverse with the constraints off; Γ = ∂qpos/∂q from the mechanism's kinematics"}
+    model = mech.build_spec(tuple([0.0] * nin), dict(options or {})).compile()
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(seed)
+    lo = np.array([r[0] for r in mech.c.ranges()])
+    hi = np.array([r[1] for r in mech.c.ranges()])
+    per = np.array([r[2] for r in mech.c.ranges()])
+    span = np.where(per, hi - lo, hi - lo)
+    Q = lo + (0.05 + 0.9 * rng.random((n, nin))) * span
+    Qd = rng.normal(size=(n, nin))
+    Qdd = rng.normal(size=(n, nin)) * 10.0
+    nv = model.nv
+    M = np.zeros((nv, nv))
+
+    def gamma(q):
+        return np.stack([mech.initial_qvel(model, q, np.eye(nin)[k]) for k in range(nin)], axis=1)
+
+    Mr = mech.reduced_n(Q)[0]
+    bias_r = mech.bias_n(Q, Qd)
+    tau_r = np.einsum("bij,bj->bi", Mr, Qdd) + bias_r
+    Mm, bm, tm, pos = np.empty_like(Mr), np.empty_like(bias_r), np.empty_like(tau_r), 0.0
+    eps = 1e-6
+    for k in range(n):
+        q, qd = Q[k], Qd[k]
+        Gm = gamma(q)
+        Gd = (gamma(q + eps * qd) @ qd - gamma(q - eps * qd) @ qd) / (2 * eps)
+        data.qpos[:] = mech.initial_qpos(model, q)
+        data.qvel[:] = Gm @ qd
+        mujoco.mj_forward(model, data)
+        mujoco.mj_fullM(model, data, M)
+        ne = int(data.ne)
+        pos = max(pos, float(np.max(np.abs(data.efc_pos[:ne]))) if ne else 0.0)
+        Mm[k] = Gm.T @ M @ Gm
+        bm[k] = Gm.T @ (data.qfrc_bias - data.qfrc_passive + M @ Gd)
+        old = model.opt.disableflags
+        model.opt.disableflags = old | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+        data.qacc[:] = Gm @ Qdd[k] + Gd
+        mujoco.mj_inverse(model, data)
+        tm[k] = Gm.T @ data.qfrc_inverse
+        model.opt.disableflags = old
+    ms = float(np.max(np.abs(Mm)))
+    bs = max(float(np.max(np.abs(bm))), ms)
+    ts = max(float(np.max(np.abs(tm))), ms)
+    err = {"M_rel_err": float(np.max(np.abs(Mr - Mm)) / ms), "bias_rel_err": float(np.max(np.abs(bias_r - bm)) / bs),
+           "inverse_dynamics_rel_err": float(np.max(np.abs(tau_r - tm)) / ts)}
+    out.update(applicable=True, **err, closure_position_m=pos, closure_velocity_rel=0.0,
+               M_range=[float(np.min(Mm)), float(np.max(Mm))])
+    bad = [k for k, v in err.items() if not (np.isfinite(v) and v <= MODEL_TOLERANCE_N)]
+    out["models_agree"] = not bad
+    if bad:
+        out["note"] = ("the n-input reduced model and MuJoCo's differ: " +
+                       ", ".join(f"{k} = {err[k]:.3g}" for k in bad) + f" (tolerance {MODEL_TOLERANCE_N:g})")
+    return out
+
+
 def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     """Compare the reduced (Eksergian) model of ``mech`` with MuJoCo's own dynamics of its MJCF
     model at ``n`` input angles over one period — cheap (a few ms) and independent of any
@@ -93,6 +171,8 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     coordinates are not compared (their reduced model is not a J(q))."""
     import mujoco
 
+    if mech.n_inputs > 1:  # several inputs: the n×n model's check
+        return reduced_vs_mujoco_n(mech, options, n)
     out = {"n_angles": int(n), "tolerance": MODEL_TOLERANCE,
            "method": "J = Γᵀ M Γ (mj_fullM), E_p' = Γᵀ(qfrc_bias − qfrc_spring) at zero speed, J' by 4th-order "
                      "differences; Γ = d qpos / d q from the mechanism's kinematics"}

@@ -1,4 +1,10 @@
-"""One matplotlib style for every mjbench figure (Agg backend, no display needed).
+"""One matplotlib style for every mjbench figure; figures without pyplot.
+
+mjbench never selects a matplotlib backend: every figure is a :class:`Figure` made without pyplot
+(:func:`new`, :func:`subplots`), saved through Agg (:func:`mjbench.plots.save`) whatever backend
+the user has, and never registered with pyplot — so a notebook's ``%matplotlib inline`` (or any
+backend the user chose) keeps working, and a figure a function returns is shown once, by Jupyter's
+display of the returned object (:meth:`Figure._repr_png_`), not a second time by pyplot.
 
 * ``use()`` / ``context()``: rcParams — DejaVu Sans, 9-10 pt, light grid, thin axes, legends with
   a white frame, 130 dpi PNG; every figure laid out tight (``figure.autolayout``: the layout is
@@ -14,9 +20,18 @@ from __future__ import annotations
 
 import contextlib
 
-import matplotlib
+import functools
 
-matplotlib.use("Agg")
+from cycler import cycler  # (matplotlib's own dependency; matplotlib itself is imported where a figure is drawn)
+
+
+def _matplotlib():
+    """matplotlib, imported on first use (≈ 1 s: a run without a figure never loads it); no backend
+    is selected (module doc)."""
+    import matplotlib
+    import matplotlib.figure  # noqa: F401 - the Figure class below
+
+    return matplotlib
 
 RC = {
     "font.family": "DejaVu Sans",
@@ -37,7 +52,7 @@ RC = {
     "savefig.dpi": 130,
     "figure.autolayout": True,  # tight layout at draw time (no "savefig.bbox": "tight": one draw per save)
     "figure.constrained_layout.use": False,
-    "axes.prop_cycle": matplotlib.cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
+    "axes.prop_cycle": cycler(color=["tab:blue", "tab:orange", "tab:green", "tab:red",
                                                 "tab:purple", "tab:brown", "tab:pink", "tab:gray"]),
 }
 
@@ -54,13 +69,13 @@ BAND = dict(color="0.6", alpha=0.25, lw=0)
 
 def use():
     """Apply the mjbench rcParams globally."""
-    matplotlib.rcParams.update(RC)
+    _matplotlib().rcParams.update(RC)
 
 
 @contextlib.contextmanager
 def context():
     """Temporarily apply the mjbench rcParams (``with plotstyle.context(): ...``)."""
-    with matplotlib.rc_context(RC):
+    with _matplotlib().rc_context(RC):
         yield
 
 
@@ -114,12 +129,68 @@ def finish(fig, title=None):
     return fig
 
 
+@functools.cache
+def _figure_class():
+    """:class:`Figure` (defined on first use: matplotlib is imported then)."""
+
+    class Figure(_matplotlib().figure.Figure):
+        """A matplotlib Figure that is not pyplot's: nothing to close, and shown once in a notebook.
+
+        Jupyter displays it as a PNG through ``_repr_png_`` (or through the inline backend's own
+        formatter for figures, when one is registered: one image either way); pyplot does not know it,
+        so ``plt.show()`` and the inline backend's end-of-cell display do not show it again.  In a
+        script, save it (``fig.savefig(path)``)."""
+
+        def _repr_png_(self):
+            import io
+
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+            buf = io.BytesIO()
+            FigureCanvasAgg(self).print_png(buf)
+            return buf.getvalue()
+
+    return Figure
+
+
+def __getattr__(name):  # ``plotstyle.Figure``: the class, matplotlib imported on first use
+    if name == "Figure":
+        return _figure_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 def new(nrows=1, ncols=1, *, figsize=None, layout=None, **kw):
     """A figure and its axes (like ``plt.subplots``) with the mjbench style active for the created
-    figure.  A plain :class:`~matplotlib.figure.Figure`: no pyplot (its import, its figure manager),
-    nothing to close; save it with :func:`mjbench.plots.save`."""
-    from matplotlib.figure import Figure
-
+    figure.  A :class:`Figure`: no pyplot (its import, its figure manager), nothing to close; save
+    it with :func:`mjbench.plots.save`."""
     with context():
-        fig = Figure(figsize=figsize, layout=layout)
+        fig = _figure_class()(figsize=figsize, layout=layout)
         return fig, fig.subplots(nrows, ncols, **kw)
+
+
+def subplots(nrows=1, ncols=1, *, figsize=None, layout=None, **kw):
+    """``plt.subplots`` without pyplot and without the mjbench style: a :class:`Figure` and its
+    axes (the paper modules draw in their own styles)."""
+    fig = _figure_class()(figsize=figsize, layout=layout)
+    return fig, fig.subplots(nrows, ncols, **kw)
+
+
+class _NoPyplot:
+    """What the paper modules used of pyplot, without pyplot: ``subplots`` (a :class:`Figure`),
+    ``close`` (nothing to release), ``Rectangle``."""
+
+    subplots = staticmethod(subplots)
+
+    @staticmethod
+    def close(fig=None):
+        return None
+
+    @property
+    def Rectangle(self):
+        from matplotlib.patches import Rectangle
+
+        return Rectangle
+
+
+#: ``from mjbench.plotstyle import no_pyplot as plt`` in a module that draws with ``plt.subplots``
+no_pyplot = _NoPyplot()

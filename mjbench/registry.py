@@ -84,6 +84,10 @@ class Registry:
             raise TypeError(f"register: {cls!r} is not a {self.base.__name__} subclass")
         if not cls.type_name or cls.Params is None:
             raise TypeError(f"register: {cls.__name__} needs class attributes type_name and Params")
+        home = self.builtin.get(cls.type_name)
+        if home is not None and not (cls.__module__ == home or cls.__module__.startswith(home + ".")):
+            raise TypeError(f"register: {_ident(cls)} has type_name = {cls.type_name!r}, a built-in {self.kind} type "
+                            f"({home}); give it a name of its own")
         old = self._classes.get(cls.type_name)
         if old is not None and old is not cls and _ident(old) != _ident(cls):
             raise TypeError(f"register: {self.kind} type {cls.type_name!r} is already {_ident(old)}; "
@@ -102,8 +106,18 @@ class Registry:
             obj = ep.load()
         except Exception as e:  # noqa: BLE001 - any import error of a third-party package
             raise ScenarioError(f"{_origin(ep)} cannot be loaded: {type(e).__name__}: {e}") from e
-        if isinstance(obj, type) and issubclass(obj, self.base) and name not in self._classes:
-            self.register(obj)
+        if isinstance(obj, type) and issubclass(obj, self.base):
+            tn = getattr(obj, "type_name", None)
+            if tn != name:
+                raise ScenarioError(f"{_origin(ep)}: the class {obj.__name__} has type_name = {tn!r}, but the entry "
+                                    f"point is named {name!r}: they must be the same"
+                                    + (f" ({tn!r} is a built-in {self.kind} type: choose another)"
+                                       if tn in self.builtin else ""))
+            if name not in self._classes:
+                try:
+                    self.register(obj)
+                except TypeError as e:
+                    raise ScenarioError(f"{_origin(ep)}: {e}") from None
         cls = self._classes.get(name)
         if cls is None:
             raise ScenarioError(f"{_origin(ep)} did not register a {self.kind} type named {name!r} "

@@ -26,6 +26,7 @@ from pathlib import Path
 
 from . import verdicts as V
 from .trajectory import atomic_write
+from .metrics import LIMIT_FRACTION_WARN
 
 fmt = V.fmt
 HEADLINE_MAX = 5  #: headline numbers shown per case before its figures' thumbnails (3-5; fewer if the case has fewer)
@@ -78,8 +79,11 @@ GLOSSARY = [
 ]
 
 LEAD = ("Every case below was run end to end by `mjbench reproduce`: the machine simulated on MuJoCo (multibody) "
-        "and on its reduced J(α) model, figures in the papers' style, a real-time video, and each number the "
-        "paper states set against ours with a **verdict computed from the two numbers**.")
+        "and on its reduced J(α) model, figures in the papers' style, a real-time video.  Each case is judged "
+        "first as a machine — **engineering verdicts**: the drive's voltage and current limits respected, the "
+        "duty within the motor's rating, the two backends and the reduced model agreeing, the χ or "
+        "tracking bound met — and, beside them, each number the paper states set against ours with a "
+        "**verdict computed from the two numbers**.")
 
 INTRO = ("Each case opens with its headline figure, its video and its headline numbers; the full table below "
          "them (folded) lists, for every quantity, the paper's figure (a value, a band lo–hi, or a bound ≤ / ≥), "
@@ -96,6 +100,152 @@ BAR = (("meet", "meet the paper"), ("fitted", "fitted (agree by construction)"),
        ("unjudged", "no paper figure"))
 #: the bar in markdown: one square per tenth of a case's rows
 MD_SQUARE = {"meet": "🟩", "fitted": "🟦", "differ": "🟧", "unjudged": "⬜"}
+
+
+# ============================================================================ engineering verdicts
+#: the engineering checks every case gets, in the order the page shows them: (key, column title)
+CHECKS = (("limits", "limits respected"), ("duty", "duty within rating"), ("models", "backends and model agree"),
+          ("bound", "χ / tracking bound"))
+#: design requirement rows (by the start of their name, after "requirement: ") that make each check
+DESIGN_ROWS = {"limits": ("armature voltage ≤ supply", "current ≤ amplifier limit", "motor speed ≤ maximum",
+                          "gearbox input speed ≤ maximum"),
+               "duty": ("RMS motor torque ≤ continuous rating", "peak motor torque ≤ T_peak", "winding temperature",
+                        "gearbox output torque"),
+               "bound": ("speed fluctuation χ", "RMS tracking error", "peak tracking error",
+                         "largest speed deviation")}
+
+
+def _check(ok, text, detail=""):
+    return {"ok": ok, "text": text, "detail": detail}
+
+
+def engineering(r) -> dict:
+    """The engineering verdicts of a case, {key of :data:`CHECKS`: {ok (True, False or None: not
+    applicable / not stated), text, detail}}, from the numbers its metrics.json holds: for a run,
+    the duty figures of every mode and backend (limits: the voltage and current limits active over
+    at most 1 % of the steady state; duty: the steady-state RMS current within the motor's
+    ``drive.i_rated``), the plausibility checks (the two backends' crank speeds and the reduced
+    model against MuJoCo's mass matrix), and the rows that are bounds on χ or on a tracking error;
+    for a design case, its requirement rows (supply and current limit, motor and gearbox ratings
+    and temperature, χ or tracking error) and the sizing model's predictions against the multibody
+    run."""
+    modes = r.get("modes") or {}
+    rows = r.get("rows") or []
+    if r.get("kind") == "design":
+        return _design_checks(rows)
+    out = {}
+    # limits
+    hits, limits = [], 0
+    for mode, m in modes.items():
+        for b, bm in (m.get("backends") or {}).items():
+            for key, what, unit in (("voltage_limit_fraction_steady", "voltage_limit_V", "V"),
+                                    ("current_limit_fraction_steady", "current_limit_A", "A")):
+                if key in (bm or {}):
+                    limits += 1
+                    if bm[key] > LIMIT_FRACTION_WARN:
+                        hits.append(f"{mode}/{b}: at {bm[what]:g} {unit} {100 * bm[key]:.1f} % of the steady state")
+    if not modes:
+        out["limits"] = _check(None, "—", "no simulation run in this case")
+    elif hits:
+        out["limits"] = _check(False, "at a limit", "; ".join(hits))
+    elif limits:
+        out["limits"] = _check(True, "respected", f"every limit active ≤ {100 * LIMIT_FRACTION_WARN:g} % of the steady state")
+    else:
+        out["limits"] = _check(None, "no limit set", "no voltage or current limit in the scenario")
+    # duty against the motor's rating
+    rms = [(mode, b, bm) for mode, m in modes.items() for b, bm in (m.get("backends") or {}).items()
+           if "current_rms_steady_A" in (bm or {})]
+    rated = [x for x in rms if "current_rated_A" in x[2]]
+    worst = max(rms, key=lambda x: x[2]["current_rms_steady_A"], default=None)
+    if rated:
+        over = [x for x in rated if x[2]["current_rms_steady_A"] > x[2]["current_rated_A"]]
+        w = max(rated, key=lambda x: x[2]["current_rms_steady_A"] / x[2]["current_rated_A"])
+        txt = f"RMS {w[2]['current_rms_steady_A']:.3g} A of {w[2]['current_rated_A']:g} A rated ({w[0]}/{w[1]})"
+        out["duty"] = _check(not over, "within rating" if not over else "over rating", txt)
+    elif worst is not None:
+        out["duty"] = _check(None, "no rating stated", f"RMS current {worst[2]['current_rms_steady_A']:.3g} A, peak "
+                                                       f"{worst[2]['current_peak_steady_A']:.3g} A ({worst[0]}/{worst[1]}); "
+                                                       f"drive.i_rated not given")
+    else:
+        out["duty"] = _check(None, "—", "no motor current (ideal drive or no run)")
+    # the two backends and the reduced model against MuJoCo's
+    agree, disagree, notes = 0, [], []
+    for mode, m in modes.items():
+        p = m.get("plausibility") or {}
+        if "backends_agree" in p:
+            if p["backends_agree"]:
+                agree += 1
+                notes.append(f"{mode}: {p['max_rel_diff']:.2g} of the peak")
+            else:
+                disagree.append(f"{mode}: backends differ by {p['max_rel_diff']:.3g} of the peak")
+        mod = p.get("model") or {}
+        if mod.get("models_agree") is False:
+            disagree.append(f"{mode}: reduced model ≠ MuJoCo's")
+        elif mod.get("models_agree"):
+            agree += 1
+    if disagree:
+        out["models"] = _check(False, "disagree", "; ".join(disagree))
+    elif agree:
+        out["models"] = _check(True, "agree", "multibody vs reduced crank speed " + ", ".join(notes)
+                               if notes else "reduced model = MuJoCo's")
+    else:
+        out["models"] = _check(None, "—", "one backend ran")
+    out["bound"] = _bound_check([x for x in rows if _is_bound(x["name"])])
+    return out
+
+
+def _is_bound(name: str) -> bool:
+    n = name.lower()
+    return any(k in n for k in ("χ", "chi", "tracking", "coupler", "residual", "deviation"))
+
+
+def _bound_check(rows) -> dict:
+    """A check from rows that are bounds (compare max/min) with a verdict."""
+    judged = [x for x in rows if x.get("compare") in ("max", "min") and (x.get("verdict") or {}).get("ok") is not None]
+    if not judged:
+        return _check(None, "none stated", "no bound on χ or a tracking error for this case (the paper's figures are "
+                                            "compared beside)")
+    bad = [x for x in judged if not x["verdict"]["ok"]]
+    detail = "; ".join(f"{x['name']}: {x['verdict']['text']}" for x in (bad or judged)[:3])
+    return _check(not bad, "met" if not bad else "missed", detail)
+
+
+def _design_checks(rows) -> dict:
+    out = {}
+    req = [x for x in rows if x["name"].startswith("requirement: ")]
+    for key in ("limits", "duty"):
+        mine = [x for x in req if x["name"][len("requirement: "):].startswith(DESIGN_ROWS[key])
+                and (x.get("verdict") or {}).get("ok") is not None]
+        if not mine:
+            out[key] = _check(None, "—", "not a requirement of this design")
+            continue
+        bad = [x for x in mine if not x["verdict"]["ok"]]
+        out[key] = _check(not bad, ("respected" if key == "limits" else "within rating") if not bad
+                          else ("exceeded" if key == "limits" else "over rating"),
+                          f"{len(mine) - len(bad)}/{len(mine)} requirements met"
+                          + ("; " + "; ".join(x["name"][13:] for x in bad) if bad else ""))
+    pred = [x for x in rows if x["name"].startswith("prediction: ") and (x.get("verdict") or {}).get("ok") is not None]
+    if pred:
+        bad = [x for x in pred if not x["verdict"]["ok"]]
+        out["models"] = _check(not bad, "agree" if not bad else "disagree",
+                               f"sizing model vs multibody run: {len(pred) - len(bad)}/{len(pred)} predictions agree")
+    else:
+        out["models"] = _check(None, "—", "no prediction checked")
+    bound = [x for x in req if x["name"][len("requirement: "):].startswith(DESIGN_ROWS["bound"])]
+    out["bound"] = _bound_check(bound)
+    return out
+
+
+def _engineering_of(r) -> dict:
+    return r.get("engineering") or engineering(r)
+
+
+def _eng_counts(results) -> dict:
+    n = {"ok": 0, "fail": 0, "na": 0}
+    for r in results:
+        for c in _engineering_of(r).values():
+            n["ok" if c["ok"] else "fail" if c["ok"] is False else "na"] += 1
+    return n
 
 
 # ============================================================================ selection
@@ -168,6 +318,20 @@ def _totals(results) -> dict:
     return tot
 
 
+def _eng_totals_text(results) -> str:
+    n = _eng_counts(results)
+    return (f"Engineering verdicts: {n['ok']} met, {n['fail']} not met, {n['na']} not applicable or not stated "
+            f"({len(CHECKS)} checks per case).")
+
+
+def _eng_cell_text(c) -> str:
+    return ("✓ " if c["ok"] else "✗ " if c["ok"] is False else "") + c["text"]
+
+
+def _eng_class(c) -> str:
+    return "meet" if c["ok"] else "differ" if c["ok"] is False else "unjudged"
+
+
 def _totals_text(results) -> str:
     t = _totals(results)
     judged = t["meet"] + t["fitted"] + t["differ"]
@@ -232,7 +396,10 @@ def _case_intro(r):
 
 def _video_caption(v) -> str:
     txt = (f"mode {v['mode']}, {v['frames']} frames {v['width']}×{v['height']} at 30 fps "
-           f"(real time, {v['duration_s']:.2f} s)" + (f", from {v['source']}" if v.get("source") else ""))
+           f"(real time, {v['duration_s']:.2f} s)" + (f", from {v['source']}" if v.get("source") else "")
+           + (f"; still image: the frame at t = {v['poster_t_s']:.2f} s" if v.get("poster") else "")
+           + ("" if v.get("needle_gain") else
+              "; overlay: speeds, voltage V, current I, drive torque T on the crank and the process loads"))
     if v.get("needle_gain"):
         g = f"{v['needle_gain']:g}"
         txt += (f"; top view of the platform, grey needle: rigid-transmission angle ρ·φ, magenta needle: "
@@ -282,11 +449,23 @@ def _md_details(summary, lines):
     return [f"<details><summary>{html.escape(summary)}</summary>", ""] + lines + ["</details>", ""]
 
 
+def _md_engineering(results):
+    head = ["case"] + [t for _, t in CHECKS]
+    md = ["**Engineering verdicts** (the machine: limits, duty, models, bound; hover a cell in report.html for "
+          "the numbers):", "", _eng_totals_text(results), "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in results:
+        e = _engineering_of(r)
+        md.append("| " + " | ".join([f"[{r['case']}](#{_anchor(r['case'])})"]
+                                    + [_md_cell(_eng_cell_text(e[k])) for k, _ in CHECKS]) + " |")
+    return md + [""]
+
+
 def _md_summary(results):
     legend = "Verdicts of each case's rows, one square per tenth: " + ", ".join(
         f"{MD_SQUARE[k]} {t}" for k, t in BAR) + "."
-    md = [_totals_text(results), "", legend, "", "| " + " | ".join(SUMMARY_HEAD) + " |",
-          "|" + "---|" * len(SUMMARY_HEAD)]
+    md = _md_engineering(results)
+    md += ["**Paper comparison:**", "", _totals_text(results), "", legend, "", "| " + " | ".join(SUMMARY_HEAD) + " |",
+           "|" + "---|" * len(SUMMARY_HEAD)]
     for r in results:
         cells = _summary_cells(r)
         cells[0] = f"[{r['case']}](#{_anchor(r['case'])})"
@@ -303,6 +482,10 @@ def _case_md(r):
     if r.get("note"):
         md.append(r["note"])
     md += [f"Files: [`{case}/metrics.json`]({case}/metrics.json).", ""]
+    eng = _engineering_of(r)
+    md += ["**Engineering verdicts:**", ""] + _md_table(["check", "verdict", "numbers"],
+                                                      [[t, _eng_cell_text(eng[k]), eng[k]["detail"]] for k, t in CHECKS])
+    md += [""]
     for w in r.get("warnings") or []:
         md += [f"> **Warning:** {w}", ""]
     figs = list(r["figures"])
@@ -310,14 +493,16 @@ def _case_md(r):
         md += [f"[![{figs[0]}]({case}/{figs[0]})]({case}/{figs[0]})", ""]
     v = r.get("video")
     if v:
-        md += [f'<video src="{case}/{v["file"]}" controls muted loop width="{v["width"]}"></video>', "",
+        poster = f' poster="{case}/{v["poster"]}"' if v.get("poster") else ""
+        md += [f'<video src="{case}/{v["file"]}"{poster} controls muted loop width="{v["width"]}"></video>', "",
                f"Video: [`{case}/{v['file']}`]({case}/{v['file']}) — {_video_caption(v)}.", ""]
     elif _no_video(r):
         md += [_no_video(r), ""]
     idx = _headline_of(r)
     if idx:
         head, body = table_rows([r["rows"][i] for i in idx], reason=False)
-        md += [f"**Headline numbers** ({len(idx)} of {len(r['rows'])} rows; every row in the table below):", ""]
+        md += [f"**Paper comparison, headline numbers** ({len(idx)} of {len(r['rows'])} rows; every row in the table "
+               f"below):", ""]
         md += _md_table(head, body) + [""]
     if figs[1:]:
         md += ["More figures (click for full size):", ""]
@@ -373,6 +558,9 @@ details>summary{cursor:pointer;color:#234;font-size:.92em}
   vertical-align:-2px}
 table.summary td.grp{background:#f3f3f3;font-weight:bold}table.summary td{padding:.15em .5em}
 dt{font-weight:bold;margin-top:.4em}dd{margin-left:1.5em}
+td.eng{white-space:nowrap}td.eng.meet{background:#e6f5e6}td.eng.differ{background:#fdebd6;font-weight:bold}
+td.eng.unjudged{color:#666}th.grouphead{text-align:center;background:#dde3ea}
+table.eng{font-size:.9em}table.eng td.meta{font-size:.95em}
 """
 
 #: on load → <body data-check>: images loaded, media errors, in-page links whose target is missing, and
@@ -439,24 +627,47 @@ def _bar_html(c) -> str:
     return f'<div class="bar" title="{html.escape(_bar_text(c))}">{spans}</div>'
 
 
-def _html_summary(results):
-    """Totals, the legend, and one line per case under its paper's heading (the paper column of
-    report.md is that heading here)."""
+def _eng_td(c) -> str:
     e = html.escape
-    head = [h for h in SUMMARY_HEAD if h != "paper"]
-    parts = [f'<p class="lead">{_md_inline(_totals_text(results))}</p>',
-             '<p class="meta legend">Verdicts of each case\'s rows, to scale:'
+    return f'<td class="eng {_eng_class(c)}" title="{e(c["detail"])}">{e(_eng_cell_text(c))}</td>'
+
+
+def _html_summary(results):
+    """The engineering verdicts and the paper comparison of every case, one line per case under its
+    paper's heading (the paper column of report.md is that heading here): the four checks, then the
+    verdict bar of the paper's figures and its counts."""
+    e = html.escape
+    paper_head = ["paper comparison", "meet the paper", "differ", "no paper figure", "runtime [s]"]
+    head = ["case"] + [t for _, t in CHECKS] + paper_head
+    parts = [f'<p class="lead">{_md_inline(_eng_totals_text(results))} {_md_inline(_totals_text(results))}</p>',
+             '<p class="meta legend">Engineering verdicts: ✓ met, ✗ not met (hover a cell for its numbers). '
+             'Paper comparison, verdicts of each case\'s rows to scale:'
              + "".join(f'<span class="sw c-{k}"></span>{e(t)}' for k, t in BAR) + "</p>",
-             '<table class="summary"><tr>' + "".join(f"<th>{e(h)}</th>" for h in head) + "</tr>"]
+             '<table class="summary"><tr><th></th><th colspan="4" class="grouphead">engineering verdicts</th>'
+             '<th colspan="5" class="grouphead">paper comparison</th></tr>',
+             "<tr>" + "".join(f"<th>{e(h)}</th>" for h in head) + "</tr>"]
     for paper, rs in _groups(results):
         parts.append(f'<tr><td class="grp" colspan="{len(head)}">{e(paper)}</td></tr>')
         for r in rs:
             cells = _summary_cells(r)
-            tds = [f'<td><a href="#{_anchor(r["case"])}">{e(r["case"])}</a></td>', f"<td>{_bar_html(_counts(r))}</td>"]
-            tds += [f'<td class="num">{e(c)}</td>' for c in cells[3:]]
+            eng = _engineering_of(r)
+            tds = [f'<td><a href="#{_anchor(r["case"])}">{e(r["case"])}</a></td>']
+            tds += [_eng_td(eng[k]) for k, _ in CHECKS]
+            tds += [f"<td>{_bar_html(_counts(r))}</td>"]
+            tds += [f'<td class="num">{e(c)}</td>' for c in (cells[4], cells[5], cells[6], cells[7])]
             parts.append("<tr>" + "".join(tds) + "</tr>")
     parts.append("</table>")
     return parts
+
+
+def _eng_html(r) -> str:
+    """A case's engineering verdicts: one line per check with its numbers."""
+    e = html.escape
+    eng = _engineering_of(r)
+    rows = "".join(f"<tr>{_eng_td(eng[k])}<td>{e(t)}</td><td class=\"meta\">{e(eng[k]['detail'])}</td></tr>"
+                   for k, t in CHECKS)
+    return f'<table class="eng"><tr><th>verdict</th><th>engineering check</th><th>numbers</th></tr>{rows}</table>'
+
 
 
 def _figure_html(case, f, caption=True):
@@ -474,13 +685,14 @@ def _head_html(r):
     v = r.get("video")
     if v:  # preload: the first frame shows (the videos are small local files)
         src = f"{e(case)}/{e(v['file'])}"
-        side.append(f'<video src="{src}" controls muted loop preload="auto" width="{v["width"]}"></video>'
+        poster = f' poster="{e(case)}/{e(v["poster"])}"' if v.get("poster") else ""
+        side.append(f'<video src="{src}"{poster} controls muted loop preload="auto" width="{v["width"]}"></video>'
                     f'<p class="meta">Video (<a href="{src}">{e(v["file"])}</a>): {_md_inline(_video_caption(v))}</p>')
     elif _no_video(r):
         side.append(f'<p class="meta">{_md_inline(_no_video(r))}</p>')
     idx = _headline_of(r)
     if idx:
-        side.append(f"<h3>Headline numbers ({len(idx)} of {len(r['rows'])} rows)</h3>")
+        side.append(f"<h3>Paper comparison: headline numbers ({len(idx)} of {len(r['rows'])} rows)</h3>")
         side.append(_verdict_table([r["rows"][i] for i in idx], reason=False, cls="headline"))
     out = ['<div class="head">']
     if figs:
@@ -502,6 +714,7 @@ def _case_html(r):
     parts.append(f'<p class="meta">{meta}</p>')
     if r.get("note"):
         parts.append(f"<p>{_md_inline(r['note'])}</p>")
+    parts.append(_eng_html(r))
     for w in r.get("warnings") or []:
         parts.append(f'<p class="warn"><b>Warning:</b> {_md_inline(w)}</p>')
     parts += _head_html(r)

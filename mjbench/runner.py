@@ -4,6 +4,7 @@ This is what ``mjbench run`` calls; ``reproduce``, sweeps and tests use the same
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from . import metrics as M
@@ -11,6 +12,15 @@ from . import plausibility
 from . import scenario as S
 from .backends import simulate
 from .manifest import copy_model_files, manifest, write_json
+from . import mechanisms
+from .schema import Metrics
+from . import verdicts
+from .errors import ParameterError
+from .plots import fig4
+from .backends import multibody as MB
+from .backends import reduced as RD
+from .kernel import Program, machine_every
+from .compiled import jit
 
 BACKENDS = ("multibody", "reduced")
 
@@ -51,7 +61,6 @@ def run_mode(scn, mode: str, backends=BACKENDS, t_end=None, progress=False, mach
 
 def reduced_source(scn) -> str:
     """Where the scenario's reduced model comes from (``Mechanism.reduced_source``)."""
-    from . import mechanisms
 
     cls = mechanisms.get(scn.mechanism.type)
     return getattr(cls, "reduced_source", "") if cls is not None else ""
@@ -68,14 +77,22 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     the metric families the controller adds (its :meth:`~mjbench.control.Controller.metrics`: the
     coupler-speed tracking, the residual vibration after a move …), the backends' comparison, the
     reduced model against MuJoCo's own mass matrix and bias (the model check, whenever both backends
-    ran) and the per-step plausibility check."""
-    from .schema import Metrics
+    ran), the per-step plausibility check, the process loads along the motion and the duty and
+    load warnings."""
 
     mt = config if config is not None else Metrics()
+    first = next(iter(trajs.values()))
+    if first.axes:  # several motors: every axis's metrics, then the machine's
+        return _multi_axis_metrics(machine, trajs, mt, multibody_options, reduced_model)
+    drive, v_limit = duty_limits(machine.drive, machine.controller)
     res = {"mode": None, "backends": {b: M.summary(tr, chi_window=mt.chi_window, average=mt.chi_average,
-                                                   steady_from=mt.steady_start, band_rel=mt.band_rel)
+                                                   steady_from=mt.steady_start, band_rel=mt.band_rel,
+                                                   drive=drive, v_limit=v_limit)
                                       for b, tr in trajs.items()}}
     res["reduced_model"] = reduced_model or getattr(type(machine.mechanism), "reduced_source", "")
+    sp = machine.controller.setpoint(machine)
+    if sp is not None:  # which shaft the set-point was given on, and the other shaft's speed
+        res["setpoint"] = sp
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
                    for b, tr in trajs.items()}
@@ -100,6 +117,47 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     # a step too coarse for the motion (per-step input-angle bound)
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
+    add_loads(res, machine.mechanism, trajs)
+    res["warnings"] = M.duty_warnings(res["backends"]) + M.load_warnings(res["backends"])
+    return res
+
+
+def _multi_axis_metrics(machine, trajs, mt, multibody_options, reduced_model) -> dict:
+    """:func:`run_metrics` of a machine with several motors: per backend ``axes`` {label: the one-axis
+    metrics of that axis}, the families its controllers add once (the end effector's tracking of a
+    path …); the backends compared per axis (``multibody_vs_reduced``: the worst axis, and each);
+    the n-input model check."""
+    labels = next(iter(trajs.values())).axes
+    ctrl_of = {k: c for c, k in machine.controllers}  # (one controller for all axes: its limits on each)
+    drives, limits = [], []
+    for k, d in enumerate(machine.drives):
+        d, v = duty_limits(d, ctrl_of.get(k, machine.controllers[0][0]))
+        drives.append(d)
+        limits.append(v)
+    res = {"mode": None, "axes": list(labels), "backends": {}}
+    for b, tr in trajs.items():
+        res["backends"][b] = {"axes": {lab: M.summary(tr.axis(lab), steady_from=mt.steady_start, band_rel=mt.band_rel,
+                                                       drive=drives[k], v_limit=limits[k])
+                                       for k, lab in enumerate(labels)}}
+        for c, _ in machine.controllers:
+            res["backends"][b].update(c.metrics(tr, machine, mt) or {})
+    res["reduced_model"] = reduced_model or getattr(type(machine.mechanism), "reduced_source", "")
+    res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
+                   for b, tr in trajs.items()}
+    if "multibody" in trajs and "reduced" in trajs:
+        per = {lab: M.compare(trajs["reduced"].axis(lab), trajs["multibody"].axis(lab)) for lab in labels}
+        worst = max(per, key=lambda k: per[k]["max_rel_diff"])
+        res["multibody_vs_reduced"] = {**per[worst], "axis": worst, "axes": per}
+        res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"], mt.backend_tolerance)
+        try:
+            res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(machine.mechanism, multibody_options or {})
+        except Exception as e:  # noqa: BLE001 - a diagnostic must not lose the run: reported instead
+            res["plausibility"]["model"] = {"applicable": False, "models_agree": None,
+                                            "note": f"not compared: {type(e).__name__}: {e}"}
+    res.setdefault("plausibility", {})["step"] = {
+        b: plausibility.step_check(tr.axis(labels[0]), float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
+    res["warnings"] = M.duty_warnings({f"{b}, axis {lab}": m["axes"][lab] for b, m in res["backends"].items()
+                                       for lab in labels})
     return res
 
 
@@ -111,6 +169,30 @@ def mode_metrics(scn, mode: str, trajs: dict, machine=None) -> dict:
     res["mode"] = mode
     res["paper"] = paper_rows(scn, mode, res["backends"])
     return res
+
+
+def add_loads(res: dict, mech, trajs: dict) -> None:
+    """Each backend's process loads along its motion (:func:`mjbench.metrics.loads`), when the
+    mechanism has any."""
+    for b, tr in trajs.items():
+        ld = M.loads(mech, tr)
+        if ld:
+            res["backends"][b]["loads"] = ld
+
+
+def duty_limits(drive, controller) -> tuple:
+    """The drive and the controller's output clip [V] the duty figures are measured against
+    (:func:`mjbench.metrics.duty`): (drive, :func:`limit_v` of the controller's ``v_limit`` and
+    ``command_bound``)."""
+    return drive, limit_v(getattr(controller, "v_limit", None), getattr(controller, "command_bound", None))
+
+
+def limit_v(v_limit, command_bound=None):
+    """The controller's voltage clip for the duty figures: its ``v_limit``, or — for a mode whose
+    command is bounded (open loop, a signal: ``command_bound()``) — ``(v_limit, bound)`` so that a
+    limiter at or above the largest command is known never to act."""
+    bound = command_bound() if callable(command_bound) else None
+    return v_limit if bound is None else (v_limit, bound)
 
 
 def metric_value(m: dict, key: str):
@@ -130,7 +212,6 @@ def paper_rows(scn, mode: str, backend_metrics: dict) -> list:
     paper_text, verdict, difference, rel_difference, reason}.  Each entry names a ``metric`` of
     the run and states the paper's figure as one of ``value``, ``band``, ``max``, ``min``;
     ``unit = "%"`` shows a fraction (χ, relative errors) in percent."""
-    from . import verdicts
 
     rows = []
     for fig in scn.paper.get("figures", []) or []:
@@ -154,7 +235,6 @@ def backends_of(backend: str) -> tuple:
     backends = BACKENDS if backend == "both" else (backend,)
     for b in backends:
         if b not in BACKENDS:
-            from .errors import ParameterError
             raise ParameterError(f"--backend {b!r}: choose multibody, reduced or both")
     return backends
 
@@ -186,10 +266,15 @@ def write_run(scn, out_dir, mode: str, backend: str, trajs: dict, res: dict, arg
     copy_model_files(scn, out)
     write_json(out / "manifest.json", manifest(scn, argv, {"mode": mode, "backend": backend, "backends": list(trajs),
                                                             "reduced_model": res["reduced_model"],
+                                                            # a controller given in code instead of the mode's
+                                                            **({"controller_replaced_by": res["controller"]}
+                                                               if "controller" in res else {}),
                                                             "t_end_s": float(next(iter(trajs.values())).t[-1]),
                                                             "run_meta": {b: tr.meta for b, tr in trajs.items()}}))
-    if figure:
-        from .plots import fig4
+    if figure and "axes" in res:  # several motors: one row of plots per axis
+        views = {f"{mode}, axis {lab}": {b: tr.axis(lab) for b, tr in trajs.items()} for lab in res["axes"]}
+        fig4(views, out / "fig4.png", setpoint=None, title=f"{scn.scenario.title or scn.name} — {mode}")
+    elif figure:
         chi_txt = chi_text(res)
         tag = " [reduced model MuJoCo-derived]" if mujoco_derived(scn) and "reduced" in trajs else ""
         sp = res["setpoint_motor_rad_s"] if "setpoint_motor_rad_s" in res else setpoint(scn, mode)
@@ -210,8 +295,11 @@ def run(scn, out_dir, mode=None, backend="both", t_end=None, progress=True, argv
 
 def setpoint(scn, mode, machine=None):
     """Motor-speed set-point drawn on the speed plot: the controller's own
-    :meth:`~mjbench.control.Controller.setpoint` (PID ``omega0``, SMC ``omega_d`` × z), None without one."""
+    :meth:`~mjbench.control.Controller.setpoint` (PID ``omega0``, SMC ``omega_d`` × z), None without one
+    (or with several axes)."""
     machine = machine if machine is not None else S.make_machine(scn, mode)
+    if machine.naxes > 1:
+        return None
     sp = machine.controller.setpoint(machine)
     return None if sp is None else float(sp["motor_rad_s"])
 
@@ -251,10 +339,49 @@ def chi_text(res):
     return "\n".join(lines)
 
 
+#: the duty lines of the summary: (label, metric keys joined by " / ", format, scale)
+DUTY_LINES = (("RMS / peak motor current [A]", ("current_rms_steady_A", "current_peak_steady_A"), "{:.3g}", 1.0),
+              ("RMS motor torque k_m·I [N·m]", ("torque_motor_rms_steady_Nm",), "{:.3g}", 1.0),
+              ("RMS / peak gearbox output torque [N·m]", ("torque_output_rms_steady_Nm",
+                                                           "torque_output_peak_steady_Nm"), "{:.4g}", 1.0),
+              ("at the current limit {current_limit_A:g} A [% of time]", ("current_limit_fraction_steady",), "{:.2f}",
+               100.0),
+              ("at the voltage limit {voltage_limit_V:g} V [% of time]", ("voltage_limit_fraction_steady",), "{:.2f}",
+               100.0))
+
+
+def duty_text(res: dict) -> list:
+    """The summary's duty lines (:func:`mjbench.metrics.duty`): over the steady-state window."""
+    bs = {b: m for b, m in res["backends"].items() if m and "duty_window_s" in m}
+    if not bs:
+        return []
+    t0, t1 = next(iter(bs.values()))["duty_window_s"]
+    lines = [f"  duty over the steady state t = {t0:g}–{t1:g} s (from metrics.steady_start; default: half the run):"]
+    for label, keys, fmt, scale in DUTY_LINES:
+        vals = []
+        for b, m in bs.items():
+            xs = [m.get(k) for k in keys]
+            if all(x is not None for x in xs):
+                vals.append(f"{b}: " + " / ".join(fmt.format(scale * x) for x in xs))
+        if vals:
+            first = next(m for m in bs.values() if all(m.get(k) is not None for k in keys))
+            lines.append(f"    {label.format(**first):<38s} " + "   ".join(vals))
+    return lines
+
+
 def summary_text(res: dict) -> str:
     """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
+    if "axes" in res:
+        return _multi_axis_summary(res)
     lines = [f"scenario {res['scenario']}, mode {res['mode']}"]
-    keys = [("mean_motor_speed_rad_s", "mean motor speed (2nd half) [rad/s]", "{:.3f}"),
+    sp = res.get("setpoint")
+    if sp:
+        rpm = 60.0 / (2.0 * math.pi)
+        lines.append(f"  set-point modes.{res['mode']}.{sp['source']}: motor {sp['motor_rad_s']:.5g} rad/s "
+                     f"({rpm * sp['motor_rad_s']:.4g} rpm) = crank {sp['input_rad_s']:.5g} rad/s "
+                     f"({rpm * sp['input_rad_s']:.4g} rpm), z = {sp['z']:g}")
+    keys = [("mean_motor_speed_rad_s", "mean motor speed (steady state) [rad/s]", "{:.3f}"),
+            ("mean_crank_speed_rad_s", "mean crank speed (steady state) [rad/s]", "{:.4g}"),
             ("chi_last_cycle", "χ last complete cycle from α(0) [%]", "pct"),
             ("chi_last_turn", "χ last 2π of travel to t_end [%]", "pct"),
             ("chi_window", "χ in the metrics window [%]", "pct"),
@@ -279,6 +406,12 @@ def summary_text(res: dict) -> str:
     if dts:  # χ is max − min of the record's samples: it depends on their interval
         lines.append(f"  {'χ computed from samples every':<40s} {', '.join(f'{1e3 * d:g}' for d in sorted(dts))} ms "
                      f"(simulation.record_dt)")
+    lines += duty_text(res)
+    for name in dict.fromkeys(n for m in res["backends"].values() for n in ((m or {}).get("loads") or {})):
+        vals = [f"{b}: {m['loads'][name]['peak_abs']:.4g} / {100 * m['loads'][name]['active_fraction']:.1f}"
+                for b, m in res["backends"].items() if name in ((m or {}).get("loads") or {})]
+        unit = next(m["loads"][name]["unit"] for m in res["backends"].values() if name in ((m or {}).get("loads") or {}))
+        lines.append(f"  {f'load {name!r}: peak [{unit}] / acting [% of time]':<40s} " + "   ".join(vals))
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")
@@ -304,10 +437,6 @@ def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[d
     one row per backend: {backend, laws [(component, law, reads, writes)], compiled, reason, agree}."""
     import numpy as np
 
-    from .backends import multibody as MB
-    from .backends import reduced as RD
-    from .backends import simulate
-    from .kernel import Program, machine_every
 
     rows = []
     for b in backends:
@@ -328,10 +457,34 @@ def check_mode(scn, mode: str, backends=BACKENDS, t_end: float = 0.05) -> list[d
         row = {"backend": b, "laws": laws, "compiled": pr.compiled, "reason": "; ".join(pr.reasons), "agree": None}
         py = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="python")
         if pr.compiled:
-            from .compiled import jit
 
             if jit.available():
                 ck = simulate(S.make_machine(scn, mode), b, t_end, record_dt=h, options=o, loop="check")
                 row["agree"] = bool(py.columns == ck.columns and np.array_equal(py.data, ck.data, equal_nan=True))
         rows.append(row)
     return rows
+
+
+def _multi_axis_summary(res: dict) -> str:
+    """:func:`summary_text` of a machine with several motors: per axis the speed, voltage and current
+    peaks, the end effector's tracking, the backends and the model check."""
+    lines = [f"scenario {res['scenario']}, mode {res['mode']} ({len(res['axes'])} axes: {', '.join(res['axes'])})"]
+    for lab in res["axes"]:
+        for key, label, fmt in (("peak_voltage_V", "peak |voltage| [V]", "{:.2f}"),
+                                ("peak_current_A", "peak |current| [A]", "{:.2f}")):
+            vals = [f"{b}: " + fmt.format(m["axes"][lab][key]) for b, m in res["backends"].items()
+                    if key in m["axes"][lab]]
+            lines.append(f"  axis {lab}: {label:<34s} " + "   ".join(vals))
+    for b, m in res["backends"].items():
+        ee = m.get("end_effector")
+        if ee:
+            lines.append(f"  end effector ({b}): max |error| {1e3 * ee['max_error_m']:.4f} mm, RMS "
+                         f"{1e3 * ee['rms_error_m']:.4f} mm (after {ee['from_s']:g} s)")
+    if "multibody_vs_reduced" in res:
+        c = res["multibody_vs_reduced"]
+        lines.append(f"  {'multibody vs reduced input speed':<40s} max {c['max_rel_diff']:.2e} (axis {c['axis']}, of peak)")
+    mdl = res.get("plausibility", {}).get("model", {})
+    if mdl.get("applicable"):
+        lines.append(f"  {'reduced model vs MuJoCo (M̄, bias, inverse dynamics)':<40s} {mdl['M_rel_err']:.1e}, "
+                     f"{mdl['bias_rel_err']:.1e}, {mdl['inverse_dynamics_rel_err']:.1e}")
+    return "\n".join(lines)

@@ -13,19 +13,44 @@ arrays, strings) and falls back to a string, then validated like the file.
 from __future__ import annotations
 
 import copy
+import hashlib
 import importlib.resources
 import json
 import os
 import tomllib
 import warnings
 
+import numpy as np
+
 from . import mechanisms
+from .control import REGISTRY as CONTROLLERS
 from .errors import ScenarioError
 from .registry import GROUPS, PluginWarning, entry_points
 from .schema import Scenario
 from .validation import validate
+from .machine import Machine
 
 SCENARIO_DIR = "scenarios"
+
+
+def check_model_files(man: dict, where: str) -> None:
+    """Refuse to repeat a run whose model file changed (or vanished) since the manifest was
+    written: its results would silently differ.  ``where``: the manifest's path (messages)."""
+    for path, info in (man.get("model_files") or {}).items():
+        want = info.get("sha256") if isinstance(info, dict) else None
+        if not want:
+            continue
+        copy = os.path.join(os.path.dirname(os.path.abspath(where)), info.get("copy", "")) if info.get("copy") else ""
+        keep = f"; the run's copy is {copy}" if copy and os.path.isfile(copy) else ""
+        if not os.path.isfile(path):
+            raise ScenarioError(f"{where}: the model file {path} of that run no longer exists, so the manifest cannot "
+                                f"repeat it{keep}")
+        with open(path, "rb") as f:
+            now = hashlib.sha256(f.read()).hexdigest()
+        if now != want:
+            raise ScenarioError(f"{where}: the model file {path} changed since that run (SHA-256 {want[:12]}… then, "
+                                f"{now[:12]}… now): the manifest would run another model; restore the file{keep}, or "
+                                f"run the scenario TOML to simulate the new model")
 
 
 def builtin_names():
@@ -62,6 +87,11 @@ def plugin_scenarios() -> dict:
 
 def read_raw(name_or_path: str) -> tuple[dict, str]:
     """The raw tables of a scenario (TOML file, built-in name or manifest.json) and its source."""
+    if isinstance(name_or_path, os.PathLike):
+        name_or_path = os.fspath(name_or_path)
+    if not isinstance(name_or_path, str) or not name_or_path:
+        raise ScenarioError(f"scenario {name_or_path!r}: give a built-in name, a TOML path or a manifest.json path "
+                            f"(a non-empty string or path), not {type(name_or_path).__name__}")
     if os.path.exists(name_or_path):
         if os.path.isdir(name_or_path):
             raise ScenarioError(f"scenario {name_or_path!r} is a directory; give a TOML file, a manifest.json "
@@ -76,8 +106,6 @@ def read_raw(name_or_path: str) -> tuple[dict, str]:
                 raise ScenarioError(f"{name_or_path}: not valid JSON ({e})") from None
             if not isinstance(man, dict) or not isinstance(man.get("scenario"), dict):
                 raise ScenarioError(f"{name_or_path}: not an mjbench manifest (no 'scenario' table)")
-            from .manifest import check_model_files
-
             check_model_files(man, name_or_path)  # a changed model file would silently run another model
             return copy.deepcopy(man["scenario"]), source
     else:
@@ -114,15 +142,24 @@ def from_raw(raw: dict, source: str = "", overrides=()) -> Scenario:
 
 
 def _resolve_paths(raw: dict, source: str) -> None:
-    """Let the mechanism class make file paths of its table absolute (relative to the scenario
-    file; ``mjcf``: the model file), so a manifest re-runs from anywhere."""
+    """Let the mechanism class and the controller classes make file paths of their tables absolute
+    (relative to the scenario file; ``mjcf``: the model file; a ``signal`` mode: its CSV file, read
+    into the table), so a manifest re-runs from anywhere."""
     table = raw.get("mechanism")
-    if not isinstance(table, dict) or not isinstance(table.get("type"), str):
-        return
-    cls = mechanisms.get(table["type"])
-    hook = getattr(cls, "resolve_paths", None) if cls is not None else None
-    if hook is not None:
-        hook(table, source)
+    if isinstance(table, dict) and isinstance(table.get("type"), str):
+        cls = mechanisms.get(table["type"])
+        hook = getattr(cls, "resolve_paths", None) if cls is not None else None
+        if hook is not None:
+            hook(table, source)
+    modes = raw.get("modes")
+    for name, table in (modes.items() if isinstance(modes, dict) else ()):
+        if isinstance(table, dict) and isinstance(table.get("type"), str) and "file" in table:
+            hook = getattr(CONTROLLERS.get(table["type"]), "resolve_paths", None)
+            try:
+                if hook is not None:
+                    hook(table, source)
+            except ScenarioError as e:
+                raise ScenarioError(f"modes.{name}.file: {e}") from None
 
 
 def with_values(scn: Scenario, values: dict) -> Scenario:
@@ -178,7 +215,6 @@ def set_key(raw: dict, key: str, value):
 
 
 def make_mechanism(scn: Scenario):
-    from . import mechanisms
 
     return mechanisms.build(scn.mechanism)
 
@@ -193,18 +229,35 @@ def modes(scn: Scenario):
 
 def make_machine(scn: Scenario, mode: str | None = None):
     """Scenario → Machine (mechanism + drive + controller of the chosen mode)."""
-    import controllers
-
-    from .machine import Machine
 
     mode = scn.mode(mode)
     mech = make_mechanism(scn)
-    drive = make_drive(scn)
-    ctrl = controllers.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
     init = scn.initial
-    return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
+    n = mech.n_inputs
+    if n == 1:
+        drive = make_drive(scn)
+        ctrl = CONTROLLERS.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
+        return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
+    # several inputs: a drive per input ([drives.JOINT] over [drive]); one controller per axis with
+    # its axis's reference, or one controller for all axes (a class that says multi_axis)
+    drives = [(scn.drives.get(name) or scn.drive).build() for name in mech.input_joints]
+    cls = CONTROLLERS.get(scn.modes[mode].type)
+    if getattr(cls, "multi_axis", False):
+        ctrl = CONTROLLERS.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
+    else:
+        ctrl = []
+        for k, d in enumerate(drives):
+            c = CONTROLLERS.build(scn.modes[mode], drive=d, mechanism=mech, scenario=scn)
+            ref = getattr(c, "reference", None)
+            if hasattr(ref, "for_axis"):  # the joint trajectories of every axis: this axis's
+                c.reference = ref.for_axis(k)
+            ctrl.append(c)
+    q0 = init.q0 if np.ndim(init.q0) else mech.stated_inputs
+    return Machine(mech, drives, ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
 
 
 def get(scn: Scenario, key: str, default=None):
     """Value at a dotted key of the validated scenario (aliases resolved), or ``default``."""
     return scn.get(key, default)
+
+

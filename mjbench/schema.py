@@ -36,6 +36,8 @@ from pydantic_core import PydanticCustomError
 
 from .errors import ScenarioError
 from .fields import Bool, OptQ, Q, Strict, UnitMeta, format_errors, jsonable
+from .motionlaws import BezierLaw, PseudoPolynomialLaw
+from .taskpath import PathParams
 
 __all__ = ["Q", "OptQ", "Bool", "Strict", "UnitMeta", "format_errors", "Scenario", "ScenarioMeta", "Initial",
            "Simulation", "MultibodyOptions", "ReducedOptions", "Metrics", "LawParams", "OptimizeParams",
@@ -54,11 +56,12 @@ class ScenarioMeta(Strict):
 
 
 class Initial(Strict):
-    """``[initial]``: state at t = 0.  Default: at rest at q = 0 with no current."""
+    """``[initial]``: state at t = 0.  Default: at rest at q = 0 with no current.  A machine with
+    several inputs: one value per input (a list), or one for all."""
 
-    q0: Q("angle") = 0.0
-    qd0: Q("angular_velocity", plausible=False) = 0.0
-    I0: Q("current", plausible=False) = 0.0
+    q0: Q("angle") | list[Q("angle")] = 0.0
+    qd0: Q("angular_velocity", plausible=False) | list[Q("angular_velocity", plausible=False)] = 0.0
+    I0: Q("current", plausible=False) | list[Q("current", plausible=False)] = 0.0
 
 
 class Simulation(Strict):
@@ -164,7 +167,6 @@ class LawParams(Strict):
         return float(self.Phi) if self.Phi is not None else 2.0 * math.pi * float(self.revolutions)
 
     def build(self):
-        from .motionlaws import BezierLaw, PseudoPolynomialLaw
 
         if self.kind == "pseudopoly":
             return PseudoPolynomialLaw(self.Phi_rad, self.T, self.gammas or (3.0, 4.0, 5.0))
@@ -211,6 +213,9 @@ class Scenario(Strict):
     modes: dict[str, Any] = Field(default_factory=dict)
     metrics: Metrics = Field(default_factory=Metrics)
     law: LawParams | None = None
+    path: PathParams | None = None
+    drives: dict[str, Any] = Field(default_factory=dict, description="per-axis drives of a machine with several "
+                                   "inputs: [drives.JOINT] keys over [drive]")
     optimize: OptimizeParams | None = None
     check: CheckParams | None = None
     paper: dict[str, Any] = Field(default_factory=dict, description="the paper's reported figures (free form)")

@@ -16,8 +16,12 @@ Values are those at the control sample (every controller period), SI units.
 """
 from __future__ import annotations
 
+import functools
+import inspect
 import re
 from dataclasses import dataclass
+
+from .errors import ParameterError
 
 #: signals of the whole machine: name → (unit, meaning)
 GLOBAL = {
@@ -122,5 +126,53 @@ def describe() -> list[tuple[str, str, str, str]]:
             [(n, "axis", u, m) for n, (u, m) in AXIS.items()])
 
 
+# ----------------------------------------------------------------------------- a law's signals
+def law_parameters(fn, nfn: int) -> list[str]:
+    """The signal names a law reads: its parameters after ``nfn`` function arguments, before its
+    parameter tuple and state (the last two)."""
+    try:
+        params = list(inspect.signature(fn).parameters)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{_law_name(fn)}: its parameters cannot be read (a law is a plain def function)") from None
+    if len(params) < nfn + 2:
+        raise ParameterError(f"{_law_name(fn)}: a control law takes its signals, then its parameter tuple and its state "
+                             f"(… P, S); it has {len(params)} parameter(s)")
+    return params[nfn:-2]
+
+
+def _law_name(fn) -> str:
+    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
+
+
+def law_signals(fn, nfn: int = 0) -> list[str]:
+    """The signal names a law reads (its parameters after ``nfn`` function arguments, before P, S)."""
+    return law_parameters(fn, nfn)
+
+
+def call_law(fn, values: dict, P, S, nfn: int = 0):
+    """Run a control law outside the kernel with the signals given by name (absent ones: 0; the
+    earlier names ``phi_r`` … are read as ``phi_ref`` …)."""
+    names = _names(fn, nfn)
+    return fn(*[float(values.get(ALIASES.get(n, n), 0.0)) for n in names], P, S)
+
+
+_NAMES: dict = {}
+
+
+def _names(fn, nfn):
+    """The signal names ``fn`` reads (cached per law; a partial — a law with its function arguments
+    bound — by its law and the number of bound arguments)."""
+    base, skip = fn, nfn
+    if isinstance(fn, functools.partial):
+        base, skip = fn.func, nfn + len(fn.args)
+    key = (base, skip)
+    n = _NAMES.get(key)
+    if n is None:
+        params = list(inspect.signature(base).parameters)
+        n = _NAMES[key] = params[skip:-2]
+    return n
+
+
 __all__ = ["GLOBAL", "AXIS", "WRITABLE", "CONTROLLER_OUTPUTS", "REFERENCE_OUTPUTS", "size", "index", "Ref",
-           "resolve", "names", "describe", "UnknownSignal", "NG", "NA", "ALIASES"]
+           "resolve", "names", "describe", "UnknownSignal", "NG", "NA", "ALIASES",
+           "law_parameters", "law_signals", "call_law"]

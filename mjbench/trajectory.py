@@ -42,6 +42,35 @@ COLUMNS = (
 # (``angle_meas_rad``, ``speed_est_rad_s``, ``accel_est_rad_s2``, ``voltage_bridge_V``,
 # ``current_mean_A``, ``current_min_A``, ``current_max_A``, ``current_ref_A``: docs/drivetrain.md).
 NAMES = tuple(c[0] for c in COLUMNS)
+#: axis labels of the core columns: the quantity, its symbol and its unit
+LABELS = {
+    "t_s": "time t [s]", "crank_angle_rad": "crank angle α [rad]", "crank_speed_rad_s": "crank speed α̇ [rad/s]",
+    "crank_accel_rad_s2": "crank acceleration α̈ [rad/s²]", "motor_speed_rad_s": "motor speed φ̇ [rad/s]",
+    "current_A": "armature current I [A]", "voltage_V": "armature voltage V_a [V]",
+    "torque_crank_Nm": "drive torque on the crank [N·m]", "power_mech_W": "mechanical power k_m·I·φ̇ [W]",
+    "power_elec_W": "electrical power V_a·I [W]", "closure_error_m": "loop-closure error [m]",
+}
+#: column-name suffix → unit, longest first (the SI naming of every column)
+UNITS = (("_rad_s2", "rad/s²"), ("_rate_rad_s", "rad/s"), ("_rad_s", "rad/s"), ("_m_s", "m/s"), ("_rad", "rad"),
+         ("_Nm", "N·m"), ("_s", "s"), ("_V", "V"), ("_A", "A"), ("_W", "W"), ("_J", "J"), ("_m", "m"), ("_N", "N"))
+
+
+def column_label(name: str) -> str:
+    """An axis label for a column: its quantity and unit ("crank speed α̇ [rad/s]" for
+    ``crank_speed_rad_s``; other columns from their SI name: ``joint_B_rate_rad_s`` → "joint B
+    rate [rad/s]")."""
+    if name in LABELS:
+        return LABELS[name]
+    if name.startswith("joint_"):  # [simulation] record_joints: a hinge's angle or a slide's position
+        for suf, what in (("_rate_rad_s", "rate [rad/s]"), ("_rate_m_s", "speed [m/s]"), ("_rad", "angle [rad]"),
+                          ("_m", "position [m]")):
+            if name.endswith(suf):
+                return f"joint {name[6:-len(suf)]} {what}"
+    for suf, unit in UNITS:
+        if name.endswith(suf) and len(name) > len(suf):
+            stem = name[: -len(suf)] + ("_rate" if suf == "_rate_rad_s" else "")
+            return f"{stem.replace('_', ' ')} [{unit}]"
+    return name.replace("_", " ")
 INDEX = {n: i for i, n in enumerate(NAMES)}
 #: rows written per chunk of a CSV file
 CSV_CHUNK = 10_000
@@ -99,6 +128,37 @@ class Trajectory:
 
     def has(self, name) -> bool:
         return name in self.index
+
+    @property
+    def axes(self) -> tuple:
+        """The axis labels of a run of a machine with several motors (columns ``label:name``); ()
+        for one axis."""
+        return tuple(self.meta.get("axes") or ())
+
+    def axis(self, label: str) -> "Trajectory":
+        """One axis of a multi-axis run as a one-axis trajectory (a view: its ``label:`` columns under
+        their one-axis names, with t_s and the closure; its statistics likewise)."""
+        pre = f"{label}:"
+        if not any(c.startswith(pre) for c in self.columns):
+            raise KeyError(f"trajectory has no axis {label!r}; axes: {', '.join(self.axes) or 'one (unlabelled)'}")
+        keep = [i for i, c in enumerate(self.columns) if c.startswith(pre) or ":" not in c]
+        tr = Trajectory.__new__(Trajectory)
+        tr.columns = tuple(self.columns[i][len(pre):] if self.columns[i].startswith(pre) else self.columns[i]
+                           for i in keep)
+        tr.index = {c: j for j, c in enumerate(tr.columns)}
+        tr.data = self.data[:self.n][:, keep]
+        tr.n, tr.backend = self.n, self.backend
+        tr.meta = {k: v for k, v in self.meta.items() if k not in ("axes",)}
+        zs = self.meta.get("z_axes")
+        if zs is not None and label in self.axes:
+            tr.meta["z"] = zs[self.axes.index(label)]
+        if self.stats is not None:
+            sk = [i for i, c in enumerate(self.stat_columns) if c.startswith(pre)]
+            tr.stats = self.stats[:self.n][:, sk]
+            tr.stat_columns = tuple(self.stat_columns[i][len(pre):] for i in sk)
+        else:
+            tr.stats, tr.stat_columns = None, ()
+        return tr
 
     def stat(self, name):
         """A column of the interval statistics (``"crank_speed_rad_s:max"`` …; :mod:`mjbench.kernel.layout`):

@@ -33,7 +33,7 @@ controller's motion-law reference [rad] — a law repeated per cycle included, t
 law evaluated at the record's times — over ``metrics.chi_window`` when the scenario sets one,
 else over the whole run).
 
-Margin constraints (``--margin pm>=45 --margin ms<=2``; keys pm [deg], gm [dB], ms = peak |S|,
+Margin constraints (``--margin 'pm>=45' --margin 'ms<=2'``, quoted for the shell; keys pm [deg], gm [dB], ms = peak |S|,
 bw [rad/s]): evaluated on the linear model (:mod:`mjbench.linear`) — the candidate's controller
 counterpart closed around the reduced plant at ``margin_angles`` frozen angles over one turn at
 the running speed, worst case over the angles, K_p·t frozen at the end of the run (the largest
@@ -59,7 +59,18 @@ import numpy as np
 
 from . import metrics as M
 from . import scenario as S
+from .control import REGISTRY as CONTROLLERS
 from .errors import MjbenchError, ParameterError, ScenarioError
+from .linear import parse_margin
+from . import kernel
+from .linear import MARGIN_KEYS
+from .backends import SEARCH_BACKENDS
+from .runner import backend_options
+from . import linear
+from .machine import Machine
+from .backends import simulate_many
+from .errors import SimulationDiverged
+from .backends import simulate
 
 
 @dataclass(frozen=True)
@@ -94,20 +105,16 @@ def tunable_controllers() -> dict:
     """{``tune --controller`` name: :class:`TuneSpec`} of every controller type that declares
     tunable gains: the built-in ones (pid, pid-tv, smc, servo) and the plugins' (every
     controller type is imported)."""
-    import controllers
-
     out = {}
-    for typ in controllers.names():
-        out.update(declared_specs(controllers.get(typ)))
+    for typ in CONTROLLERS.names():
+        out.update(declared_specs(CONTROLLERS.get(typ)))
     return out
 
 
 def tune_spec(name: str) -> TuneSpec:
     """The :class:`TuneSpec` of ``tune --controller NAME`` (a type name, or a declared variant such
     as ``pid-tv``); a ParameterError naming the choices otherwise."""
-    import controllers
-
-    cls = controllers.get(name)
+    cls = CONTROLLERS.get(name)
     specs = declared_specs(cls) if cls is not None else {}
     if name in specs:
         return specs[name]
@@ -162,7 +169,6 @@ class Problem:
 
     def __init__(self, scn, controller, objective="chi", limits=None, t_end=None, nthread=0, batch_size=64,
                  backend="multibody", margins=(), margin_mode="penalty", margin_angles=12):
-        from .backends import SEARCH_BACKENDS
 
         if backend not in SEARCH_BACKENDS:
             raise ParameterError(f"--backend {backend!r}: choose one of {list(SEARCH_BACKENDS)}")
@@ -184,7 +190,6 @@ class Problem:
             t_end = float(self.window[1]) if (self.window and objective == "chi") else scn.simulation.t_end
         self.t_end = float(t_end)
         self.record_dt = min(scn.simulation.record_dt, 5e-4)
-        from .runner import backend_options
         self.backend = backend
         self.mb_options = backend_options(self.scn, "multibody")
         self.options = backend_options(self.scn, backend)
@@ -210,7 +215,6 @@ class Problem:
         self.margin_mode = margin_mode
         self._plants = None
         if self.margins:
-            from . import linear
             m0 = self.machine(self.x0)
             self._plants = linear.plant_family(m0, float(scn.simulation.dt), margin_angles, t=self.t_end)
             self._with_bw = any(k == "bw" for k, _, _ in self.margins)
@@ -219,9 +223,6 @@ class Problem:
     # ------------------------------------------------------------------ evaluation
     def machine(self, x, params=None):
         """The scenario's machine with the controller gains x (or the controller ``params``)."""
-        import controllers
-
-        from .machine import Machine
 
         if params is None:
             params = self.tuned_params.model_copy(update={p: float(v) for p, v in zip(self.params, x)})
@@ -233,7 +234,7 @@ class Problem:
         if self._plant is None:  # the gains change, the mechanism and drive do not: build them once
             self._plant = S.make_mechanism(scn), S.make_drive(scn)
         mech, drive = self._plant
-        ctrl = controllers.build(params, drive=drive, mechanism=mech, scenario=scn)
+        ctrl = CONTROLLERS.build(params, drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
     def metrics(self, tr):
@@ -259,7 +260,6 @@ class Problem:
 
     def linear_margins(self, x=None, params=None) -> dict:
         """Worst-case frozen-angle margins of gains x (linear model) and their violation."""
-        from . import linear
 
         if not self.margins:
             return {}
@@ -282,13 +282,11 @@ class Problem:
     def evaluate(self, X, backend=None):
         """Objective of every gain set in X (n, nparam) → (scores, metrics list), batched on the
         search backend (or ``backend``)."""
-        from .backends import simulate_many
 
         backend = backend or self.backend
         X = np.atleast_2d(X)
         scores, mets = np.full(len(X), DIVERGED), [None] * len(X)
         if len(X) == 1:  # one simulation: the single-run loop (same numbers, less overhead)
-            from .errors import SimulationDiverged
             if self.margins and self.margin_mode == "constraint":
                 try:
                     lin = self.linear_margins(X[0])
@@ -349,7 +347,6 @@ class Problem:
     def run(self, x, baseline=False, backend=None):
         """Single run of gains x (``baseline``: the scenario's controller as written, e.g. K_p·t
         when tuning a constant-K_p PID) on the search backend (or ``backend``) → metrics + objective."""
-        from .backends import simulate
 
         backend = backend or self.backend
         opts = self.options if backend == self.backend else self.mb_options
@@ -371,7 +368,6 @@ class Problem:
 
 
 def _parse_margin(text):
-    from .linear import parse_margin
     return parse_margin(text)
 
 
@@ -385,7 +381,6 @@ def tune(scn, controller="pid-tv", objective="chi", limits=None, n_global=64, st
                    margin_mode=margin_mode, margin_angles=margin_angles)
     search_box(prob.params, prob.x0, span, bounds, prob.intervals)  # bad bounds: one message before any simulation
     if backend == "reduced":  # the compiled co-step (numba, same bits) when the planned work pays for loading it
-        from . import kernel
         h = float(prob.options.get("timestep", scn.simulation.dt))
         kernel.preload((n_global + 3 + max(0, starts) * maxfev) * prob.t_end / h)
     base_m, _ = prob.run(prob.x0, baseline=True)
@@ -561,7 +556,6 @@ def constraint_status(res: "TuneResult") -> tuple:
     """([violated --margin bounds], [exceeded peak limits]) of the winner, one text each: the
     margins at the worst frozen angle (linear model), the peak |V|, |I| against ``--limit``
     (multibody validation; always a penalty) and a divergence."""
-    from .linear import MARGIN_KEYS
 
     out, lim_out = [], []
     tuned = res.validation.get("tuned") or {}
@@ -600,7 +594,6 @@ def report(res: TuneResult) -> str:
     for k in dict.fromkeys((res.objective, "chi", "chi_cycle", "ise", "peak_voltage_V", "peak_current_A")):
         if k in v["baseline"] or k in v["tuned"]:
             lines.append(f"  {k:<22s} {v['baseline'].get(k, float('nan')):>16.6g} {v['tuned'].get(k, float('nan')):>16.6g}")
-    from .linear import MARGIN_KEYS
     for key, op, val in res.margins:
         name = MARGIN_KEYS[key][0]
         b = v["baseline"].get("margins", {}).get(name)

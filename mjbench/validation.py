@@ -16,7 +16,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-import controllers as CR
+from .control import REGISTRY as CR
 
 from . import drives
 from . import mechanisms as MR
@@ -40,6 +40,7 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     raw = dict(raw)
     mech = _mechanism(raw, problems)
     drive = _drive(raw, problems)
+    axis_drives = _axis_drives(raw, mech, problems)
     mraw_all, modes = _modes(raw, problems)
     scn = _generic_tables(raw, mech, drive, problems)
     if scn is not None:
@@ -49,6 +50,7 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     if problems:
         _raise(raw, source, problems)
     scn.mechanism, scn.drive = mech, drive
+    scn.drives = axis_drives
     scn.source, scn.overrides, scn.raw = source, list(overrides), raw
     scn.warnings = _warnings(scn, modes)
     return scn
@@ -91,11 +93,49 @@ def _drive(raw: dict, problems: list):
             problems.append(f"drive.type: {drives.type_of(draw)!r} is not a known drive type; choose one of "
                             f"{', '.join(drives.names())}")
             return None
+        if hasattr(cls, "expand"):  # values derived from others of the table (a motor's datasheet)
+            draw, more = cls.expand(draw)
+            if more:
+                problems += more
+                return None
         try:
             return cls.model_validate(draw)
         except ValidationError as e:
             problems += format_errors(e, ("drive",), cls)
     return None
+
+
+def _axis_drives(raw: dict, mech, problems: list) -> dict:
+    """``[drives.JOINT]`` tables of a machine with several inputs: each axis's drive, its keys over
+    ``[drive]`` → {joint: Params}."""
+    tables = raw.get("drives") or {}
+    if not isinstance(tables, dict):
+        problems.append(f"drives: must be a table of [drives.JOINT] tables, got {tables!r}")
+        return {}
+    inputs = list(getattr(mech, "inputs", None) or []) if mech is not None else []
+    base = raw.get("drive") if isinstance(raw.get("drive"), dict) else {}
+    out = {}
+    for name, table in tables.items():
+        if inputs and name not in inputs:
+            problems.append(f"drives.{name}: not an input joint; the inputs are {', '.join(inputs)}")
+            continue
+        if not inputs:
+            problems.append(f"drives.{name}: [drives.JOINT] tables are for a mechanism with several inputs "
+                            f"(inputs = [...]); this one has one: use [drive]")
+            continue
+        if not isinstance(table, dict):
+            problems.append(f"drives.{name}: must be a table, got {table!r}")
+            continue
+        merged = {**base, **table} if "type" not in table or table.get("type") == base.get("type") else dict(table)
+        cls = drives.params_class(drives.type_of(merged)) or (DriveParams if "type" not in merged else None)
+        if cls is None:
+            problems.append(f"drives.{name}.type: {drives.type_of(merged)!r} is not a known drive type")
+            continue
+        try:
+            out[name] = cls.model_validate(merged)
+        except ValidationError as e:
+            problems += format_errors(e, ("drives", name), cls)
+    return out
 
 
 def _modes(raw: dict, problems: list) -> tuple[dict, dict]:
@@ -124,7 +164,7 @@ def _modes(raw: dict, problems: list) -> tuple[dict, dict]:
 
 def _generic_tables(raw: dict, mech, drive, problems: list):
     """Every other table through the :class:`Scenario` model (None on a problem)."""
-    top = {k: v for k, v in raw.items() if k not in ("mechanism", "drive", "modes")}
+    top = {k: v for k, v in raw.items() if k not in ("mechanism", "drive", "modes", "drives")}
     top.update(mechanism=mech, drive=drive, modes={})
     try:
         return Scenario.model_validate(top)
@@ -262,6 +302,7 @@ def _warnings(scn, modes: dict) -> list[str]:
             _plausibility(v, sec, sink)
     for name, mp in modes.items():
         _plausibility(mp, f"modes.{name}", sink)
+    sink += getattr(scn.drive, "datasheet_warnings", list)()
     return sink
 
 

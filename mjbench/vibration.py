@@ -35,11 +35,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .control import REGISTRY as CONTROLLERS
 from .errors import ParameterError
 from .metrics import RESIDUAL_METRICS  # noqa: F401 - the names residual_from_trajectory writes
 from .mechanisms.platform import Oscillator, Platform
 from .motionlaws import BezierLaw, MotionLaw, PseudoPolynomialLaw, shaped_form
 from .schema import CheckParams, OptimizeParams
+from .scenario import make_mechanism
+from .machine import Machine
+from .scenario import make_drive, make_mechanism
+from .backends import simulate
 
 
 # ====================================================================== shaped laws
@@ -665,7 +670,6 @@ def study(scn, progress=None, multibody=None) -> dict:
 
 def _study_platform(scn):
     """The scenario's platform (a ParameterError unless it is one with a ``[law]``)."""
-    from .scenario import make_mechanism
 
     plat = make_mechanism(scn)
     if not isinstance(plat, Platform):
@@ -717,14 +721,10 @@ def _shaped_laws(rep, law0, osc, shapers, J_motor) -> dict:
 # ====================================================================== real motor and servo
 def servo_machine(scn, mode, law):
     """The scenario's machine in ``mode`` (a servo) tracking ``law`` instead of the [law] table."""
-    import controllers
-
-    from .machine import Machine
-    from .scenario import make_drive, make_mechanism
 
     mech, drive = make_mechanism(scn), make_drive(scn)
     p = scn.modes[mode]
-    ctrl = controllers.get(p.type).from_params(p, drive=drive, mechanism=mech, scenario=scn,
+    ctrl = CONTROLLERS.get(p.type).from_params(p, drive=drive, mechanism=mech, scenario=scn,
                                                reference=law.as_reference(t0=p.reference.t0))
     return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
@@ -738,7 +738,6 @@ def servo_study(scn, mode, laws: dict, t_after=0.5, runs=None, backend="reduced"
     """Each law run by the real motor + servo of ``mode`` (the co-step kernel, ``backend``) for
     T + max(t_after, peak_window) s, next to its ideal-servo figures: {"laws": {name: {...}},
     "drive": ..., "controller": ...}.  The residual peak is over [T, T + peak_window]."""
-    from .backends import simulate
 
     out = {"mode": mode, "backend": backend, "drive": scn.drive.to_dict(),
            "controller": scn.modes[mode].to_dict(), "dt_s": scn.simulation.dt, "laws": {}}

@@ -272,7 +272,7 @@ def test_controller_errors_are_product_errors():
 
     with pytest.raises(ScenarioError, match="modes.pid.kpp: unknown key"):
         controllers.from_dict({"type": "pid", "kp": 1.0, "ki": 1.0, "kd": 0.0, "omega0": 1.0, "kpp": 2})
-    with pytest.raises(ScenarioError, match="needs omega0"):
+    with pytest.raises(ScenarioError, match="needs a set-point: omega0"):
         controllers.from_dict({"type": "pid", "kp": 1.0, "ki": 1.0, "kd": 0.0})
     with pytest.raises(ParameterError, match="kp"):
         PID(float("nan"), 1.0, 0.0, omega0=1.0)

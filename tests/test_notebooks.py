@@ -6,6 +6,8 @@ recomputations it writes out) and prints them as JSON in its last cell; the test
 line and check the headline numbers again, so that a notebook whose checks were edited away still
 fails.  Notebooks are stored without outputs (clean diffs)."""
 import json
+import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -31,8 +33,43 @@ class _ThisPython(KernelSpecManager):
         return KernelSpec(resource_dir="", **get_kernel_dict())
 
 
+#: a cell that draws: a pyplot figure, or a result's ``plot`` called at the start of a line
+DRAWS = re.compile(r"plt\.subplots\(|^\w+\.plot\(", re.M)
+
+
+def figures_per_cell(nb) -> list[tuple[int, int, int]]:
+    """(cell index, PNG images it displayed, images expected: 1 for a drawing cell, else 0)."""
+    out = []
+    for i, cell in enumerate(nb.cells):
+        if cell.cell_type != "code":
+            continue
+        n = sum("image/png" in o.get("data", {}) for o in cell.outputs if o.output_type in ("display_data",
+                                                                                           "execute_result"))
+        out.append((i, n, 1 if DRAWS.search(cell.source) else 0))
+    return out
+
+
+def check_figures(nb, name: str, out_dir: Path | None = None) -> int:
+    """Each drawing cell displayed exactly one figure, no other cell any (a figure shown twice, or
+    not at all because the backend was switched, fails); the images are written to ``out_dir``
+    (``MJBENCH_NOTEBOOK_FIGURES``: a folder to look at them).  Returns the number of figures."""
+    import base64
+
+    counts = figures_per_cell(nb)
+    wrong = [(i, n, want) for i, n, want in counts if n != want]
+    assert not wrong, f"{name}: (cell, figures shown, expected) {wrong}"
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        for i, cell in enumerate(nb.cells):
+            for k, o in enumerate(getattr(cell, "outputs", [])):
+                if "image/png" in o.get("data", {}):
+                    (out_dir / f"{name[:2]}_cell{i:02d}_{k}.png").write_bytes(base64.b64decode(o["data"]["image/png"]))
+    return sum(want for _, _, want in counts)
+
+
 def execute(name: str, cwd: Path) -> tuple[dict, float]:
-    """Run the notebook in ``cwd``; its summary (the last cell's JSON line) and the wall time [s]."""
+    """Run the notebook in ``cwd``; its summary (the last cell's JSON line) and the wall time [s];
+    checks the figures each cell displayed (:func:`check_figures`)."""
     nb = nbformat.read(NOTEBOOKS / name, as_version=4)
     km = KernelManager(kernel_name="python3", kernel_spec_manager=_ThisPython())
     client = NotebookClient(nb, km=km, timeout=240, resources={"metadata": {"path": str(cwd)}})
@@ -43,6 +80,9 @@ def execute(name: str, cwd: Path) -> tuple[dict, float]:
         if km.has_kernel:  # a kernel manager given to nbclient is ours to shut down
             km.shutdown_kernel(now=True)
     wall = time.perf_counter() - t0
+    look = os.environ.get("MJBENCH_NOTEBOOK_FIGURES")
+    nfig = check_figures(nb, name, Path(look) if look else None)
+    print(f"{name}: {nfig} figures, one per drawing cell", file=sys.stderr)
     last = [c for c in nb.cells if c.cell_type == "code"][-1]
     text = "".join(o.get("text", "") for o in last.outputs if o.output_type == "stream" and o.name == "stdout")
     return json.loads(text.strip().splitlines()[-1]), wall
@@ -103,3 +143,27 @@ def test_controller_design(tmp_path):
         assert s["growth_predicted"][factor] == pytest.approx(predicted, rel=0.01)
         for b in ("reduced", "multibody"):
             assert s["growth"][f"{factor} {b}"] == pytest.approx(s["growth_predicted"][factor], rel=0.05)
+
+
+def test_figures_show_once_and_leave_the_backend_alone(tmp_path):
+    """In a kernel with ``%matplotlib inline`` (pyplot's inline backend active before mjbench
+    plots), a result's figure is displayed once — as the cell's value, not a second time by pyplot
+    — an assigned figure not at all until shown, and matplotlib's backend stays the user's."""
+    cells = ["%matplotlib inline",
+             "import matplotlib\nimport mjbench as mjb\nres = mjb.load('incerti2012').simulate('open', 'reduced', 0.05)",
+             "res.plot()",
+             "fig = res.plot(['current_A'])",
+             "fig",
+             "import matplotlib.pyplot as plt\nplt.plot([0, 1], [1, 0]);",
+             "print(matplotlib.get_backend(), len(plt.get_fignums()))"]
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
+    km = KernelManager(kernel_name="python3", kernel_spec_manager=_ThisPython())
+    try:
+        NotebookClient(nb, km=km, timeout=240, resources={"metadata": {"path": str(tmp_path)}}).execute()
+    finally:
+        if km.has_kernel:
+            km.shutdown_kernel(now=True)
+    shown = [n for _, n, _ in figures_per_cell(nb)]
+    assert shown == [0, 0, 1, 0, 1, 1, 0], shown
+    backend, figs = nb.cells[-1].outputs[0]["text"].split()
+    assert "inline" in backend and figs == "0"   # the inline backend kept; pyplot knows no mjbench figure

@@ -77,7 +77,7 @@ res["list"] = cmd("list")
 res["run"] = cmd("run", "scotch-yoke", "--backend", "both", "--t-end", "0.5", "--out", f"{out}/run")
 res["analyze"] = cmd("analyze", "scotch-yoke", "--points", "90", "--out", f"{out}/analyze")
 res["sweep"] = cmd("sweep", "scotch-yoke", "--grid", "modes.leadlag.K=0.5,1.0,2.0", "--t-end", "0.3",
-                   "--verify", "1", "--out", f"{out}/sweep")
+                   "--verify", "1", "--metric", "peak_current_A", "--out", f"{out}/sweep")
 res["linearize"] = cmd("linearize", "scotch-yoke", "--at", "q=0.3", "--angles", "4", "--out", f"{out}/lin")
 res["tune"] = cmd("tune", "scotch-yoke", "--controller", "pid", "--objective", "ise", "--t-end", "0.2",
                   "--global", "4", "--maxfev", "4", "--verify", "1", "--bounds", "kd=1e-5:1e-3",

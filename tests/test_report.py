@@ -111,7 +111,7 @@ def test_tables_hold_metrics_json_numbers(report):
         assert row["difference"] == pytest.approx(row["ours"]["multibody"] - row["paper"], rel=1e-12)
     # ... and the report prints exactly them: the headline table (its rows: metrics.json "headline"),
     # then the full table, every row, with the reason
-    (h_head, h_body), (f_head, f_body) = _md_tables(md_text, "incerti2012-short")
+    (h_head, h_body), (f_head, f_body) = [t for t in _md_tables(md_text, "incerti2012-short") if t[0][0] == "quantity"]
     assert "reason" not in h_head and f_head[-1] == "reason"
     assert len(f_body) == len(m["rows"]) and len(h_body) == len(m["headline"]) == RP.HEADLINE_MAX
     for cells, row in zip(f_body, m["rows"]):
@@ -172,7 +172,7 @@ def test_page_leads_with_pictures(report):
         m = md_text.split(f'<a id="{RP._anchor(case)}"></a>')[1]
         m = m.split('<a id="')[0]
         first = f"[![{r['figures'][0]}]({case}/{r['figures'][0]})]"
-        assert m.index(first) < m.index("**Headline numbers**") < m.index("<details><summary>All ")
+        assert m.index(first) < m.index("headline numbers**") < m.index("<details><summary>All ")
     assert "🟧" in md_text.split("<details>")[0]  # the summary's verdict bars (incerti2012: 'differ' rows)
 
 
@@ -314,3 +314,28 @@ def test_html_opens_in_headless_chromium(report, tmp_path):
     green = (rgb[..., 1] > 150) & (rgb[..., 0] < 110) & (rgb[..., 2] < 110)
     orange = (rgb[..., 0] > 220) & (rgb[..., 1] > 130) & (rgb[..., 1] < 180) & (rgb[..., 2] < 80)
     assert orange.sum() > 200, "the summary's verdict bars are not drawn"
+
+
+def test_engineering_verdicts_lead_and_follow_the_numbers(report):
+    """Every case opens with its engineering verdicts, computed from its metrics.json: here the
+    Incerti 2012 PID pinned at its 48 V supply (the duty figures' fraction at the voltage limit),
+    backends agreeing; the summary table holds them beside the paper comparison; the video's still
+    image is a frame of the machine running, not t = 0."""
+    out, res, md, htm = report
+    eng = res["engineering"]
+    assert set(eng) == {k for k, _ in RP.CHECKS}
+    pid = res["modes"]["pid"]["backends"]["multibody"]
+    frac = pid["voltage_limit_fraction_steady"]
+    assert eng["limits"]["ok"] is (frac <= 0.01)
+    if frac > 0.01:
+        assert f"{100 * frac:.1f} % of the steady state" in eng["limits"]["detail"]
+    assert eng["models"]["ok"] is True and eng["duty"]["ok"] is None          # no rating stated in incerti2012
+    assert eng["duty"]["detail"].startswith("RMS current")
+    page = htm.read_text()
+    summary = page.split('<table class="summary">')[1].split("</table>")[0]
+    assert summary.index("engineering verdicts") < summary.index("paper comparison")
+    sec = page.split('id="case-incerti2012-short"')[1]
+    assert sec.index('<table class="eng">') < sec.index('class="headline"')
+    v = res["video"]
+    assert v["poster"] == "video_poster.png" and (out / "incerti2012-short" / "video_poster.png").stat().st_size > 0
+    assert v["poster_t_s"] >= 0.6 * 0.5 - 1e-9 and f'poster="incerti2012-short/video_poster.png"' in page

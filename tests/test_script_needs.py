@@ -104,7 +104,7 @@ def test_torque_load_description_errors():
                       ({"link": "rocker", "torque": 1.0, "point": "coupler.P"}, "would be ignored"),
                       ({"link": "rocker", "s": [0.0, 1.0], "T": [1.0, 2.0]}, "needs point and direction"),
                       ({"link": "rocker", "q": [0.0, 7.0], "T": [1.0, 2.0]}, "more than one turn"),
-                      ({"link": "rocker", "force": 3.0}, "force and F are a point load's"),
+                      ({"link": "rocker", "force": 3.0}, "force, F and the profiles are a point load's"),
                       ({"link": "ground", "torque": 1.0}, "'ground' is not a moving link"),
                       ({"point": "coupler.P", "direction": [1, 0], "torque": 1.0}, "belong to a torque load")):
         with pytest.raises(ScenarioError) as e:

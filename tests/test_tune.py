@@ -87,7 +87,8 @@ def test_tunable_gains_are_the_controller_classes_declarations():
     got = {k: (s.ctype, s.params, s.fixed) for k, s in tunable_controllers().items()}
     assert got == {"pid": ("pid", ("kp", "ki", "kd"), {"kp_ramp": False}),
                    "pid-tv": ("pid", ("kp", "ki", "kd"), {"kp_ramp": True}),
-                   "smc": ("smc", ("lam", "K"), {}), "servo": ("servo", ("kpp", "kvp", "kvi"), {})}
+                   "smc": ("smc", ("lam", "K"), {}), "servo": ("servo", ("kpp", "kvp", "kvi"), {}),
+                   "computed_torque": ("computed_torque", ("wn",), {})}
     assert tune_spec("pid-tv").fixed == {"kp_ramp": True}
     with pytest.raises(ParameterError, match="'open': its class declares no tunable gains.*pid, pid-tv"):
         tune_spec("open")

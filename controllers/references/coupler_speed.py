@@ -66,6 +66,7 @@ from mjbench.mechanisms.linkage_kin import ptable_channel
 from mjbench.fields import Bool, Q, Strict
 
 from mjbench.control import REF_INPUTS, REF_OUTPUTS, Reference
+from mjbench import compiled as C
 
 PROFILES = ("constant", "piecewise", "table")
 DERIVATIVES = ("difference", "analytic", "zero")
@@ -249,7 +250,6 @@ class CouplerSpeed(Reference):
 
     def profile_form(self):
         """The profile's form: ``Form(PROFILE, ProfileP)``, or a Python adapter of a callable."""
-        from mjbench import compiled as C
 
         if self._user_fn is not None:
             fn = self._user_fn
@@ -263,7 +263,6 @@ class CouplerSpeed(Reference):
 
     def target_form(self):
         """Eq 17's target as a form: ``Form(coupler_target, TargetP, fn_args=(profile,))``."""
-        from mjbench import compiled as C
 
         pf = self.profile_form()
         m = self.mechanism
@@ -314,7 +313,6 @@ class CouplerSpeed(Reference):
     def form(self, T, z):
         """``Form(coupler_speed_law, CouplerRefP, S0, fn_args=(target,))`` (z: the reference's own
         gear ratio, set from the drive when built)."""
-        from mjbench import compiled as C
 
         tf = self.target_form()
         P = CouplerRefP(self.z, DERIVATIVES.index(self.derivative), self.kick, tf.P)

@@ -22,7 +22,8 @@ import numpy as np
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
 
-from .law import LawReference
+from mjbench import compiled as C
+from mjbench.law_reference import LawReference
 
 #: the reference's parameters: scale (motor rad per law rad), start time [s], period [s], the law's
 #: rotation Φ per cycle [rad], the motion law's P
@@ -61,8 +62,6 @@ class PeriodicLawReference(LawReference):
         super().__init__(motion, scale, t0)
 
     def form(self, T, z):
-        from mjbench import compiled as C
-
         mf = self.motion.motion_form()
         return C.Form(periodic_law_reference,
                       PeriodicLawP(self.scale, self.t0, self.period, float(self.motion.Phi), mf.P),

@@ -12,8 +12,23 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError, SimulationDiverged
+from ..machine import Machine
+from ..mechanisms.base import Mechanism
 from .results import require_pandas
 from .scenarios import Scenario, as_scenario, warn
+from .. import linear as LN
+from ..kernel import memory_limit
+from .. import units as U
+from .. import analyze as A
+from .. import scenario as S
+from .simulation import MACHINE_DT, machine_options
+from ..plausibility import reduced_vs_mujoco
+from ..linear import running_speed
+from .. import linear_plots as LP
+from .. import plotstyle
+from ..outputs import staged_dir, write_json
+from ..plausibility import model_warnings
+from ..outputs import staged_dir
 
 if TYPE_CHECKING:
     import pandas
@@ -198,9 +213,6 @@ class LinearResult:
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``linear.json`` and the figures (bode.png, nyquist.png, poles.png, plant.png) into
         the folder ``path``, whole or not at all (``mjbench linearize --out``)."""
-        from .. import linear_plots as LP
-        from .. import plotstyle
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "linear.json"), self.data, indent=1)
@@ -222,7 +234,8 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     q, qd, I, t : float, optional
         Operating point: input angle [rad], input speed [rad/s], current [A], time [s] of a K_p·t
         gain.  Default: the initial angle, the controller's running speed there, the current
-        holding q̈ = 0, ``simulation.t_end`` for a K_p·t PID (else 0).
+        that sustains the speed on average over a turn (at rest: the one holding q̈ = 0; a running
+        linkage's q̈* ≠ 0 at the point), ``simulation.t_end`` for a K_p·t PID (else 0).
     angles : int
         Frozen angles over one turn for the family of loops (0: none).
     multibody : bool
@@ -239,7 +252,6 @@ def linearize(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], m
     mjbench.errors.SimulationDiverged
         The point is out of the model's numerical range.
     """
-    from .. import linear as LN
 
     at = {k: v for k, v in (("q", q), ("qd", qd), ("I", I), ("t", t)) if v is not None}
     for k, v in at.items():
@@ -273,7 +285,8 @@ def linear_summary(js: dict[str, Any]) -> str:
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['controller']}): q* = {f(op['q_rad'])} rad, "
-             f"q̇* = {f(op['qd_rad_s'])} rad/s, I* = {f(op['I_A'])} A, V* = {f(op['V_V'])} V"
+             f"q̇* = {f(op['qd_rad_s'])} rad/s, I* = {f(op['I_A'])} A, V* = {f(op['V_V'])} V, "
+             f"q̈* = {f(op['qdd_rad_s2'])} rad/s²"
              + (f", t = {f(op['t_s'])} s" if op["t_s"] else "") + f"; angle model: {js['angle_model']}"]
     for w in js.get("warnings", []):
         lines.append(f"WARNING: {w}")
@@ -385,7 +398,6 @@ class Analysis:
     @property
     def warnings(self) -> list[str]:
         """The reduced model's disagreement with MuJoCo's, if any."""
-        from ..plausibility import model_warnings
 
         m = (self.data.get("plausibility") or {}).get("model")
         return [w.replace("metrics.json", "analysis.json") for w in model_warnings(m)] if m else []
@@ -396,7 +408,6 @@ class Analysis:
 
     def summary(self) -> str:
         """The text ``mjbench analyze`` prints."""
-        from .. import analyze as A
 
         lines = [A.summary_text(self.data)]
         m = (self.data.get("plausibility") or {}).get("model") or {}
@@ -408,8 +419,6 @@ class Analysis:
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``analysis.json`` and the figures into the folder ``path``, whole or not at all
         (``mjbench analyze --out``)."""
-        from .. import analyze as A
-        from ..outputs import staged_dir
 
         with staged_dir(path, force=force, what=what) as out:
             A.write(self.data, out)
@@ -418,7 +427,6 @@ class Analysis:
 
 def analysis_size(points: int, nspeeds: int, what: str = "points") -> None:
     """Refuse an analysis larger than half the available memory (before computing)."""
-    from ..kernel import memory_limit
 
     need, lim = points * POINT_BYTES * max(1, nspeeds), memory_limit()
     if need > lim:
@@ -429,7 +437,6 @@ def analysis_size(points: int, nspeeds: int, what: str = "points") -> None:
 
 def input_speed(value: float | str, what: str = "speeds") -> float:
     """An input speed [rad/s] from a number (SI) or a string with a unit ("60 rpm")."""
-    from .. import units as U
 
     try:
         v = float(value) if not isinstance(value, str) or _is_number(value) else U.to_si(value, "angular_velocity")
@@ -482,10 +489,6 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
         ``data`` (analysis.json), ``curves`` (arrays), ``transmission`` (by stable key),
         ``summary()``, ``to_pandas()``, ``save(dir)``.
     """
-    from .. import analyze as A
-    from .. import scenario as S
-    from ..machine import Machine
-    from ..mechanisms.base import Mechanism
 
     if not 16 <= int(points) <= 1_000_000:
         raise ParameterError(f"points = {points}: must be 16 to 1,000,000")
@@ -494,7 +497,6 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
     ws = [input_speed(v) for v in (speeds or ())]
     analysis_size(int(points), len(ws))
     if isinstance(target, (Mechanism, Machine)):
-        from .simulation import MACHINE_DT, machine_options
 
         mech = target.mechanism if isinstance(target, Machine) else target
         drive = target.drive if isinstance(target, Machine) else None
@@ -515,7 +517,6 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
             res["scenario"] = name
         opts = scn.spec.multibody_options()
     if res.get("applicable") and check_model:
-        from ..plausibility import reduced_vs_mujoco
 
         # the reduced model against MuJoCo's mass matrix and bias forces (analysis.json "plausibility")
         res["plausibility"] = {"model": reduced_vs_mujoco(mech, opts)}
@@ -526,10 +527,8 @@ def analyze_mechanism(target: Scenario | str | os.PathLike[str] | Mapping[str, A
 
 def _default_speeds(target: Any) -> list[float]:
     """A machine's running speed (its controller's set-point), else one turn per second."""
-    from ..machine import Machine
 
     if isinstance(target, Machine):
-        from ..linear import running_speed
 
         w = abs(float(running_speed(target, float(target.q0))))
         if math.isfinite(w) and w > 0:

@@ -10,6 +10,11 @@ from typing import Any
 
 from ..errors import ParameterError
 from .scenarios import Scenario, as_scenario
+from .. import frest as F
+from .analysis import number_text as f
+from ..fmi import export_fmu as export
+from ..outputs import output_file
+from ..outputs import staged_dir, write_json
 
 
 class FrequencyResponse:
@@ -38,8 +43,6 @@ class FrequencyResponse:
 
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``frest.json`` and ``bode.png`` into the folder ``path``, whole or not at all."""
-        from .. import frest as F
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "frest.json"), self.data, indent=1)
@@ -78,27 +81,27 @@ def frequency_response(scenario: Scenario | str | os.PathLike[str] | Mapping[str
     FrequencyResponse
         ``frd`` (python-control FRD objects), ``data`` (frest.json), ``summary()``, ``save(dir)``.
     """
-    from .. import frest as F
 
     if band is not None:
-        lo, hi = (float(x) for x in band)
+        try:
+            lo, hi = (float(x) for x in band)
+        except (TypeError, ValueError):
+            raise ParameterError(f"band = {band!r}: expected (lo, hi) [rad/s]") from None
         if not (0 < lo < hi and math.isfinite(hi)):
             raise ParameterError(f"band = {tuple(band)!r}: need 0 < lo < hi [rad/s]")
         band = (lo, hi)
-    if int(periods) < 2:
-        raise ParameterError(f"periods = {periods}: at least 2 (the coherence needs two periods)")
+    F.check_options(amplitude, band, period, periods, settle, lines)  # every value, before any work
     at = {k: v for k, v in (("q", q), ("qd", qd), ("I", I), ("t", t)) if v is not None}
     scn = as_scenario(scenario)
     mode = scn.mode(mode)
     scn.check(mode)
     res = F.measure(scn.spec, mode, backend=backend, signal=signal, amplitude=amplitude, band=band, period=period,
-                    periods=int(periods), settle=settle, n_lines=int(lines), **at)
+                    periods=periods, settle=settle, n_lines=lines, **at)
     return FrequencyResponse(scn, backend, res)
 
 
 def frest_summary(js: dict[str, Any]) -> str:
     """Text summary of a frest.json."""
-    from .analysis import number_text as f
 
     op = js["operating_point"]
     lines = [f"{js['scenario']} (mode {js['mode']}, {js['backend']}, {js['signal']}): q* = {f(op['q_rad'])} rad, "
@@ -119,17 +122,24 @@ def frest_summary(js: dict[str, Any]) -> str:
     if sb:
         lines.append(f"  rotation sidebands ω ± Ω of the speed response: up to {f(100 * sb['speed_measured_max_rel'], '{:.3g}')} % "
                      f"of the line (frozen family along the turn: {f(100 * sb['speed_frozen_max_rel'], '{:.3g}')} %)")
+    sat = js.get("saturation") or {}
+    if sat.get("saturated"):
+        lines.insert(1, f"  SATURATED: {sat['note']}")
     lp = js.get("loop")
     if lp:
         m, ml = lp["margins"], lp.get("margins_linear") or {}
-        lines.append(f"  measured loop: GM {f(m['gain_margin_dB'])} dB, PM {f(m['phase_margin_deg'])}°, peak |S| "
+        lines.append(f"  measured loop{' (NOT VALID: saturated)' if sat.get('saturated') else ''}: "
+                     f"GM {f(m['gain_margin_dB'])} dB, PM {f(m['phase_margin_deg'])}°, peak |S| "
                      f"{f(m['peak_sensitivity'])}" + (f" (linear: {f(ml.get('gain_margin_dB'))} dB, "
                                                        f"{f(ml.get('phase_margin_deg'))}°, {f(ml.get('peak_sensitivity'))})"
                                                        if ml else ""))
     lines.append(f"  min coherence {f(min(js['plant']['coherence']), '{:.4f}')}, distortion ratio "
                  f"{f(js['distortion_ratio'], '{:.2e}')}; {js['band_note']}")
+    st = js.get("settling")
+    if st and st.get("settled"):
+        lines.append(f"  settling: {st['note']}")  # (not settled: among the warnings below)
     for n in js.get("notes", []):
-        lines.append(f"  note: {n}")
+        lines.append(f"  {n}" if n.startswith("warning: ") else f"  note: {n}")
     return "\n".join(lines)
 
 
@@ -161,8 +171,6 @@ def export_fmu(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
         import pythonfmu  # noqa: F401
     except ImportError:
         raise ParameterError("export-fmu needs pythonfmu: pip install 'mjbench[fmi]' (or pip install pythonfmu)") from None
-    from ..fmi import export_fmu as export
-    from ..outputs import output_file
 
     scn = as_scenario(scenario)
     if controller:

@@ -4,10 +4,14 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from .. import control
 from ..errors import MjbenchError, ParameterError, ScenarioError
+from .. import mechanisms
+from ..drive import DriveParams
+from ..schema import format_errors
 
 if TYPE_CHECKING:
-    from controllers.base import Controller
+    from ..control import Controller
 
     from ..drive import DCMotorDrive
     from ..mechanisms.base import Mechanism
@@ -38,7 +42,6 @@ def make_mechanism(type: str, /, **params: Any) -> Mechanism:
     mjbench.errors.GeometryError
         A linkage that cannot be assembled or whose input cannot make the full turn.
     """
-    from .. import mechanisms
 
     mech: Mechanism = _built(lambda: mechanisms.from_dict({"type": type, **params}), f"make_mechanism({type!r})")
     return mech
@@ -50,11 +53,32 @@ def make_drive(**params: Any) -> DCMotorDrive:
     Parameters
     ----------
     **params
-        ``R`` [Ω], ``L`` [H], ``k_m`` [N·m/A = V·s/rad], ``J_m`` [kg·m²], ``z`` (gear ratio, motor
-        turns per input turn), ``lam`` [N·m·s/rad], optional ``T_0`` [N·m], ``v_max`` [V],
-        ``i_max`` [A] ...; units allowed (``L="9 mH"``).  Drive-train elements are nested tables:
-        ``pwm={...}``, ``encoder={...}``, ``sensor={...}``, ``gear={...}``, ``friction={...}``,
-        ``current_loop={...}`` (docs/drivetrain.md).
+        The keys of ``[drive]`` (docs/engine.md, "The [drive] table"); numbers SI, strings with
+        units (``L="9 mH"``):
+
+        - ``R`` [Ω] armature resistance; ``L`` [H] armature inductance; ``k_m`` [N·m/A = V·s/rad]
+          torque = back-EMF constant; ``J_m`` [kg·m²] rotor inertia; ``lam`` [N·m·s/rad] viscous
+          friction on the motor shaft; ``z`` gear ratio φ̇/α̇ (motor turns per crank turn) —
+          required unless ``datasheet`` gives them;
+        - ``J_a`` [kg·m²] inertia on the motor shaft (pinion; a flywheel there), default 0;
+          ``J_b`` [kg·m²] inertia on the crank (input) shaft: the gear, **a flywheel on the
+          crankshaft**, default 0;
+        - ``T_0`` [N·m] Coulomb friction on the motor shaft, default 0;
+        - ``v_max`` [V] voltage limiter (the supply), ``i_max`` [A] amplifier current limit,
+          default inf; ``i_rated`` [A] the motor's continuous current rating (the duty figures
+          compare the RMS current with it), default inf;
+        - ``datasheet={...}``: the motor by its catalogue values — ``rated_voltage``,
+          ``no_load_speed``, ``no_load_current``, ``stall_torque``, ``stall_current``,
+          ``terminal_resistance``, ``inductance``, ``rotor_inertia``, ``gear_ratio``,
+          ``gear_efficiency``, ``rated_current`` — converted to R, k_m, lam, L, J_m (z, gear
+          efficiency, i_rated): R = terminal resistance, else V_n/I_stall, else k_m·V_n/T_stall;
+          k_m = (V_n − R·I_0)/ω_0; λ = k_m·I_0/ω_0 (:mod:`mjbench.drives.datasheet`);
+        - drive-train elements as nested tables: ``pwm={...}``, ``encoder={...}``,
+          ``sensor={...}``, ``gear={...}``, ``friction={...}``, ``current_loop={...}``
+          (docs/drivetrain.md).
+
+        The ideal drives' keys (``type="torque"``: ``J``, ``damping``, ``T_max``; ``type="speed"``:
+        ``k_v``, ``k_i``, ``J``, ``speed_max``) belong to their tables in a scenario.
 
     Returns
     -------
@@ -67,11 +91,12 @@ def make_drive(**params: Any) -> DCMotorDrive:
     """
     from pydantic import ValidationError
 
-    from ..drive import DriveParams
-    from ..schema import format_errors
 
+    table, problems = DriveParams.expand(params)
+    if problems:
+        raise ScenarioError("invalid [drive] table:\n  " + "\n  ".join(problems), problems=problems)
     try:
-        p = DriveParams.model_validate(params)
+        p = DriveParams.model_validate(table)
     except ValidationError as e:
         lines = format_errors(e, ("drive",), DriveParams)
         raise ScenarioError("invalid [drive] table:\n  " + "\n  ".join(lines), problems=lines) from None
@@ -104,9 +129,7 @@ def make_controller(type: str, /, *, drive: DCMotorDrive | None = None, mechanis
     mjbench.errors.ScenarioError
         Unknown type or keys, invalid values (every problem listed).
     """
-    import controllers
-
-    ctrl: Controller = _built(lambda: controllers.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
+    ctrl: Controller = _built(lambda: control.REGISTRY.from_dict({"type": type, **params}, drive=drive, mechanism=mechanism),
                               f"make_controller({type!r})")
     return ctrl
 

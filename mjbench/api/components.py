@@ -9,6 +9,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from .. import control
+from ..errors import ParameterError
+from .. import drives
+from .. import mechanisms
+from ..registry import entry_points
+from ..tune import declared_specs
+
 #: the kinds of components, in listing order
 KINDS = ("mechanism", "controller", "drive")
 
@@ -56,7 +63,6 @@ def list_components(kind: str | None = None) -> list[ComponentType]:
     -------
     list of ComponentType
     """
-    from ..errors import ParameterError
 
     if kind is not None and kind not in KINDS:
         raise ParameterError(f"list_components: kind = {kind!r}: choose one of {', '.join(KINDS)}")
@@ -70,20 +76,15 @@ def list_components(kind: str | None = None) -> list[ComponentType]:
 
 def _registry(kind: str) -> Any:
     if kind == "mechanism":
-        from .. import mechanisms
 
         return mechanisms.REGISTRY
     if kind == "controller":
-        import controllers
-
-        return controllers.REGISTRY
-    from .. import drives
+        return control.REGISTRY
 
     return drives.REGISTRY
 
 
 def _describe(kind: str, reg: Any, name: str) -> ComponentType:
-    from ..registry import entry_points
 
     cls = reg.get(name)
     source = f"{cls.__module__}.{cls.__qualname__}"
@@ -96,7 +97,6 @@ def _describe(kind: str, reg: Any, name: str) -> ComponentType:
         origin = "registered"
     tunable: dict[str, tuple[str, ...]] = {}
     if kind == "controller":
-        from ..tune import declared_specs
 
         tunable = {t: spec.params for t, spec in declared_specs(cls).items()}
     return ComponentType(kind, name, origin, source, tunable)

@@ -14,6 +14,14 @@ from ..errors import MjbenchError, ParameterError
 from .results import require_pandas
 from .scenarios import Scenario, as_scenario, source_name
 from .simulation import seconds
+from .. import sweep as SW
+from .. import tune as T
+from .. import plots as P
+from ..plotstyle import new
+from ..tune import Problem
+from ..tune import constraint_status
+from ..tune import report
+from ..outputs import staged_dir, write_json
 
 if TYPE_CHECKING:
     import pandas
@@ -107,7 +115,6 @@ def parameter_sweep(scenario: Scenario | str | os.PathLike[str] | Mapping[str, A
     -------
     SweepResult
     """
-    from .. import sweep as SW
 
     if isinstance(scenario, Mapping):
         scenario = as_scenario(scenario)
@@ -185,13 +192,19 @@ def _folder(out: str | os.PathLike[str] | None) -> Any:
 
 def _grid(grid: Mapping[str, Any]) -> dict[str, list[Any]]:
     """{key: values} with the CLI's checks (text values parsed as ``--grid``)."""
-    from .. import sweep as SW
 
     out: dict[str, list[Any]] = {}
+    if not isinstance(grid, Mapping):
+        raise ParameterError(f"grid = {grid!r}: expected a mapping {{key: [values]}}, e.g. {{'drive.R': [1.5, 2.0]}}")
     for key, vals in grid.items():
+        if not isinstance(key, str):
+            raise ParameterError(f"grid key {key!r}: expected a dotted scenario key (str), e.g. 'drive.R'")
         if isinstance(vals, str):
             out.update(SW.parse_grid([f"{key}={vals}"]))
             continue
+        if isinstance(vals, Mapping) or not hasattr(vals, "__iter__"):
+            raise ParameterError(f"grid[{key!r}] = {vals!r}: expected a list of values, e.g. [{vals!r}] for one "
+                                 f"value, or the CLI's text '1.5,2,2.5'")
         vals = list(vals.tolist() if hasattr(vals, "tolist") else vals)
         if not vals:
             raise ParameterError(f"grid[{key!r}]: no values")
@@ -211,8 +224,13 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _perturb(perturb: Mapping[str, float | str]) -> dict[str, float]:
-    from .. import sweep as SW
 
+    if not isinstance(perturb, Mapping):
+        raise ParameterError(f"perturb = {perturb!r}: expected a mapping {{key: relative half-width}}, e.g. "
+                             f"{{'drive.R': 0.05}}")
+    for k, v in perturb.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+            raise ParameterError(f"perturb[{k!r}] = {v!r}: expected a relative half-width (0.05 or '5%')")
     return dict(SW.parse_perturb([f"{k}={v if isinstance(v, str) else repr(float(v))}" for k, v in perturb.items()]))
 
 
@@ -257,14 +275,12 @@ class TuneResult:
     @property
     def violated(self) -> list[str]:
         """The ``margins`` the tuned gains violate (one text each), empty when feasible."""
-        from ..tune import constraint_status
 
         return list(constraint_status(self.result)[0])
 
     @property
     def limits_exceeded(self) -> list[str]:
         """The peak-voltage/current limits the tuned gains exceed (a penalty, not a hard limit)."""
-        from ..tune import constraint_status
 
         return list(constraint_status(self.result)[1])
 
@@ -275,7 +291,6 @@ class TuneResult:
 
     def report(self) -> str:
         """The text ``mjbench tune`` prints."""
-        from ..tune import report
 
         return str(report(self.result))
 
@@ -292,7 +307,6 @@ class TuneResult:
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``tune.json`` and ``tune_speed.png`` (scenario vs tuned gains, multibody) into the
         folder ``path``, whole or not at all (``mjbench tune --out``)."""
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "tune.json"), self.to_dict(), indent=1)
@@ -346,7 +360,6 @@ def tune_gains(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any], 
     TuneResult
         ``best`` gains, ``validation`` metrics, ``feasible``, ``report()``, ``save(dir)``.
     """
-    from .. import tune as T
 
     scn = as_scenario(scenario)
     _check_tune_args(T, controller, objective, limits, bounds, margin_mode)
@@ -378,15 +391,12 @@ def _check_tune_args(T: Any, controller: str, objective: str, limits: Mapping[st
 
 def speed_figure(res: TuneResult, path: str) -> None:
     """Motor speed, voltage and current of the scenario's and the tuned gains (multibody)."""
-    import matplotlib.pyplot as plt
     import numpy as np
 
-    from .. import plots as P
-    from ..tune import Problem
 
     r = res.result
     prob = Problem(res.scenario.spec, r.controller, r.objective, r.limits)  # (no margins: only the runs are drawn)
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    fig, axes = new(3, 1, figsize=(7, 8), sharex=True)
     for label, gains, st in (("scenario controller", r.baseline, dict(color="tab:gray")),
                              (f"tuned {r.controller}", r.best, dict(color="tab:blue"))):
         try:
@@ -399,10 +409,10 @@ def speed_figure(res: TuneResult, path: str) -> None:
     if prob.window:
         for ax in axes:
             ax.axvspan(*prob.window, color="tab:orange", alpha=0.12)
-    axes[0].set_ylabel("motor speed [rad/s]")
-    axes[1].set_ylabel("voltage [V]")
-    axes[2].set_ylabel("current [A]")
-    axes[2].set_xlabel("t [s]")
+    axes[0].set_ylabel("motor speed φ̇ [rad/s]")
+    axes[1].set_ylabel("armature voltage V_a [V]")
+    axes[2].set_ylabel("armature current I [A]")
+    axes[2].set_xlabel("time t [s]")
     axes[0].legend()
     axes[0].set_title(f"{r.controller}: {r.objective} {r.validation['baseline']['objective']:.4g} → "
                       f"{r.validation['tuned']['objective']:.4g}")

@@ -18,6 +18,11 @@ from ..machine import Machine
 from .results import require_pandas
 from .scenarios import Scenario, as_scenario
 from .simulation import MACHINE_DT, machine_options, seconds
+from .. import runner
+from ..linear import StepReference
+from ..linear import operating_point
+from .. import linear as LN
+from ..plotstyle import new
 
 if TYPE_CHECKING:
     import pandas
@@ -37,7 +42,6 @@ def _machine(target: Target, mode: str | None, dt: float | str | None,
         return target, h, machine_options(h, options)
     if options is not None:
         raise ParameterError("options are a machine's; a scenario has its [multibody] and [reduced] tables")
-    from .. import runner
 
     scn = as_scenario(target)
     if dt is not None:
@@ -59,7 +63,6 @@ def _hold_offset(machine: Machine, op: Any) -> float:
 def _held_machine(machine: Machine, op: Any, q_ref: float, h: float) -> Machine:
     """``machine`` at rest at the operating point, its controller's reference fixed at ``q_ref``
     (input side, speed 0): the controller holds it there."""
-    from ..linear import StepReference
 
     ctrl: Any = copy.copy(machine.controller)
     ctrl.reference = StepReference(float(machine.drive.z), q_ref, 0.0, 0.0, 0.0, 0.0, h)
@@ -145,7 +148,6 @@ def hold_point(target: Target, mode: str | None = None, *, q: float | None = Non
     """
     from scipy.optimize import brentq
 
-    from ..linear import operating_point
 
     if q is not None and q_ref is not None:
         raise ParameterError("hold_point: give q (the angle to hold) or q_ref (the reference angle), not both")
@@ -226,18 +228,16 @@ class StepCheck:
 
     def plot(self) -> Figure:
         """Angle and speed deviations, simulated (solid) and linear (dashed); returns the Figure."""
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-        for a, sim, lin, name in ((ax[0], self.q_sim, self.q_lin, "δq [rad]"), (ax[1], self.qd_sim, self.qd_lin,
-                                                                                   "δq̇ [rad/s]")):
+        fig: Figure
+        fig, ax = new(2, 1, sharex=True, figsize=(7, 5))
+        for a, sim, lin, name in ((ax[0], self.q_sim, self.q_lin, "crank angle deviation δq [rad]"),
+                                  (ax[1], self.qd_sim, self.qd_lin, "crank speed deviation δq̇ [rad/s]")):
             a.plot(self.t, sim, label=f"simulated ({self.backend})")
             a.plot(self.t, lin, "--", label="linear closed loop")
             a.set_ylabel(name)
             a.grid(True, alpha=0.3)
         ax[0].legend(fontsize=8)
-        ax[1].set_xlabel("t [s]")
-        fig.tight_layout()
+        ax[1].set_xlabel("time t [s]")
         return fig
 
 
@@ -277,7 +277,6 @@ def step_check(target: Target, mode: str | None = None, *, q: float | None = Non
         ``t``, ``q_sim``, ``q_lin``, ``qd_sim``, ``qd_lin``, ``q_rel_error``, ``qd_rel_error``,
         ``summary()``, ``to_pandas()``, ``plot()``.
     """
-    from .. import linear as LN
 
     if backend not in ("multibody", "reduced"):
         raise ParameterError(f"step_check: backend = {backend!r}: choose multibody or reduced")

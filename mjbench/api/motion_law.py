@@ -10,6 +10,10 @@ from typing import Any
 import numpy as np
 
 from .scenarios import Scenario, as_scenario, warn
+from .. import vibration
+from ..motionlaws import solve_coefficients
+from ..outputs import staged_dir, write_json
+from .. import papers
 
 
 class LawOptimization:
@@ -50,7 +54,6 @@ class LawOptimization:
              what: str = "save") -> Path:
         """Write ``optimize_law.json`` and (``plots``) the figures into the folder ``path``, whole
         or not at all (``mjbench optimize-law --out``)."""
-        from ..outputs import staged_dir, write_json
 
         final = os.path.abspath(os.fspath(path))
         with staged_dir(path, force=force, what=what) as out:
@@ -83,8 +86,6 @@ def optimize_motion_law(scenario: Scenario | str | os.PathLike[str] | Mapping[st
     LawOptimization
         ``report`` (optimize_law.json), ``summary()``, ``warnings``, ``save(dir)``.
     """
-    from .. import vibration
-    from ..motionlaws import solve_coefficients
 
     scn = as_scenario(scenario)
     if progress:
@@ -182,7 +183,7 @@ def law_summary(scn: Scenario, rep: dict[str, Any], osc: Any) -> str:
 
 def law_figures(name: str, rep: dict[str, Any], obj: dict[str, Any], out: str) -> dict[str, str]:
     """The figures of an optimisation in ``out`` → {key: path}."""
-    from ..papers import incerti_platforms_plots as pv
+    pv = papers.incerti_platforms_plots  # (matplotlib: loaded on first use)
 
     laws, ta, osc = obj["laws"], obj["t_after"], obj["osc"]
     files = {"response": pv.fig_energy_response(laws["initial"], laws["optimised"], osc,

@@ -11,6 +11,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import ParameterError
+from .. import identify as ID
+from ..identify import drive_table
+from ..identify import report
+from ..identify import plot
+from ..outputs import staged_dir, write_json
 
 
 class MotorFit:
@@ -44,13 +49,11 @@ class MotorFit:
     @property
     def drive(self) -> dict[str, float]:
         """The values as a scenario's ``[drive]`` keys (R, L, k_m, J_m, lam, T_0)."""
-        from ..identify import drive_table
 
         return dict(drive_table(self.data))
 
     def report(self, truth: Mapping[str, float] | None = None) -> str:
         """The table ``mjbench identify`` prints (``truth``: known values, their errors shown)."""
-        from ..identify import report
 
         return str(report(self.data, dict(truth) if truth else None))
 
@@ -64,8 +67,6 @@ class MotorFit:
     def save(self, path: str | os.PathLike[str], *, force: bool = False, what: str = "save") -> Path:
         """Write ``identify.json`` and ``identify_fit.png`` into the folder ``path``, whole or not
         at all (``mjbench identify --out``)."""
-        from ..identify import plot
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as out:
             write_json(os.path.join(out, "identify.json"), self.to_dict(), indent=1)
@@ -102,7 +103,6 @@ def identify_motor(data: str | os.PathLike[str] | Mapping[str, Any], *, fix: Map
     MotorFit
         ``values``, ``params`` (with CIs), ``drive`` (scenario keys), ``report()``, ``save(dir)``.
     """
-    from .. import identify as ID
 
     if isinstance(data, (str, os.PathLike)):
         rec = ID.read_record(os.fspath(data), option="data")

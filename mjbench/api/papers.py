@@ -8,12 +8,15 @@ from pathlib import Path
 from typing import Any
 
 from .scenarios import warn
+from .. import reproduce as R
+from .. import render
+from ..outputs import staged_dir
+from .video import check_frame
 
 
 def paper_cases() -> list[Any]:
     """The registered paper cases (``mjbench reproduce --list``): ``.name``, ``.paper``,
     ``.scenario``, ``.kind``, ``.modes``, ``.title``."""
-    from .. import reproduce as R
 
     return list(R.load_cases())
 
@@ -50,10 +53,6 @@ def reproduce_papers(path: str | os.PathLike[str], case: str = "all", *, quick: 
     list of dict
         Each case's results (what its ``metrics.json`` holds).
     """
-    from .. import render
-    from .. import reproduce as R
-    from ..outputs import staged_dir
-    from .video import check_frame
 
     R.select(R.load_cases(), case)  # an unknown case name: an error before anything is written
     if video:

@@ -11,6 +11,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
+from ..plotstyle import BACKEND, finish, new
+from ..plausibility import warnings_of
+from ..runner import summary_text
+from .. import runner
+from ..outputs import staged_dir, write_json
+from ..trajectory import NAMES as COLUMN_NAMES
+from ..trajectory import column_label
 
 if TYPE_CHECKING:
     import pandas
@@ -22,6 +29,9 @@ if TYPE_CHECKING:
 
 #: columns :meth:`Result.plot` draws by default
 PLOT_COLUMNS = ("motor_speed_rad_s", "voltage_V", "current_A")
+#: the recorded columns that are the machine's inputs (:attr:`Run.inputs`)
+INPUT_COLUMNS = ("voltage_V",)
+
 
 
 def require_pandas() -> Any:
@@ -86,6 +96,45 @@ class Run:
         """Names of the rows of :attr:`outputs`."""
         return list(self.columns[1:])
 
+    @property
+    def input_labels(self) -> list[str]:
+        """Names of the rows of :attr:`inputs`: ``["voltage_V"]``, the armature voltage the
+        amplifier applied (after the limiter), for a DC motor; ``[]`` for an ideal torque or speed
+        source, whose command is not a recorded column."""
+        return [c for c in INPUT_COLUMNS if c in self.columns and not np.all(np.isnan(self[c]))]
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """The machine's input signals, shape (len(input_labels), n) (python-control's layout)."""
+        return self._rows(self.input_labels)
+
+    @property
+    def state_labels(self) -> list[str]:
+        """Names of the rows of :attr:`states`: the mechanism's coordinate and rate
+        (``crank_angle_rad``, ``crank_speed_rad_s``), its internal coordinates and rates when it has
+        any (a platform's ``deflection_rad``, ``deflection_rate_rad_s``), and the DC motor's armature
+        current ``current_A`` (not for an ideal drive, which has no electrical state).  A
+        controller's own state is not recorded."""
+        cols = list(self.columns)
+        core = set(COLUMN_NAMES)
+        internal = [c for c in cols[len(COLUMN_NAMES):] if c not in core and not c.startswith("joint_")
+                    and (c.endswith("_rate_rad_s") and c[:-len("_rate_rad_s")] + "_rad" in cols
+                         or c.endswith("_rad") and c[:-len("_rad")] + "_rate_rad_s" in cols)]
+        out = ["crank_angle_rad", "crank_speed_rad_s"] + internal
+        if "current_A" in cols and not np.all(np.isnan(self["current_A"])):
+            out.append("current_A")
+        return out
+
+    @property
+    def states(self) -> np.ndarray:
+        """The machine's recorded states, shape (len(state_labels), n) (python-control's layout)."""
+        return self._rows(self.state_labels)
+
+    def _rows(self, labels: list[str]) -> np.ndarray:
+        if not labels:
+            return np.empty((0, len(self)))
+        return np.vstack([self[c] for c in labels])
+
     def __getitem__(self, name: str) -> np.ndarray:
         """Column ``name`` (e.g. ``"crank_speed_rad_s"``), shape (n,); KeyError lists the columns."""
         return np.asarray(self.trajectory[name])
@@ -102,7 +151,9 @@ class Run:
         return pd.DataFrame(self.data, columns=list(self.columns))
 
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
-        """One panel per column against time; returns the matplotlib Figure."""
+        """One panel per column against time, labelled with its quantity and unit; returns the
+        matplotlib Figure (:class:`mjbench.plotstyle.Figure`: not pyplot's, so a notebook shows it
+        once and the user's matplotlib backend is left alone; ``fig.savefig(path)`` saves it)."""
         return plot_runs([self], columns)
 
 
@@ -151,6 +202,14 @@ class Result:
         """Sample times [s] of :attr:`primary`, shape (n,) (both backends record the same times)."""
         return self.primary.time
 
+    # python-control's TimeResponseData names, of the primary run (the multibody one when it ran)
+    outputs = property(lambda self: self.primary.outputs, doc="outputs of :attr:`primary`, shape (ncols - 1, n)")
+    output_labels = property(lambda self: self.primary.output_labels, doc="names of the rows of outputs")
+    inputs = property(lambda self: self.primary.inputs, doc="inputs of :attr:`primary` (:attr:`Run.inputs`)")
+    input_labels = property(lambda self: self.primary.input_labels, doc="names of the rows of inputs")
+    states = property(lambda self: self.primary.states, doc="states of :attr:`primary` (:attr:`Run.states`)")
+    state_labels = property(lambda self: self.primary.state_labels, doc="names of the rows of states")
+
     def column(self, name: str, backend: str | None = None) -> np.ndarray:
         """Column ``name`` of ``backend`` (default :attr:`primary`), shape (n,)."""
         return self[backend][name] if backend else self.primary[name]
@@ -166,14 +225,12 @@ class Result:
     def warnings(self) -> list[str]:
         """The plausibility warnings ``mjbench run`` prints (backends disagree, reduced model
         differs from MuJoCo's, step too coarse); empty when the run is plausible."""
-        from ..plausibility import warnings_of
 
         return list(warnings_of(self.metrics))
 
     def summary(self) -> str:
         """The text ``mjbench run`` prints: mean speed, χ, peaks, backend difference, verdicts.
         A machine built in code is named by what it is made of (its first line)."""
-        from ..runner import summary_text
 
         text = str(summary_text({"scenario": self.scenario.name if self.scenario else "(machine)",
                                  "mode": self.mode, **self.metrics}))
@@ -208,7 +265,8 @@ class Result:
 
     def plot(self, columns: Sequence[str] = PLOT_COLUMNS) -> Figure:
         """One panel per column against time, every backend drawn (multibody solid, reduced
-        dashed); returns the matplotlib Figure."""
+        dashed), labelled with its quantity and unit; returns the matplotlib Figure
+        (:class:`mjbench.plotstyle.Figure`: shown once in a notebook, the backend left alone)."""
         return plot_runs(list(self.runs.values()), columns,
                          title=f"{self.scenario.name} — {self.mode}" if self.scenario else machine_label(self.machine))
 
@@ -234,8 +292,6 @@ class Result:
         mjbench.outputs.OutputError
             The folder cannot be used or written (the message names it).
         """
-        from .. import runner
-        from ..outputs import staged_dir, write_json
 
         with staged_dir(path, force=force, what=what) as tmp:
             if self.scenario is not None and self.mode is not None:
@@ -273,24 +329,19 @@ def machine_label(machine: Machine | None) -> str:
 
 def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> Figure:
     """Panels of ``columns`` against time for every run (the backends' line styles)."""
-    import matplotlib.pyplot as plt
-
-    from ..plotstyle import BACKEND
 
     if isinstance(columns, str):
         columns = [columns]
     for c in columns:
         if c not in runs[0].columns:
             raise ParameterError(f"plot: {c!r} is not a column; columns: {', '.join(runs[0].columns)}")
-    fig, axes = plt.subplots(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
+    fig, axes = new(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
     for ax, c in zip(axes[:, 0], columns):
         for r in runs:
             ax.plot(r.time, r[c], **BACKEND.get(r.backend, dict(label=r.backend)))
-        ax.set_ylabel(c)
+        ax.set_ylabel(column_label(c))
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
-    axes[-1, 0].set_xlabel("t_s")
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return fig
+    axes[-1, 0].set_xlabel(column_label("t_s"))
+    out: Figure = finish(fig, title)
+    return out

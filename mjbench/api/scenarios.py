@@ -11,7 +11,12 @@ import warnings
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any, Union
 
+from .. import api  # the API's face: its functions are loaded on first use (mjbench/api/__init__.py)
 from ..errors import ParameterError
+from .. import scenario as S
+from ..outputs import OutputError
+from ..scenario import parse_value
+from ..preflight import check_machine
 
 if TYPE_CHECKING:
     from ..machine import Machine
@@ -131,7 +136,6 @@ class Scenario:
 
     def machine(self, mode: str | None = None) -> Machine:
         """The :class:`~mjbench.Machine` (mechanism + drive + controller) of ``mode``."""
-        from .. import scenario as S
 
         machine: Machine = S.make_machine(self.spec, self.mode(mode))
         return machine
@@ -139,7 +143,6 @@ class Scenario:
     def check(self, mode: str | None = None) -> None:
         """Build the machine of ``mode`` once (milliseconds): a geometry that cannot assemble or a
         controller that cannot be built raises a readable :class:`~mjbench.errors.MjbenchError`."""
-        from ..preflight import check_machine
 
         check_machine(self.spec, self.mode(mode))
 
@@ -147,39 +150,27 @@ class Scenario:
     def simulate(self, mode: str | None = None, backend: str | None = None, t_end: float | str | None = None,
                  **kw: Any) -> Result:
         """Simulate this scenario: :func:`mjbench.simulate` (same arguments)."""
-        from .simulation import simulate
-
-        return simulate(self, mode, backend, t_end, **kw)
+        return api.simulate(self, mode, backend, t_end, **kw)
 
     def sweep(self, grid: Mapping[str, Any] | None = None, **kw: Any) -> SweepResult:
         """Sweep scenario keys: :func:`mjbench.parameter_sweep` (same arguments)."""
-        from .design_loops import parameter_sweep
-
-        return parameter_sweep(self, grid, **kw)
+        return api.parameter_sweep(self, grid, **kw)
 
     def tune(self, controller: str = "pid-tv", objective: str = "chi", **kw: Any) -> TuneResult:
         """Tune the controller's gains: :func:`mjbench.tune_gains` (same arguments)."""
-        from .design_loops import tune_gains
-
-        return tune_gains(self, controller, objective, **kw)
+        return api.tune_gains(self, controller, objective, **kw)
 
     def linearize(self, mode: str | None = None, **kw: Any) -> LinearResult:
         """Linear model, loop and margins: :func:`mjbench.linearize` (same arguments)."""
-        from .analysis import linearize
-
-        return linearize(self, mode, **kw)
+        return api.linearize(self, mode, **kw)
 
     def analyze(self, speeds: Iterable[float | str] | None = None, **kw: Any) -> Analysis:
         """Revolution analysis of the mechanism: :func:`mjbench.analyze_mechanism`."""
-        from .analysis import analyze_mechanism
-
-        return analyze_mechanism(self, speeds, **kw)
+        return api.analyze_mechanism(self, speeds, **kw)
 
     def render(self, path: str | os.PathLike[str], **kw: Any) -> dict[str, Any]:
         """Video of a multibody run: :func:`mjbench.render_video` (same arguments)."""
-        from .video import render_video
-
-        return render_video(self, path, **kw)
+        return api.render_video(self, path, **kw)
 
 
 # ====================================================================== loading
@@ -216,7 +207,6 @@ def load(source: Source, overrides: Iterable[str] | str = (), /, **values: Any) 
     MjbenchWarning
         For each value outside its plausible range (a likely unit slip).
     """
-    from .. import scenario as S
 
     items = [overrides] if isinstance(overrides, str) else list(overrides)
     items += [f"{k}={set_text(k, v)}" for k, v in values.items()]
@@ -252,7 +242,6 @@ def _manifest_defaults(path: str) -> dict[str, Any]:
 
 def list_scenarios() -> list[str]:
     """Names of the scenarios shipped with mjbench (``mjbench list`` shows their modes)."""
-    from .. import scenario as S
 
     return list(S.builtin_names())
 
@@ -336,7 +325,6 @@ def _table_list(v: Any) -> bool:
 def write_text(path: str | os.PathLike[str], text: str, force: bool = False) -> None:
     """Write a text file whole (a temporary file renamed over it); refuse to replace one unless
     ``force``."""
-    from ..outputs import OutputError
 
     p = os.fspath(path)
     if os.path.isdir(p):
@@ -361,7 +349,6 @@ def write_text(path: str | os.PathLike[str], text: str, force: bool = False) -> 
 def set_text(key: str, value: Any) -> str:
     """``value`` as the ``--set`` text that reads back as the same value (so that a scenario's
     ``overrides`` and ``manifest.json`` record keyword values exactly like ``--set`` items)."""
-    from ..scenario import parse_value
 
     text = _toml(value, top=True)
     want = _plain(value)
@@ -384,7 +371,6 @@ def _plain(value: Any) -> Any:
 
 
 def _toml(value: Any, top: bool = False) -> str:
-    from ..scenario import parse_value
 
     value = _plain(value)
     if isinstance(value, bool):

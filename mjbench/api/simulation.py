@@ -2,14 +2,23 @@
 on the multibody backend (MuJoCo), the reduced J(α) model, or both."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..errors import ParameterError
+from ..control import FunctionController
 from ..machine import Machine
 from .results import Result, Run
 from .scenarios import Scenario, as_scenario, warn
+from .. import units as U
+from .. import runner
+from ..preflight import simulation_errors
+from ..errors import ScenarioError
+from ..schema import MultibodyOptions, ReducedOptions, format_errors
+from ..backends import simulate as run_backend
+from ..backends import simulate_many as run_many
 
 #: co-step [s] and record interval [s] of a machine built in code (a scenario's defaults)
 MACHINE_DT, MACHINE_RECORD_DT = 1e-4, 1e-3
@@ -17,7 +26,6 @@ MACHINE_DT, MACHINE_RECORD_DT = 1e-4, 1e-3
 
 def seconds(value: float | str, name: str, allow_zero: bool = False) -> float:
     """A time argument [s]: a number (SI) or a string with a unit ("500 ms"), finite and > 0."""
-    from .. import units as U
 
     try:
         x = float(value) if not isinstance(value, str) else _to_seconds(value)
@@ -29,7 +37,6 @@ def seconds(value: float | str, name: str, allow_zero: bool = False) -> float:
 
 
 def _to_seconds(text: str) -> float:
-    from .. import units as U
 
     try:
         return float(text)
@@ -40,7 +47,7 @@ def _to_seconds(text: str) -> float:
 def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, backend: str | None = None,
              t_end: float | str | None = None, *, record_dt: float | str | None = None,
              dt: float | str | None = None, progress: bool = False, check: bool = True,
-             options: Mapping[str, Mapping[str, Any]] | None = None) -> Result:
+             options: Mapping[str, Mapping[str, Any]] | None = None, controller: Any = None) -> Result:
     """Simulate a scenario (or a machine built in code) on one backend or both.
 
     Parameters
@@ -68,6 +75,13 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
         scenario's ``[multibody]`` (``integrator``, ``iterations``, ``tolerance``, ``solref``,
         ``solimp``) and ``[reduced]`` tables (``model``, ``method``, ``rtol``, ``atol``); their
         defaults are a scenario's.  A scenario has its own tables (set them with :func:`load`).
+    controller : callable or controller object, optional
+        Replaces the mode's controller (a scenario): a plain function ``f(t, y) -> u`` of the time
+        [s] and ``y``, a mapping of the trajectory's column names (``crank_speed_rad_s``,
+        ``current_A`` …) and the kernel's signal names to their present values, returning the
+        drive's command (volts for a DC motor), called every co-step; or a controller object
+        (:func:`make_controller`); several axes: one per axis.  A function runs the CPython loop
+        (``Run.meta["loop_reason"]`` says so); the manifest records it (``metrics["controller"]``).
 
     Returns
     -------
@@ -98,8 +112,6 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
                                  h, progress, machine_options(h, options))
     if options is not None:
         raise ParameterError("simulate: options are a machine's; a scenario has its [multibody] and [reduced] tables")
-    from .. import runner
-    from ..preflight import simulation_errors
 
     scn = _with_times(as_scenario(target), record_dt, dt)
     mode = scn.mode(mode)
@@ -108,11 +120,30 @@ def simulate(target: Scenario | Machine | str | Any, mode: str | None = None, ba
     t = scn.t_end if t_end is None else seconds(t_end, "t_end")
     if check:
         scn.check(mode)
+    machine = None if controller is None else with_controller(scn.machine(mode), controller)
     with simulation_errors(scn.spec):
-        trajs, metrics = runner.simulate_mode(scn.spec, mode, backend, t, progress)
+        trajs, metrics = runner.simulate_mode(scn.spec, mode, backend, t, progress, machine=machine)
+    if machine is not None:  # what ran instead of the mode's controller (metrics.json, the manifest)
+        metrics["controller"] = [c.describe() for c, _ in machine.controllers]
     res = Result({b: Run(tr, metrics["backends"].get(b)) for b, tr in trajs.items()}, metrics, backend, mode, scn)
     warn(res.warnings)
     return res
+
+
+def with_controller(machine: Machine, controller: Any) -> Machine:
+    """``machine`` with its controller replaced by ``controller`` (:func:`simulate`): a function
+    ``f(t, y) -> u`` becomes a :class:`~mjbench.control.FunctionController`; a controller object is
+    used as it is; several axes take a sequence, one per axis."""
+    many = isinstance(controller, (list, tuple))
+    items = list(controller) if many else [controller]
+    if machine.naxes > 1 and (not many or len(items) != machine.naxes):
+        raise ParameterError(f"simulate: controller = {controller!r}: the machine has {machine.naxes} axes "
+                             f"({', '.join(machine.axis_labels)}); give one controller per axis (a list)")
+    if machine.naxes == 1 and many:
+        raise ParameterError(f"simulate: controller = a list of {len(items)}: the machine has one axis; give one "
+                             f"function or controller")
+    built = [c if callable(getattr(c, "reset", None)) and callable(c) else FunctionController(c) for c in items]
+    return dataclasses.replace(machine, controller=built if many else built[0])
 
 
 def _with_times(scn: Scenario, record_dt: float | str | None, dt: float | str | None) -> Scenario:
@@ -129,8 +160,6 @@ def machine_options(dt: float, options: Mapping[str, Mapping[str, Any]] | None =
     ``[reduced]``) with ``options`` {backend: {key: value}} validated by the same schema."""
     from pydantic import ValidationError
 
-    from ..errors import ScenarioError
-    from ..schema import MultibodyOptions, ReducedOptions, format_errors
 
     given = dict(options or {})
     for b in given:
@@ -148,8 +177,6 @@ def machine_options(dt: float, options: Mapping[str, Mapping[str, Any]] | None =
 
 def _simulate_machine(machine: Machine, backend: str, t_end: float, record_dt: float, dt: float,
                       progress: bool, options: dict[str, dict[str, Any]]) -> Result:
-    from .. import runner
-    from ..backends import simulate as run_backend
 
     trajs = {}
     for b in runner.backends_of(backend):
@@ -166,7 +193,6 @@ def machine_metrics(trajs: dict[str, Any], machine: Machine, options: dict[str, 
     """Metrics of runs of a machine built in code: the one metrics path of scenarios
     (:func:`mjbench.runner.run_metrics`: the controller's families and the reduced-model check
     included) with the default ``[metrics]`` settings."""
-    from .. import runner
 
     return runner.run_metrics(machine, trajs, None, options)
 
@@ -222,7 +248,6 @@ def simulate_many(targets: Sequence[Scenario | Machine | str | Any], backend: st
         In the order of ``targets``.  A run that diverged does not stop the others: its
         ``Result.metrics["diverged"]`` holds {backend: message} and its record ends there.
     """
-    from .. import runner
 
     if not targets:
         raise ParameterError("simulate_many: no targets")
@@ -244,8 +269,6 @@ def simulate_many(targets: Sequence[Scenario | Machine | str | Any], backend: st
 
 def _many_scenarios(scns: list[Scenario], backends: tuple, backend: str, mode: str | None,
                     t_end: float | str | None, threads: int, progress: bool) -> list[Result]:
-    from .. import runner
-    from ..preflight import simulation_errors
 
     first = scns[0]
     t = first.t_end if t_end is None else seconds(t_end, "t_end")
@@ -296,7 +319,6 @@ def _many_machines(machines: list[Machine], backends: tuple, backend: str, t_end
 def _batch(machines: list[Machine], backend: str, t_end: float, record_dt: float, options: dict[str, Any],
            threads: int, progress: bool) -> list[Any]:
     """The trajectories of one batch on ``backend`` (each labelled with it)."""
-    from ..backends import simulate_many as run_many
 
     with _bar(progress, t_end / float(options.get("timestep", MACHINE_DT)), f"{backend} ×{len(machines)}") as bar:
         res = run_many(machines, backend, t_end, record_dt=record_dt, options=options, nthread=threads, progress=bar)

@@ -6,6 +6,11 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from ..errors import MjbenchError, ParameterError
+from .. import outputs
+from ..preflight import simulation_errors
+from .scenarios import as_scenario
+from .simulation import seconds
+from .. import render
 
 if TYPE_CHECKING:
     from .scenarios import Scenario
@@ -66,10 +71,6 @@ def render_video(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any]
     mjbench.render.RenderError
         No offscreen OpenGL (the message says what to install).
     """
-    from .. import outputs
-    from ..preflight import simulation_errors
-    from .scenarios import as_scenario
-    from .simulation import seconds
 
     outputs.check_out_file(path, what=what, suffixes=SUFFIXES)  # before any work
     check_frame(width, height)
@@ -77,7 +78,6 @@ def render_video(scenario: Scenario | str | os.PathLike[str] | Mapping[str, Any]
         raise ParameterError(f"fps = {fps!r}: must be > 0 and <= 240 [1/s]")
     if not (isinstance(crf, int) and 0 <= crf <= 51):
         raise ParameterError(f"crf = {crf!r}: must be an integer 0 to 51")
-    from .. import render
 
     render.gl_setup()
     scn = as_scenario(scenario)

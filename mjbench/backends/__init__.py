@@ -4,6 +4,8 @@ One run: :func:`simulate` (``multibody.simulate`` / ``reduced.simulate``).  Many
 :func:`simulate_many` (``batch.simulate`` / ``reduced_batch.simulate``), both returning a
 :class:`~mjbench.backends.batch.BatchResult` whose runs equal the single runs."""
 from . import multibody, reduced
+from ..errors import ParameterError
+from . import batch, reduced_batch
 
 BACKENDS = {"multibody": multibody.simulate, "reduced": reduced.simulate}
 #: the design loops' choices: search on the reduced model, verify on MuJoCo (docs/performance.md)
@@ -12,7 +14,6 @@ SEARCH_BACKENDS = ("reduced", "multibody")
 
 def _check(backend):
     if backend not in BACKENDS:
-        from ..errors import ParameterError
         raise ParameterError(f"backend = {backend!r}: choose one of {sorted(BACKENDS)}")
 
 
@@ -32,10 +33,8 @@ def simulate_many(machines, backend: str, t_end: float, record_dt: float = 1e-3,
     records are then not kept (``BatchResult.results`` holds what it returned)."""
     _check(backend)
     if backend == "multibody":
-        from . import batch
         return batch.simulate(list(machines), t_end, record_dt=record_dt, options=options, progress=progress,
                               loop=loop, consume=consume)
-    from . import reduced_batch
     o = {**(options or {}), "method": "rk4"}
     return reduced_batch.simulate(machines, t_end, record_dt=record_dt, options=o, progress=progress, loop=loop,
                                   consume=consume)

@@ -76,7 +76,7 @@ def build_models(machines, options=None):
     cache, models = {}, []
     for i, mc in enumerate(machines):
         k = _model_key(mc, o)
-        if getattr(mc.mechanism, "edits_model", False):  # per-step model edits (a cam): a model per run
+        if mc.mechanism.edits_model:  # per-step model edits (a cam): a model per run
             k = k + (i,)
         if k not in cache:
             cache[k] = build_model(mc, o)[1]

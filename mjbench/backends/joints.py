@@ -114,9 +114,8 @@ def reduced_table(mech, model, q0: float):
     S = (q, q̇) and its parameters as ``P.joints``) gives that Form instead of a table."""
     if mech.internal:
         return None, (), f"{type(mech).__name__} has internal coordinates: its joints depend on more than q"
-    own = getattr(mech, "joint_write_form", None)
-    if own is not None:  # the mechanism's own law for its joints (exact: e.g. a cam's program)
-        form = own(model)
+    form = mech.joint_write_form(model)
+    if form is not None:  # the mechanism's own law for its joints (exact: e.g. a cam's program)
         return form, column_names(joint_list(model)), {
             "source": f"{type(mech).__name__}'s own kinematics at every sample (its law {form.law.__name__})"}
     period = getattr(mech, "reduced_period", None)

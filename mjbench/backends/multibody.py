@@ -22,6 +22,7 @@ import numpy as np
 from .. import compiled as C
 from .. import kernel
 from ..errors import ParameterError
+from ..mechanisms.interface.forms import SitePairsP, site_pairs_closure  # noqa: F401 - the closure law's old home
 from ..trajectory import Trajectory
 from .joints import addresses, column_names, joint_list
 
@@ -54,15 +55,28 @@ def build_model(machine, options=None, native_dcmotor=False):
     input joint).  With ``native_dcmotor`` the drive is MuJoCo's ``<dcmotor>`` actuator instead."""
     o = {k: v for k, v in {**DEFAULT_OPTIONS, **(options or {})}.items() if k != "record_joints"}
     mech, drive = machine.mechanism, machine.drive
+    drives = machine.drives
     if native_dcmotor:
+        if len(drives) > 1:
+            raise ParameterError("the native <dcmotor> cross-check is one-axis only")
         spec = mech.build_spec(armature=float(drive.J_b), options=o)
         _add_dcmotor(spec, drive, mech.input_joint)
+    elif len(drives) > 1:  # one drive per input joint: its reflected inertia and viscous friction
+        spec = mech.build_spec(armature=tuple(float(d.J_eq) for d in drives), options=o)
+        for name, d in zip(input_joints(mech), drives):
+            j = spec.joint(name)
+            j.damping = [float(j.damping[0]) + float(d.crank_damping), 0.0, 0.0]
     else:
         spec = mech.build_spec(armature=float(drive.J_eq), options=o)
         j = spec.joint(drive_joint(mech))
         # the drive's reflected viscous friction adds to whatever the mechanism put on the joint
         j.damping = [float(j.damping[0]) + float(drive.crank_damping), 0.0, 0.0]
     return spec, spec.compile()
+
+
+def input_joints(mech) -> tuple:
+    """The names of the joints the drives turn, in axis order (one-axis: the input joint)."""
+    return tuple(mech.input_joints)
 
 
 def _add_dcmotor(spec, drive, joint):
@@ -108,9 +122,12 @@ class MultibodyPlant:
         self.data = mujoco.MjData(m)
         self.h = float(m.opt.timestep)
         mech = machine.mechanism
-        jnt = m.joint(mech.input_joint)
-        self._qa, self._va = int(jnt.qposadr[0]), int(jnt.dofadr[0])
-        self._vd = int(m.joint(drive_joint(mech)).dofadr[0])  # where the drive torque acts
+        names = input_joints(mech)
+        self._qa = np.array([int(m.joint(nm).qposadr[0]) for nm in names], dtype=np.int64)
+        self._va = np.array([int(m.joint(nm).dofadr[0]) for nm in names], dtype=np.int64)
+        # where each drive's torque acts (a compliant gear, one axis: the motor's own hinge)
+        dj = (drive_joint(mech),) if len(names) == 1 else names
+        self._vd = np.array([int(m.joint(nm).dofadr[0]) for nm in dj], dtype=np.int64)
         # [simulation] record_joints: every hinge/slide's qpos and qvel after the internal coordinates
         self._joints = joint_list(m) if o.get("record_joints") else []
         self.extra_columns = _extra_names(mech) + column_names(self._joints)
@@ -197,21 +214,23 @@ def _motor_offset(P, q, qd):
 
 @C.law
 def mujoco_read(P, S, QO):
-    """The state (q, q̇, δ, δ̇) of the input coordinate into ``QO[0:4]`` (δ: a compliant gear's
-    motor offset, else 0)."""
-    q = P.qpos[P.qa]
-    qd = P.qvel[P.va]
-    dm, dmd = _motor_offset(P, q, qd)
-    QO[0] = q
-    QO[1] = qd
-    QO[2] = dm
-    QO[3] = dmd
+    """The state (q, q̇, δ, δ̇) of every input coordinate into ``QO[4a:4a+4]`` (δ: a compliant
+    gear's motor offset, else 0)."""
+    for a in range(len(P.qa)):
+        q = P.qpos[P.qa[a]]
+        qd = P.qvel[P.va[a]]
+        dm, dmd = _motor_offset(P, q, qd)
+        QO[4 * a] = q
+        QO[4 * a + 1] = qd
+        QO[4 * a + 2] = dm
+        QO[4 * a + 3] = dmd
 
 
 @C.law
 def mujoco_step(TAU, t, P, S, QO):
-    """The held drive torque on its dof, one ``mj_step``; the state at the step's end into ``QO``."""
-    P.qfrc[P.vd] = TAU[0]
+    """Every axis's held drive torque on its dof, one ``mj_step``; the state at the step's end into ``QO``."""
+    for a in range(len(P.vd)):
+        P.qfrc[P.vd[a]] = TAU[a]
     mj_step_at(P.step, P.m, P.d)
     mujoco_read(P, S, QO)
 
@@ -220,7 +239,8 @@ def mujoco_step(TAU, t, P, S, QO):
 def mujoco_step_load(LOAD, TAU, t, P, S, QO):
     """:func:`mujoco_step` with the mechanism's own loads written first (``LOAD(t, P_load)``, which
     adds to the drive torque on the input dof)."""
-    P.qfrc[P.vd] = TAU[0]
+    for a in range(len(P.vd)):
+        P.qfrc[P.vd[a]] = TAU[a]
     LOAD(t, P.load)
     mj_step_at(P.step, P.m, P.d)
     mujoco_read(P, S, QO)
@@ -252,22 +272,6 @@ def mujoco_write(out, b, P, S):
         out[c + 2 * k + 1] = P.qvel[P.jv[k]]
 
 
-@C.law
-def site_pairs_closure(P, S):
-    """The loop-closure residual [m]: the largest |component| of the offsets between the two sites
-    of every ``connect`` equality (``P.closure.sx`` the flat ``site_xpos``, ``.pairs`` flat index
-    pairs; ``P``: the MuJoCo plant's parameters)."""
-    r = 0.0
-    sx = P.closure.sx
-    pairs = P.closure.pairs
-    for p in range(len(pairs)):
-        v = abs(sx[pairs[p, 0]] - sx[pairs[p, 1]])
-        if v > r:
-            r = v
-    return r
-
-
-SitePairsP = namedtuple("SitePairsP", "sx pairs")
 
 
 def _python_internal(plant):

@@ -41,9 +41,14 @@ from .. import compiled as C
 from .. import kernel
 from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
+from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
 from .joints import table_joints
 from .multibody import _extra_names
+from .table import composing
+from .joints import reduced_table
+from .multibody import build_model
+from ..mechanisms.base import _closed_model
 
 
 #: co-steps from which a reduced run pays for loading the compiled loop (≈ 0.21 s of start-up against
@@ -69,8 +74,10 @@ class ReducedPlant:
         set_step = getattr(mech, "set_step", None)
         if set_step is not None:  # step-dependent parts of the model (friction regularisation)
             set_step(self.h)
-        self._Ja = float(drive.J_eq)
-        self._c = float(drive.crank_damping)
+        self._n = len(machine.drives)
+        self._Ja = float(drive.J_eq) if self._n == 1 else np.array([float(d.J_eq) for d in machine.drives])
+        self._c = float(drive.crank_damping) if self._n == 1 else np.array([float(d.crank_damping)
+                                                                             for d in machine.drives])
         self._nx = len(mech.internal)
         self.extra_columns = _extra_names(mech)
         self.meta = {"method": method, "model": "closed"}
@@ -85,6 +92,11 @@ class ReducedPlant:
     # ------------------------------------------------------------------ protocol
     def start(self):
         mc = self.machine
+        if self._n > 1:
+            self.q = np.asarray(mc.q0, dtype=float).reshape(self._n)
+            self.qd = np.asarray(mc.qd0, dtype=float).reshape(self._n) + 0.0 * self.q
+            self.x, self.xd = (), ()
+            return
         self.q, self.qd = float(mc.q0), float(mc.qd0)
         nx = self._nx
         self.x = tuple(float(v) for v in (mc.x0 or (0.0,) * nx))
@@ -103,13 +115,14 @@ class ReducedPlant:
         closed forms (CPython loop); ``solve_ivp`` is a Python adapter."""
         mech = self._mech
         flags = {"nextra": len(self.extra_columns), "min_steps": MIN_COMPILED_STEPS}
+        if self._n > 1:
+            return self._multi_form(flags)
         if self.method == "solve_ivp":
             return self._ivp_form(flags)
         if self._nx == 0:
             if self.model == "table":
                 model = mech.model_form()
             else:
-                from ..mechanisms.base import _closed_model
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
@@ -129,6 +142,25 @@ class ReducedPlant:
         S0[:2 + 2 * n] = self._state0()
         return C.Form(rk4_internal, P, S0, laws={"read": internal_read, "write": internal_write}, flags=flags,
                       fn_args=(acc,))
+
+    def _multi_form(self, flags):
+        """n inputs: RK4 on M̄(q) q̈ + c̄ + ḡ + D̄ q̇ = τ − c·q̇ (:func:`rk4_multi`) with the mechanism's
+        n-input model law (``model_form``)."""
+        if self.method != "rk4" or self.model != "table" or self._joints is not None:
+            raise ParameterError("a machine with several inputs: the reduced backend integrates with RK4 on the "
+                                 "tabulated model (reduced.method = 'rk4', reduced.model = 'table', no record_joints)")
+        model = self._mech.model_form()
+        self._meta_from(model)
+        flags = {**flags, "min_steps": 0}  # (its CPython evaluation costs ≈ 1 ms per co-step: compile at once)
+        n = self._n
+        k = int(model.flags.get("channels", 0))
+        size = multi_state_size(n, k)
+        S0 = np.zeros(size)
+        S0[:n] = self.q
+        S0[n:2 * n] = self.qd
+        P = MultiP(self.h, n, np.ascontiguousarray(self._Ja), np.ascontiguousarray(self._c), model.P,
+                   multi_work(n), k)
+        return C.Form(rk4_multi, P, S0, laws={"read": multi_read}, flags=flags, fn_args=(model,))
 
     def _meta_from(self, form):
         tab = form.flags.get("table")
@@ -196,7 +228,6 @@ def simulate(machine, t_end: float, dt: float = 1e-4, record_dt: float = 1e-3,
         rtol = float(options.get("rtol", rtol))
         atol = float(options.get("atol", atol))
         model = options.get("model", model)
-    from .table import composing
 
     with composing():  # the mechanism's description key: once for the table and the machine check
         plant = ReducedPlant(machine, dt, method, rtol, atol, model, bool((options or {}).get("record_joints")))
@@ -268,8 +299,6 @@ _JOINT_TABLES: dict = {}
 def _joint_table(machine, h):
     """(JointsP or None, column names, info or why not) of the machine's mechanism from its q0
     (cached by mechanism and q0)."""
-    from .joints import reduced_table
-    from .multibody import build_model
 
     mech = machine.mechanism
     try:
@@ -285,19 +314,6 @@ def _joint_table(machine, h):
                 _JOINT_TABLES.clear()
             _JOINT_TABLES[key] = hit
     return hit
-
-
-@C.law
-def rigid_accel(MODEL, t, S, iy, ia, tau, Ja, c, P):
-    """The rigid Eksergian acceleration as an acceleration law (the inner mechanism of a compliant
-    gear): q̈ = [τ − c·q̇ + Q_ext − E_p' − ½J'·q̇²] / (J_eq + J) at (q, q̇) = (S[iy], S[iy+1]) into
-    S[ia]; MODEL(q, q̇, t, P) its model law.  → q̈."""
-    q = S[iy]
-    qd = S[iy + 1]
-    J, H, E, Q = MODEL(q, qd, t, P)
-    qdd = (tau - c * qd + Q - E - H * qd * qd) / (Ja + J)
-    S[ia] = qdd
-    return qdd
 
 
 def internal_state_size(n: int) -> int:
@@ -378,3 +394,117 @@ def internal_write(out, b, P, S):
     for i in range(n):
         out[b + i] = S[2 + 2 * i]
         out[b + n + i] = S[3 + 2 * i]
+
+
+# ============================================================================ n inputs
+#: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
+#: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
+#: number of the model's scratch channels
+MultiP = namedtuple("MultiP", "h n Ja c model iw nch")
+
+
+def multi_work(n: int) -> int:
+    """Offset of :func:`rk4_multi`'s model work space in its state: y (2n), the stage state (2n),
+    four stage accelerations and three stage velocities (n each)."""
+    return 11 * n
+
+
+def multi_state_size(n: int, channels: int) -> int:
+    """Length of :func:`rk4_multi`'s state: :func:`multi_work`, the model's M̄ and bias (n² + n), its
+    channels, the linear solve's matrix and right-hand side (n² + n)."""
+    return multi_work(n) + n * n + n + channels + n * n + n
+
+
+@C.law(inline=False)
+def multi_accel(MODEL, t, S, iy, ia, TAU, P):
+    """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
+    then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias by Gaussian elimination with partial pivoting."""
+    n = P.n
+    iw = P.iw
+    MODEL(S, iy, t, P.model, S, iw)
+    ib = iw + n * n
+    iA = ib + n + P.nch
+    ir = iA + n * n
+    for i in range(n):
+        for j in range(n):
+            S[iA + i * n + j] = S[iw + i * n + j]
+        S[iA + i * n + i] += P.Ja[i]
+        S[ir + i] = TAU[i] - P.c[i] * S[iy + n + i] - S[ib + i]
+    for c in range(n):
+        piv = c
+        big = abs(S[iA + c * n + c])
+        for r in range(c + 1, n):
+            v = abs(S[iA + r * n + c])
+            if v > big:
+                big = v
+                piv = r
+        if piv != c:
+            for j in range(n):
+                tmp = S[iA + c * n + j]
+                S[iA + c * n + j] = S[iA + piv * n + j]
+                S[iA + piv * n + j] = tmp
+            tmp = S[ir + c]
+            S[ir + c] = S[ir + piv]
+            S[ir + piv] = tmp
+        d = S[iA + c * n + c]
+        for r in range(c + 1, n):
+            f = S[iA + r * n + c] / d
+            for j in range(c, n):
+                S[iA + r * n + j] -= f * S[iA + c * n + j]
+            S[ir + r] -= f * S[ir + c]
+    for i in range(n - 1, -1, -1):
+        acc = S[ir + i]
+        for j in range(i + 1, n):
+            acc -= S[iA + i * n + j] * S[ia + j]
+        S[ia + i] = acc / S[iA + i * n + i]
+
+
+@C.law
+def rk4_multi(MODEL, TAU, t, P, S, QO):
+    """One classical RK4 step of the n-input reduced model with the axes' torques TAU held; the
+    state S[0:2n] = (q, q̇); (q_a, q̇_a, 0, 0) of every axis into QO."""
+    n = P.n
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    ys = 2 * n
+    a1 = 4 * n
+    a2 = a1 + n
+    a3 = a2 + n
+    a4 = a3 + n
+    u2 = a4 + n
+    u3 = u2 + n
+    u4 = u3 + n
+    multi_accel(MODEL, t, S, 0, a1, TAU, P)
+    for j in range(n):
+        S[u2 + j] = S[n + j] + h2 * S[a1 + j]
+        S[ys + j] = S[j] + h2 * S[n + j]
+        S[ys + n + j] = S[u2 + j]
+    multi_accel(MODEL, t + h2, S, ys, a2, TAU, P)
+    for j in range(n):
+        S[u3 + j] = S[n + j] + h2 * S[a2 + j]
+        S[ys + j] = S[j] + h2 * S[u2 + j]
+        S[ys + n + j] = S[u3 + j]
+    multi_accel(MODEL, t + h2, S, ys, a3, TAU, P)
+    for j in range(n):
+        S[u4 + j] = S[n + j] + h * S[a3 + j]
+        S[ys + j] = S[j] + h * S[u3 + j]
+        S[ys + n + j] = S[u4 + j]
+    multi_accel(MODEL, t + h, S, ys, a4, TAU, P)
+    for j in range(n):
+        p = S[j]
+        v = S[n + j]
+        S[j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
+        S[n + j] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    multi_read(P, S, QO)
+
+
+@C.law
+def multi_read(P, S, QO):
+    """(q_a, q̇_a, 0, 0) of every axis into QO."""
+    n = P.n
+    for a in range(n):
+        QO[4 * a] = S[a]
+        QO[4 * a + 1] = S[n + a]
+        QO[4 * a + 2] = 0.0
+        QO[4 * a + 3] = 0.0

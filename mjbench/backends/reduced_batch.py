@@ -14,6 +14,7 @@ from .. import kernel
 from ..errors import ParameterError
 from .batch import BatchResult, consumer
 from .reduced import ReducedPlant
+from .table import composing
 
 
 def simulate(machines, t_end: float, dt: float | None = None, record_dt: float = 1e-3, options: dict | None = None,
@@ -31,7 +32,6 @@ def simulate(machines, t_end: float, dt: float | None = None, record_dt: float =
                              "(solve_ivp: run the simulations one by one)")
     model = model or o.get("model", "table")
     kernel.check_times(t_end, h, record_dt)
-    from .table import composing
 
     with composing():  # each mechanism's description key: once for its table and the machine check
         plants = [ReducedPlant(mc, h, "rk4", model=model, record_joints=bool(o.get("record_joints"))) for mc in machines]

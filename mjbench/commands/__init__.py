@@ -16,9 +16,14 @@ is silenced while a command runs (:func:`cli_command`): the command prints the s
 import argparse
 import functools
 import math
+import sys
 import warnings
 
 from ..api.video import MAX_HEIGHT, MAX_WIDTH, check_frame  # noqa: F401 - the frame limits of render/reproduce
+from ..errors import ParameterError
+from ..backends.multibody import accuracy_note
+from ..api.scenarios import MjbenchWarning
+from .. import units as U
 
 
 def cli_command(func):
@@ -26,7 +31,6 @@ def cli_command(func):
     warnings (the command prints them itself, one ``mjbench: warning: ...`` line each)."""
     @functools.wraps(func)
     def run(args):
-        from ..api.scenarios import MjbenchWarning
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", MjbenchWarning)
@@ -53,11 +57,30 @@ def integer(ge=None, le=None, what="an integer"):
     return conv
 
 
+def number(gt=None, ge=None, le=None, what="a number"):
+    """argparse ``type=``: a finite number within the bounds (no unit)."""
+    def conv(text):
+        try:
+            x = float(text)
+            ok = math.isfinite(x)
+        except (ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        if gt is not None and not x > gt:
+            raise argparse.ArgumentTypeError(f"must be {what} > {gt:g}, got {text!r}")
+        if ge is not None and not x >= ge:
+            raise argparse.ArgumentTypeError(f"must be {what} >= {ge:g}, got {text!r}")
+        if le is not None and not x <= le:
+            raise argparse.ArgumentTypeError(f"must be {what} <= {le:g}, got {text!r}")
+        return x
+    return conv
+
+
 def quantity(kind, gt=None, ge=None, lt=None, le=None):
     """argparse ``type=``: a finite number in the SI unit of ``kind`` (:data:`mjbench.units.KINDS`),
     or a string with a unit ("500 ms", "60 rpm"), within the bounds (as the scenario schema)."""
     def conv(text):
-        from .. import units as U
 
         try:
             try:
@@ -78,7 +101,6 @@ def given(args, name) -> bool:
 
 def refuse_unused(option, why):
     """An option the run would ignore: one line naming it and why (exit 2)."""
-    from ..errors import ParameterError
 
     raise ParameterError(f"{option} has no effect here: {why}")
 
@@ -96,7 +118,6 @@ def apply_fast_multibody(args, overrides):
     fast = getattr(args, "fast_multibody", None)
     if not fast:
         return list(overrides)
-    from ..backends.multibody import accuracy_note
 
     print(f"mjbench: fast multibody mode: {accuracy_note(fast)}")
     return [*overrides, f"multibody.integrator={fast}"]
@@ -108,7 +129,6 @@ def parse_numbers(items, option, keys, suffix=""):
     value.  Malformed, unknown or non-finite values raise ParameterError (exit 2) naming ``option``."""
     import math
 
-    from ..errors import ParameterError
 
     allowed = dict(keys)
     choices = ", ".join(f"{k} [{u}]" if u else k for k, u in keys)
@@ -132,3 +152,9 @@ def parse_numbers(items, option, keys, suffix=""):
                 raise ParameterError(f"{option} {k} is given twice ({k}={out[k]:g} and {part.strip()})")
             out[k] = x
     return out
+
+
+def note(old: str, new: str):
+    """One line on stderr after an old spelling ran."""
+    print(f"mjbench: note: `mjbench {old}` is a paper study, now `mjbench {new}` (the old spelling still works)",
+          file=sys.stderr)

@@ -4,6 +4,12 @@ from __future__ import annotations
 import sys
 
 from . import cli_command, integer, quantity
+from ..outputs import add_force_option
+from .. import api
+from .. import units as U
+from ..api.analysis import analysis_size
+from ..errors import ParameterError
+from ..outputs import check_out_dir
 
 #: most samples ``--points`` takes (0.00036° apart); each is checked against the available memory
 #: before computing (``mjbench.api.analysis.POINT_BYTES``)
@@ -28,7 +34,6 @@ def register(sub):
                    help="transmission angle [deg] flagged as poor (0-90; default 40)")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a scenario value")
-    from ..outputs import add_force_option
 
     add_force_option(p)
     p.set_defaults(func=cmd_analyze)
@@ -37,10 +42,6 @@ def register(sub):
 @cli_command
 def cmd_analyze(args):
     """``mjbench analyze`` = ``mjbench.analyze_mechanism`` → ``Analysis.save`` (docs/api.md)."""
-    from .. import api
-    from .. import units as U
-    from ..api.analysis import analysis_size
-    from ..errors import ParameterError
 
     scn = api.load(args.scenario, args.overrides)
     for w in scn.warnings:
@@ -58,7 +59,6 @@ def cmd_analyze(args):
         speeds.append(v)
     analysis_size(args.points, len(speeds), "--points")
     if args.out:
-        from ..outputs import check_out_dir
 
         check_out_dir(args.out, force=args.force)  # refuse a bad --out before computing
     res = api.analyze_mechanism(scn, speeds, points=args.points, mu_min_deg=args.mu_min)

@@ -10,6 +10,11 @@ import sys
 from . import add_fast_multibody, apply_fast_multibody, integer, quantity
 from ..preflight import check_machine
 from ..outputs import add_force_option, maybe_staged_dir
+from ..papers import incerti2012_calibration as C
+from .. import scenario as S
+from ..manifest import write_json
+from ..trajectory import atomic_write
+from . import note
 
 
 def register(sub, paper_study=False):
@@ -57,8 +62,6 @@ def register(sub, paper_study=False):
 
 
 def cmd_calibrate(args):
-    from ..papers import incerti2012_calibration as C
-    from .. import scenario as S
 
     scn = S.load(args.scenario, apply_fast_multibody(args, args.overrides))
     check_machine(scn)  # bad --set values: one message before any simulation
@@ -69,16 +72,11 @@ def cmd_calibrate(args):
     if args.out:
         print(f"results written to {args.out} (calibrate.json, calibrated.toml)")
     if not getattr(args, "paper_study", False):
-        from .paper import note
         note("calibrate", "paper incerti2012 calibrate")
     return 0
 
 
 def _calibrate(args, scn, names, out):
-    from ..papers import incerti2012_calibration as C
-    from .. import scenario as S
-    from ..manifest import write_json
-    from ..trajectory import atomic_write
 
     res = C.calibrate(scn, names, starts=args.starts, dt=args.dt, max_nfev=args.max_nfev, seed=args.seed,
                       n_screen=args.screen, polish=args.polish_nfev > 0, polish_nfev=max(args.polish_nfev, 1),
@@ -101,7 +99,6 @@ def _calibrate(args, scn, names, out):
 def calibrated_toml(text: str, res: dict) -> str:
     """The source scenario text with the fitted values substituted (marked FITTED) and a header
     stating that they were fitted to the paper's figures."""
-    from ..papers import incerti2012_calibration as C
 
     r = res["result"]
     vals = r["values"]

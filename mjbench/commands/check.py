@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from . import cli_command, quantity
+from .. import api, runner
 
 
 def register(sub):
@@ -25,7 +26,6 @@ def register(sub):
 
 @cli_command
 def cmd_check(args):
-    from .. import api, runner
 
     scn = api.load(args.scenario, args.overrides)
     modes = [scn.mode(args.mode)] if args.mode else list(scn.modes)

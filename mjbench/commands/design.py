@@ -14,7 +14,9 @@ import argparse
 import sys
 
 from ..outputs import add_force_option
-from . import paper
+from . import note, paper, refuse_unused
+from ..design.pipeline import design
+from ..design.report import summary_text
 
 #: the old paper-study spelling `mjbench design quickreturn`
 PAPER_TARGETS = ("quickreturn",)
@@ -38,7 +40,6 @@ def register(sub):
 
 
 def run(args) -> int:
-    from . import refuse_unused
 
     if args.requirements in PAPER_TARGETS:
         for opt in ("no_tune", "no_verify", "quiet"):
@@ -46,18 +47,16 @@ def run(args) -> int:
                 refuse_unused("--" + opt.replace("_", "-"), "it belongs to the general design command, not to the "
                                                             "Yiğit & Şen paper study")
         rc = paper.run_yigit_design(args)
-        paper.note("design quickreturn", "paper yigit2023 design")
+        note("design quickreturn", "paper yigit2023 design")
         return rc
     used = paper.yigit_options_given(args)
     if used:
         refuse_unused(used[0], "it is an option of the Yiğit & Şen paper study (`mjbench paper yigit2023 design`)")
-    from ..design.pipeline import design
 
     log = (lambda *a: None) if args.quiet else print
     res = design(args.requirements, out=args.out, force=args.force, log=log, verify=not args.no_verify,
                  tune=False if args.no_tune else None)
     if args.quiet:
-        from ..design.report import summary_text
 
         print(summary_text(res).splitlines()[0])
     if args.out:

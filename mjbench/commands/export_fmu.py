@@ -3,6 +3,8 @@ as an FMI 2.0 co-simulation FMU (:mod:`mjbench.fmi`, docs/bridges.md)."""
 from __future__ import annotations
 
 from . import cli_command
+from .. import api
+from ..errors import ParameterError
 
 
 def register(sub):
@@ -34,8 +36,6 @@ def cmd_export_fmu(args):
     """``mjbench export-fmu`` = ``mjbench.export_fmu`` (docs/api.md)."""
     import os
 
-    from .. import api
-    from ..errors import ParameterError
 
     try:
         import pythonfmu  # noqa: F401

@@ -5,6 +5,11 @@ import os
 
 from ..outputs import add_force_option
 from . import cli_command, quantity
+from ..errors import ParameterError
+from ..identify import PARAMS, UNITS
+from .. import api
+from .. import identify as ID
+from ..outputs import check_out_dir
 
 
 def register(sub):
@@ -37,8 +42,6 @@ def _kv(items, what):
     value finite, > 0 for R, L, K, J and >= 0 for the frictions b, T_c (the fit's bounds)."""
     import math
 
-    from ..errors import ParameterError
-    from ..identify import PARAMS, UNITS
 
     out = {}
     for it in items:
@@ -64,10 +67,6 @@ def _kv(items, what):
 @cli_command
 def cmd_identify(args):
     """``mjbench identify`` = ``mjbench.identify_motor`` → ``MotorFit.save`` (docs/api.md)."""
-    from .. import api
-    from .. import identify as ID
-    from ..errors import ParameterError
-    from ..outputs import check_out_dir
 
     if args.out:
         check_out_dir(args.out, force=args.force)  # before the fit

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 from ..outputs import add_force_option
 from . import cli_command, integer, parse_numbers
+from ..errors import ParameterError
+from .. import api
+from ..outputs import check_out_dir
 
 AT_KEYS = {"q": "q", "omega": "qd", "qd": "qd", "I": "I", "t": "t"}
 
@@ -17,7 +20,9 @@ def register(sub):
                     "model (MuJoCo mjd_transitionFD), their agreement, the controller's discrete-time counterpart, "
                     "the loop at the plant input (gain/phase margins, peak |S|, bandwidth, closed-loop poles) and "
                     "the loop at frozen angles over one turn. Default point: the initial angle, the controller's "
-                    "running speed there, the current holding q̈ = 0, t = simulation.t_end for a K_p·t PID.")
+                    "running speed there, the turn-averaged current (running: the mean over one turn of the currents that "
+                    "would hold q̈ = 0 at that speed — a linkage is then not stationary at the point, q̈* ≠ 0, printed; "
+                    "at rest: the current holding q̈ = 0), t = simulation.t_end for a K_p·t PID.")
     p.add_argument("scenario", help="built-in scenario name or TOML path")
     p.add_argument("--mode", help="controller mode (default: the scenario's)")
     p.add_argument("--at", action="append", default=[], metavar="q=..,omega=..",
@@ -33,13 +38,12 @@ def register(sub):
 
 #: |value| limits of an operating point: beyond any motor a DC drive model covers (the plausible
 #: ranges of mjbench.units for angular velocity and current); t: a run length
-AT_LIMITS = {"omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
+AT_LIMITS = {"q": 1e6, "omega": 1e5, "qd": 1e5, "I": 1e5, "t": 1e5}
 
 
 def parse_at(items) -> dict:
     """``--at q=..,omega=..,I=..,t=..`` → {q, qd, I, t} (floats, SI), checked: finite, |ω| and
     |I| ≤ 1e5, 0 ≤ t ≤ 1e5 s (t is the time of the K_p·t ramp: a negative one is a negative gain)."""
-    from ..errors import ParameterError
 
     got = parse_numbers(items, "--at", [("q", "rad"), ("omega", "rad/s"), ("qd", "rad/s"), ("I", "A"), ("t", "s")])
     if "omega" in got and "qd" in got:
@@ -47,8 +51,9 @@ def parse_at(items) -> dict:
     for k, v in got.items():
         lim = AT_LIMITS.get(k)
         if lim is not None and abs(v) > lim:
-            raise ParameterError(f"--at {k}={v:g}: |{k}| must be <= {lim:g} {dict(omega='rad/s', qd='rad/s', I='A', t='s')[k]} "
-                                 f"(beyond what the drive model covers)")
+            why = ("an angle that large has no precision left" if k == "q" else "beyond what the drive model covers")
+            raise ParameterError(f"--at {k}={v:g}: |{k}| must be <= {lim:g} "
+                                 f"{dict(q='rad', omega='rad/s', qd='rad/s', I='A', t='s')[k]} ({why})")
     if got.get("t", 0.0) < 0:
         raise ParameterError(f"--at t={got['t']:g}: must be >= 0 s (the time of the run; K_p·t would be a negative gain)")
     return {AT_KEYS[k]: v for k, v in got.items()}
@@ -57,8 +62,6 @@ def parse_at(items) -> dict:
 @cli_command
 def cmd_linearize(args):
     """``mjbench linearize`` = ``mjbench.linearize`` → ``LinearResult.save`` (docs/api.md)."""
-    from .. import api
-    from ..outputs import check_out_dir
 
     at = parse_at(args.at)
     scn = api.load(args.scenario, args.overrides)

@@ -9,6 +9,8 @@ import sys
 from ..api.motion_law import paper_check  # noqa: F401 - (the paper digits check, tests/test_vibration.py)
 from ..outputs import add_force_option
 from . import cli_command
+from .. import api
+from ..outputs import check_out_dir
 
 
 def register(sub):
@@ -27,8 +29,6 @@ def register(sub):
 @cli_command
 def main(args) -> int:
     """``mjbench optimize-law`` = ``mjbench.optimize_motion_law`` → ``LawOptimization.save`` (docs/api.md)."""
-    from .. import api
-    from ..outputs import check_out_dir
 
     scn = api.load(args.scenario, args.overrides)
     final = args.out or os.path.join("results", f"{scn.name}-optimize-law")

@@ -16,6 +16,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from ..errors import ParameterError
+from ..outputs import maybe_staged_dir, write_json
+from ..outputs import check_out_dir
+from ..outputs import add_force_option
+from .. import papers
+from . import add_fast_multibody, apply_fast_multibody, calibrate, check_reference, given, integer, quantity, refuse_unused
 
 #: study → (paper title, {command: help})
 STUDIES = {
@@ -33,16 +39,9 @@ YIGIT_DEFAULTS = {"starts": 8, "seed": 0, "bounds": (10.0, 500.0), "c4": "max-ab
                   "backend": "reduced", "verify": None, "t_end": None, "fast_multibody": None}
 
 
-def note(old: str, new: str):
-    """One line on stderr after an old spelling ran."""
-    print(f"mjbench: note: `mjbench {old}` is a paper study, now `mjbench {new}` (the old spelling still works)",
-          file=sys.stderr)
-
-
 def add_yigit_options(p, hidden=False):
     """The options of the Yiğit & Şen design study; ``hidden``: accepted but not listed, default
     None (the old spelling ``mjbench design quickreturn`` on the general design command)."""
-    from . import integer, quantity
 
     H = (lambda text: argparse.SUPPRESS) if hidden else (lambda text: text)
     D = (lambda k: None) if hidden else (lambda k: YIGIT_DEFAULTS[k])
@@ -68,7 +67,6 @@ def add_yigit_options(p, hidden=False):
     p.add_argument("--t-end", type=quantity("time", gt=0.0), default=None,
                    help=H("simulated time of the closed-loop check [s] (default: the scenario's)"))
     if not hidden:
-        from . import add_fast_multibody
 
         add_fast_multibody(p)
     else:
@@ -82,10 +80,7 @@ def yigit_options_given(args) -> list:
 
 def run_yigit_design(args) -> int:
     """The Yiğit & Şen 2023 optimum design (mjbench/papers/yigit2023_design.py)."""
-    from ..errors import ParameterError
-    from ..outputs import maybe_staged_dir, write_json
-    from ..papers import yigit2023_design as design
-    from . import apply_fast_multibody, given, refuse_unused
+    design = papers.yigit2023_design  # (scipy.optimize: loaded on first use, mjbench/papers/__init__.py)
 
     for k, v in YIGIT_DEFAULTS.items():
         if getattr(args, k, None) is None and v is not None:
@@ -105,7 +100,6 @@ def run_yigit_design(args) -> int:
         refuse_unused("--verify", "it re-runs reduced-model checks on the multibody backend, and --backend multibody "
                                   "checks on MuJoCo itself")
     if args.out:
-        from ..outputs import check_out_dir
 
         check_out_dir(args.out, force=args.force)
     verify = 1 if args.verify is None else args.verify
@@ -148,8 +142,6 @@ def _print_yigit(res):
 
 
 def register(sub):
-    from ..outputs import add_force_option
-    from . import calibrate, check_reference
 
     p = sub.add_parser("paper", help="paper studies: yigit2023 design, hulako2025 demand, incerti2012 calibrate",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -7,6 +7,7 @@ import sys
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
 from . import MAX_HEIGHT, MAX_WIDTH, check_frame, cli_command, integer, quantity  # noqa: E402
+from .. import api, outputs, render
 
 
 def register(sub):
@@ -34,7 +35,6 @@ def register(sub):
 @cli_command
 def run(args) -> int:
     """``mjbench render`` = ``mjbench.render_video`` (docs/api.md)."""
-    from .. import api, outputs, render
 
     outputs.check_out_file(args.out, suffixes=(".mp4", ".gif"))  # before any work
     check_frame(args.width, args.height)

@@ -7,6 +7,12 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco's renderer
 
 from . import cli_command  # noqa: E402
+from .. import api
+from .. import reproduce as R
+from ..errors import ParameterError
+from .. import outputs, render
+from . import MAX_HEIGHT, MAX_WIDTH, check_frame, given, integer, refuse_unused
+from .. import report as RP
 
 
 def add_common(p, out_required=True):
@@ -14,7 +20,6 @@ def add_common(p, out_required=True):
     p.add_argument("--quick", action="store_true",
                    help="short videos (≤ 2 s, 640x360); simulations and figures unchanged")
     p.add_argument("--no-video", action="store_true", help="skip the videos")
-    from . import MAX_HEIGHT, MAX_WIDTH, integer
 
     p.add_argument("--width", type=integer(ge=16, le=MAX_WIDTH), default=None,
                    help="video width [px] (even; default 960, --quick 640)")
@@ -39,7 +44,6 @@ def register(sub):
 
 
 def list_cases():
-    from .. import api
 
     for c in api.paper_cases():
         extra = f" modes {','.join(c.modes)}" if c.modes else ""
@@ -52,27 +56,41 @@ def run(args) -> int:
     """``mjbench reproduce`` = ``mjbench.reproduce_papers`` (docs/api.md)."""
     import sys
 
-    from .. import api
-    from .. import reproduce as R
 
     if args.list:
         return list_cases()
     if not args.out:
-        from ..errors import ParameterError
         raise ParameterError("mjbench reproduce: --out DIR is required (the report folder)")
     R.select(R.load_cases(), args.case)  # an unknown case name: an error before anything is written
     check_video_options(args)
     with_gl(args)
-    api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
-                         height=args.height, force=args.force, progress=not args.no_progress and sys.stderr.isatty(),
-                         log=print, what="--out", jobs=args.jobs)
+    results = api.reproduce_papers(args.out, args.case, quick=args.quick, video=not args.no_video, width=args.width,
+                                   height=args.height, force=args.force,
+                                   progress=not args.no_progress and sys.stderr.isatty(), log=print, what="--out",
+                                   jobs=args.jobs)
     print(f"results written to {args.out}")
+    print(closing_lines(results, args.out))
     return 0
+
+
+def closing_lines(results, out) -> str:
+    """What a finished report run ends with: the verdict counts and the page to open."""
+    import os
+
+    page = os.path.join(os.path.abspath(os.fspath(out)), "report.html")
+    cases = [r for r in results or [] if isinstance(r, dict) and "rows" in r]
+    if not cases:
+        return f"open the report: {page}"
+    eng = RP._eng_counts(cases)
+    tot = RP._totals(cases)
+    return (f"{len(cases)} cases — engineering verdicts: {eng['ok']} met, {eng['fail']} not met, {eng['na']} not "
+            f"applicable or not stated; paper figures: {tot['meet']} meet, {tot['differ']} differ, {tot['fitted']} "
+            f"fitted, {tot['unjudged']} rows without a paper figure\n"
+            f"open the report: {page}")
 
 
 def check_video_options(args):
     """--width/--height: a valid frame, and only when videos are made (else they are refused)."""
-    from . import check_frame, given, refuse_unused
 
     if args.no_video:
         for opt in ("width", "height"):
@@ -89,7 +107,6 @@ def with_gl(args):
     why each video is missing (the simulations need no OpenGL)."""
     import sys
 
-    from .. import outputs, render
 
     if not args.no_video:
         try:

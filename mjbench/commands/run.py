@@ -2,9 +2,13 @@
 from __future__ import annotations
 
 import sys
+import warnings
 
 from . import add_fast_multibody, apply_fast_multibody, cli_command, quantity, refuse_unused
 from ..outputs import add_force_option
+from .. import api
+from ..outputs import check_out_dir
+from ..registry import PluginWarning
 
 
 def register(sub):
@@ -36,8 +40,6 @@ def register(sub):
 @cli_command
 def cmd_run(args):
     """``mjbench run`` = ``mjbench.load`` → ``simulate`` → ``Result.save`` (docs/api.md)."""
-    from .. import api
-    from ..outputs import check_out_dir
 
     scn = api.load(args.scenario, apply_fast_multibody(args, args.overrides))
     for w in scn.warnings:
@@ -66,7 +68,6 @@ def cmd_run(args):
 @cli_command
 def cmd_list(args):
     """``mjbench list`` = ``mjbench.list_scenarios`` + ``mjbench.load``, then ``mjbench.list_components``."""
-    from .. import api
 
     for name in api.list_scenarios():
         try:
@@ -76,7 +77,14 @@ def cmd_list(args):
             continue
         modes = ", ".join(scn.modes) + (" + optimize-law" if scn.spec.law is not None else "")
         print(f"{name:<22s} modes: {modes:<18s} {scn.title}")
-    comps = api.list_components()
+    with warnings.catch_warnings(record=True) as caught:  # a broken plugin: one line each, the rest listed
+        warnings.simplefilter("always", PluginWarning)
+        comps = api.list_components()
+    for w in caught:
+        if issubclass(w.category, PluginWarning):
+            print(f"mjbench: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     for kind in ("mechanism", "controller", "drive"):
         print(f"\n{kind} types:")
         for c in (c for c in comps if c.kind == kind):

@@ -5,6 +5,10 @@ import os
 import sys
 
 from . import add_fast_multibody, apply_fast_multibody, cli_command, given, integer, quantity, refuse_unused
+from .. import api
+from ..errors import ParameterError
+from ..outputs import check_out_dir
+from ..sweep import check_scheduler, parse_grid, parse_perturb
 
 
 def register(sub):
@@ -48,10 +52,6 @@ def register(sub):
 @cli_command
 def cmd_sweep(args):
     """``mjbench sweep`` = ``mjbench.parameter_sweep`` (docs/api.md)."""
-    from .. import api
-    from ..errors import ParameterError
-    from ..outputs import check_out_dir
-    from ..sweep import check_scheduler, parse_grid, parse_perturb
 
     check_out_dir(args.out, must_be_empty=False)  # resumable: an existing sweep folder is fine
     grid, perturb = parse_grid(args.grid), parse_perturb(args.perturb)

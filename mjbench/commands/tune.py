@@ -3,6 +3,11 @@ from __future__ import annotations
 
 from . import add_fast_multibody, apply_fast_multibody, cli_command, given, integer, parse_numbers, quantity, refuse_unused
 from ..outputs import add_force_option
+from ..errors import ParameterError
+from .. import api
+from ..linear import parse_margin
+from ..tune import tune_spec
+from ..outputs import check_out_dir
 
 
 def register(sub):
@@ -26,9 +31,9 @@ def register(sub):
                         "error to a motion-law reference (over metrics.chi_window, else the run)")
     p.add_argument("--limit", action="append", default=[], metavar="voltage=V,current=A",
                    help="allowed peak |voltage| [V] and |current| [A]")
-    p.add_argument("--margin", action="append", default=[], metavar="pm>=45",
-                   help="robustness constraint on the linear model (worst frozen angle): pm>=DEG, gm>=DB, "
-                        "ms<=PEAK_S, bw>=RAD_S (repeatable; docs/linear.md)")
+    p.add_argument("--margin", action="append", default=[], metavar="'pm>=45'",
+                   help="robustness constraint on the linear model (worst frozen angle), quoted for the shell: 'pm>=DEG', 'gm>=DB', "
+                        "'ms<=PEAK_S', 'bw>=RAD_S' (repeatable; docs/linear.md)")
     p.add_argument("--margin-mode", choices=["penalty", "constraint"], default=None,
                    help="penalty: objective + 10 × relative violation (default); constraint: violating "
                         "candidates are not simulated, and exit status 1 when no candidate meets them")
@@ -60,7 +65,6 @@ def register(sub):
 
 def parse_limits(items):
     """``--limit voltage=48V,current=30A`` → {"voltage": 48.0, "current": 30.0} (each > 0)."""
-    from ..errors import ParameterError
 
     out = parse_numbers(items, "--limit", [("voltage", "V"), ("current", "A")], suffix="VA")
     for k, v in out.items():
@@ -74,7 +78,6 @@ def parse_bounds(items, gains=None):
     unknown name, a gain given twice, or a bad interval is ONE error)."""
     import math
 
-    from ..errors import ParameterError
 
     out = {}
     for item in items:
@@ -101,9 +104,6 @@ def cmd_tune(args):
     """``mjbench tune`` = ``mjbench.tune_gains`` → ``TuneResult.save`` (docs/api.md)."""
     import sys
 
-    from .. import api
-    from ..linear import parse_margin
-    from ..tune import tune_spec
 
     gains = tune_spec(args.controller).params
     limits, bounds = parse_limits(args.limit), parse_bounds(args.bounds, gains)
@@ -119,7 +119,6 @@ def cmd_tune(args):
         refuse_unused("--verify", "it re-runs the best candidates of a reduced-model search on the multibody "
                                   "backend, and --backend multibody searches on MuJoCo itself")
     if args.out:
-        from ..outputs import check_out_dir
 
         check_out_dir(args.out, force=args.force)  # a bad --out: before the search, not after it
     scn = api.load(args.scenario, apply_fast_multibody(args, args.overrides))

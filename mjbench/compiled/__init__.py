@@ -22,7 +22,9 @@ compiled (:mod:`mjbench.compiled.jit`).
 """
 from __future__ import annotations
 
+import functools
 import math
+import types
 from collections import namedtuple
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -34,9 +36,12 @@ LAWS: list = []
 #: functions with one Python implementation and one numba implementation (bindings, not formulas)
 BRIDGES: list = []
 _jit_ready = False
+#: (register law, register bridge) of the started JIT (:func:`mjbench.compiled.jit.init` sets them):
+#: a law defined after the JIT started is registered through them (the JIT is above this module)
+_JIT_HOOKS: tuple = ()
 
 
-def law(fn: Callable | None = None, *, outputs: tuple | None = None) -> Callable:
+def law(fn: Callable | None = None, *, outputs: tuple | None = None, inline: bool = True) -> Callable:
     """Mark ``fn`` as a law: a pure scalar function numba can compile (see the module docstring).
 
     ``@law`` or ``@law(outputs=("u",))``: a control law (a controller's, a reference's) names the
@@ -45,14 +50,15 @@ def law(fn: Callable | None = None, *, outputs: tuple | None = None) -> Callable
     returned unchanged (Python calls it directly); when the compiled loop is first used every law
     is registered with numba so that laws can call each other by name."""
     if fn is None:
-        return lambda f: law(f, outputs=outputs)
+        return lambda f: law(f, outputs=outputs, inline=inline)
     fn.__mjbench_law__ = True
+    if not inline:  # a large law called in several places: one compiled function (compile time, code size)
+        fn.__mjbench_inline__ = False
     if outputs is not None:
         fn.__mjbench_outputs__ = tuple(outputs)
     LAWS.append(fn)
     if _jit_ready:  # a law defined after the JIT started (a plugin imported late)
-        from . import jit
-        jit.register(fn)
+        _JIT_HOOKS[0](fn)
     return fn
 
 
@@ -63,8 +69,7 @@ def bridge(numba_impl: str):
     def deco(fn):
         BRIDGES.append((fn, numba_impl))
         if _jit_ready:
-            from . import jit
-            jit.register_bridge(fn, numba_impl)
+            _JIT_HOOKS[1](fn, numba_impl)
         return fn
     return deco
 
@@ -123,8 +128,6 @@ class Form:
         """The slot function for CPython: the law with its ``fn_args`` laws bound in front."""
         if not self.fn_args:
             return self.law
-        import functools
-
         return functools.partial(self.law, *(f.bound() for f in self.fn_args))
 
     @property
@@ -203,8 +206,6 @@ def array_twin(fn: Callable) -> Callable:
     angles.  Only for laws without branches on their values and without calls to other laws (the
     elementwise results may differ from the scalar law in the last bit where NumPy's vectorised
     sin/cos/exp round differently)."""
-    import types
-
     g = dict(fn.__globals__)
     g["math"] = _ArrayMath
     return types.FunctionType(fn.__code__, g, fn.__name__ + "_array", fn.__defaults__, fn.__closure__)

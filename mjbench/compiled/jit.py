@@ -20,8 +20,10 @@ import os
 import sys
 import threading
 
+from .. import compiled as C
 from . import BRIDGES, LAWS
 from . import cache as _cache
+from ..errors import MjbenchError
 
 _AVAILABLE = None
 
@@ -53,13 +55,13 @@ def init():
         _cache.configure_numba()
         import numba  # noqa: F401
 
-        from . import _numba  # noqa: F401 - the bridges' compiled implementations
-        from .. import compiled as C
+        from . import _numba  # noqa: F401 - numba's compiled bridges: imports numba, the first compiled run only
 
         for fn in list(LAWS):
             register(fn)
         for fn, impl in list(BRIDGES):
             register_bridge(fn, impl)
+        C._JIT_HOOKS = (register, register_bridge)
         C._jit_ready = True
         _READY = True
 
@@ -84,14 +86,22 @@ def register(fn):
         return
     from numba.extending import register_jitable
 
-    register_jitable(**LAW_OPTIONS)(fn)
+    register_jitable(**law_options(fn))(fn)
     _REGISTERED.add(id(fn))
+
+
+def law_options(fn) -> dict:
+    """numba's options for a law: :data:`LAW_OPTIONS`, without forced inlining for a law that asks
+    (``@law(inline=False)``: a large law called from several places, compiled once)."""
+    if getattr(fn, "__mjbench_inline__", True):
+        return dict(LAW_OPTIONS)
+    return {**LAW_OPTIONS, "forceinline": False}
 
 
 def register_bridge(fn, impl_name):
     from numba.extending import overload
 
-    from . import _numba
+    from . import _numba  # numba's compiled bridges: imports numba, the first compiled run only
 
     overload(fn)(getattr(_numba, impl_name))
 
@@ -125,9 +135,7 @@ def _fingerprint() -> str:
     if _FINGERPRINT is None:
         import numba
 
-        import mjbench
-
-        h = hashlib.sha256(_package_hash(mjbench).encode())
+        h = hashlib.sha256(_package_hash(sys.modules["mjbench"]).encode())  # (our root package: always loaded)
         h.update(numba.__version__.encode())
         h.update(sys.version.encode())
         _FINGERPRINT = h.hexdigest()
@@ -297,7 +305,6 @@ def _check_source(fn, tree, fdef) -> None:
 
     same = getattr(fdef, "name", None) == fn.__name__ and len(consts) == 1 and sig(consts[0]) == sig(fn.__code__)
     if not same:
-        from ..errors import MjbenchError
 
         raise MjbenchError(f"law {fn.__module__}.{fn.__qualname__}: its source file changed after it was imported; "
                            "start the command again (the compiled loop is built from the law's source)")
@@ -332,7 +339,8 @@ def _specialise(name, fn, argn, mods):
 
     Rename().visit(fdef)
     mods.add(fn.__module__)
-    return imports + ["", "", f"@register_jitable({_LAW_OPTIONS_TEXT})", ast.unparse(fdef), ""]
+    opts = ", ".join(f"{k}={v!r}" for k, v in law_options(fn).items())
+    return imports + ["", "", f"@register_jitable({opts})", ast.unparse(fdef), ""]
 
 
 def _build(program, loop_source: str, check: bool = False):
@@ -351,9 +359,7 @@ def _build(program, loop_source: str, check: bool = False):
             _bind_text(s, form, header, mods, inmemory)
             continue
         _bind_text(f"_law_{s}", form, header, mods, inmemory)
-        from ..kernel.wiring import adapter_source
-
-        header += ["", f"@register_jitable({_LAW_OPTIONS_TEXT})", adapter_source(s, f"_law_{s}", w)]
+        header += ["", f"@register_jitable({_LAW_OPTIONS_TEXT})", w.source(s, f"_law_{s}")]
     opts = "cache=True, nogil=True, _nrt=False" + (", boundscheck=True" if check else "")
     src = "\n".join(header) + "\n\n\n" + loop_source + f"\n\nrun = numba.njit({opts})(_loop)\n"
     folder = None if inmemory else _cache.kernels()

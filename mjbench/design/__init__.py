@@ -16,18 +16,18 @@ gear ratio, flywheel, selection), :mod:`.catalogue`, :mod:`.thermal`, :mod:`.con
 sizing, the tracking servo, its harmonic balance, verification), :mod:`.report` (outputs).
 """
 from __future__ import annotations
+from .pipeline import design as _design
+from .requirements import load
 
 
 def design(requirements, out=None, force=False, log=print, verify=True, tune=None) -> dict:
     """Run the whole design; see :func:`mjbench.design.pipeline.design`."""
-    from .pipeline import design as _design
 
     return _design(requirements, out=out, force=force, log=log, verify=verify, tune=tune)
 
 
 def load_requirements(path_or_name: str):
     """Validate a requirements file (a path or a built-in name) → Requirements."""
-    from .requirements import load
 
     return load(path_or_name)
 

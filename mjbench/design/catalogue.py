@@ -144,12 +144,18 @@ def load(path_or_name: str, base: str = "") -> Catalogue:
         path = example_path()
     else:
         path = path_or_name if os.path.isabs(path_or_name) or not base else os.path.join(base, path_or_name)
+    if os.path.isdir(path):
+        raise ScenarioError(f"catalogue {path_or_name!r} is a folder ({path}): give a TOML or CSV file")
     if not os.path.isfile(path):
         raise ScenarioError(f"catalogue {path_or_name!r}: no such file ({path})")
     with open(path, "rb") as f:
         data = f.read()
     if path.lower().endswith(".csv"):
-        raw = _from_csv(data.decode("utf-8-sig"), path)
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise ScenarioError(f"catalogue {path}: not UTF-8 text (byte {e.start}): save the CSV as UTF-8") from None
+        raw = _from_csv(text, path)
     else:
         try:
             raw = tomllib.loads(data.decode("utf-8"))
@@ -166,10 +172,18 @@ def load(path_or_name: str, base: str = "") -> Catalogue:
 
 
 def _from_csv(text: str, path: str) -> dict:
-    rows = list(csv.DictReader(io.StringIO(text)))
+    try:
+        rows = list(csv.DictReader(io.StringIO(text)))
+    except csv.Error as e:
+        raise ScenarioError(f"catalogue {path}: not a readable CSV ({e})") from None
     out = {"motors": [], "gearboxes": []}
     problems = []
+    if not rows:
+        raise ScenarioError(f"catalogue {path}: no rows (expected a header with a 'kind' column and one row per item)")
     for k, row in enumerate(rows, start=2):
+        if None in row:  # more cells than the header has columns: they would be ignored
+            problems.append(f"line {k}: {len(row[None])} cell(s) more than the header's columns (a ragged row)")
+            continue
         kind = (row.pop("kind", "") or "").strip().lower()
         item = {}
         for key, val in row.items():

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from .periodic import Gains
+from .. import tune as T
 
 ZERO_RATIO = 0.5  #: PI zero / crossover of the design rule (phase margin ≈ 60°)
 
@@ -81,7 +82,6 @@ def crossover(drive, M_mean, gains: Gains) -> float:
 def tune_gains(scn, req, x0: Gains, box: dict, t_end: float, limits: dict, log=None):
     """mjbench.tune.tune on the machine scenario (mode ``pi``, controller ``pid``), within ``box``
     = {gain: (lo, hi)}, objective and margins of ``req.control``; returns the TuneResult."""
-    from .. import tune as T
 
     c = req.control
     return T.tune(scn, controller="pid", objective=c.objective, limits=limits, n_global=c.n_global, starts=1,

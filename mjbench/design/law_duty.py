@@ -40,9 +40,19 @@ import numpy as np
 
 from . import sizing as SZ
 from . import thermal as TH
+from . import finish as PL
+from .checks import check_row, drive_checks, sizing_common
+from .law_figure import _cycle, figure  # noqa: F401 - the figure of a motion-law design
 from .model import DriveModel, LoadModel
 from .periodic import NoSteadyState, effective_efficiency
 from .synthesis import constraint
+from .. import metrics as M
+from .. import scenario as SC
+from .. import mechanisms as MR
+from ..errors import ParameterError
+from .. import tune as T
+from ..backends import simulate
+from ..runner import backend_options
 
 TWO_PI = 2.0 * math.pi
 #: the design rule: velocity-PI zero and position-loop gain as fractions of the velocity crossover
@@ -213,7 +223,7 @@ def steady_state(load: LoadModel, drive: DriveModel, g: ServoGains, law, T_c: fl
     d, dd, ddd, q, qd, qdd, Treq, wm, I, dI, Vreq, r = out
     return {"tau": tau, "T": T_c, "speed": W, "q_ref": qr, "qd_ref": qdr, "qdd_ref": qddr, "delta": d, "q": q,
             "qd": qd, "qdd": qdd, "I": I, "dI": dI, "V": Vreq, "T_m": drive.k_m * I, "T_crank": Treq,
-            "T_gear": drive.gear_output(I, wm, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
+            "T_gear": drive.gear_output(Treq, qd, qdd), "w_motor": wm, "s0": float(np.mean(r)), "iterations": it + 1,
             "residual": res, "n": n, "M_mean": M_mean, "eta_eff": eta_eff, "sign_speed": w_eps}
 
 
@@ -227,6 +237,7 @@ def summary(ss: dict, drive: DriveModel) -> dict:
             "voltage_peak_V": float(np.max(np.abs(V))), "voltage_mean_V": float(np.mean(V)),
             "tracking_rms_rad": rms(d), "tracking_peak_rad": float(np.max(np.abs(d))),
             "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "mean_power_W": float(np.mean(ss["T_crank"] * ss["qd"])),
+            "gear_work_per_cycle_J": float(np.mean(Tg * ss["qd"])) * ss["T"],
             "copper_loss_W": float(np.mean(I * I)) * drive.R, "chi": None}
 
 
@@ -309,7 +320,9 @@ def size(load: LoadModel, req, cat, law, T_c: float, log=None) -> LawSizing:
     feas = [c for c in cands if c.ok]
     chosen = min(feas, key=lambda c: (c.cost, c.summary.get("motor_torque_rms_Nm", 0.0))) if feas else None
     pool = [c for c in cands if not c.screened_out] or cands
-    closest = chosen or min(pool, key=lambda c: (c.violation, c.cost))
+    # the closest: a candidate whose steady state was found (its figures say by how much it fails) before
+    # one without (whose failure says nothing about the requirement the others miss)
+    closest = chosen or min(pool, key=lambda c: (c.ss is None, c.violation, c.cost))
     log(f"sizing (motion law): {len(cands)} candidates, {sum(not c.screened_out for c in cands)} analysed, "
         f"{len(feas)} feasible")
     best = chosen or closest
@@ -326,8 +339,6 @@ def finalize(c: SZ.Candidate, load, req, law, T_c, n=1024):
 
 
 def sizing_json(sz: LawSizing, load) -> dict:
-    from .pipeline import sizing_common
-
     return {"duty": "motion law", "cycle_s": sz.T_c, "torque_of_the_law": sz.torque,
             "flywheel": {"J_flywheel": 0.0, "note": "none for a motion-law duty: the motor would accelerate it "
                                                     "every cycle"},
@@ -375,14 +386,11 @@ def on_grid(t, req, T_c):
 
 
 # ============================================================================ verification
-def _cycle(tr, a, b):
-    return (tr.t >= a - 1e-9) & (tr.t <= b + 1e-9)
 
 
 def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
     """Figures of the last complete cycle [t_end − T_c, t_end] of a run (the prediction's
     counterparts); ``ref_angle(t)``: the crank's reference angle [rad]."""
-    from .. import metrics as M
 
     b = float(tr.t[-1])
     a = b - T_c
@@ -395,10 +403,11 @@ def measure(tr, dm: DriveModel, ref_angle, T_c: float, motor, T_amb) -> dict:
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
     e = q - ref_angle(tt)
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [a, b], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "tracking_rms_rad": rms(e),
            "tracking_peak_rad": float(np.max(np.abs(e))), "mean_speed_rad_s": float((q[-1] - q[0]) / (tt[-1] - tt[0])),
            "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "chi": float(M.chi(tr.t, tr.omega, a, b)),
@@ -429,7 +438,6 @@ TRACKING_FACTOR = 2.0
 
 def checks_of(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float) -> list:
     """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
-    from .pipeline import check_row, drive_checks
 
     hb = "harmonic balance of the reduced model's tracking loop vs the multibody run"
     out, temp = drive_checks(pred, ach, pred_th, T_amb, tol, hb)
@@ -445,8 +453,6 @@ def design(req, res: dict, syn, table, cat, clock, t0c, t0w, out, force, log, ve
     """Sizing, control, verification and outputs of a motion-law duty (after the synthesis of
     :func:`mjbench.design.pipeline.design`, whose ``res`` this continues): the stages of the module
     doc, one function each below."""
-    from .. import scenario as SC
-    from . import pipeline as PL
 
     law, T_c = law_of(req)
     res["duty"].update(law=describe(req, law, T_c), tracking_error_max_rad=req.duty.tracking_error_max)
@@ -477,8 +483,6 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
     ``stop`` when no candidate is chosen or the chosen one fails at full resolution
     (``res["closest"]``: the best one, its failing checks in ``failures``); ``res`` gets ``sizing``
     and ``_sizing``."""
-    from .. import mechanisms as MR
-    from ..errors import ParameterError
 
     failures = []
     with clock("sizing"):
@@ -490,10 +494,21 @@ def _sizing_stage(req, cat, table, law, T_c, res, clock, log):
         sz = size(load, req, cat, law, T_c, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            finalize(best, load, req, law, T_c)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: finalize(best, load, req, law, T_c))
+            else:
+                finalize(best, load, req, law, T_c)
     res["sizing"] = sizing_json(sz, load)
     res["_sizing"] = sz
     if sz.chosen is None or not sz.chosen.ok:
+        lim = req.duty.tracking_error_max
+        peaks = [c.summary["tracking_peak_rad"] for c in sz.candidates if c.ss is not None and c.summary]
+        if lim is not None and peaks and min(peaks) > lim:  # the bound itself: no candidate comes near it
+            failures.append(dict(constraint(
+                "peak tracking error ≤ tracking_error_max, best of every analysed candidate", min(peaks), float(lim),
+                "max", "rad", note=f"no candidate of the catalogue ({len(peaks)} with a periodic steady state) tracks "
+                                   f"the law this closely with the design-rule servo"), stage="sizing",
+                                 candidate="all"))
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
         res["closest"] = best.describe()
         return load, sz, failures, True
@@ -533,9 +548,6 @@ def _tuned(req, table, cand, load, law, T_c, M_mean, box, ctl):
     """``mjbench.tune`` (controller ``servo``) from the candidate's gains within ``box`` on the
     reduced backend (``ctl``: ``tune``, ``source``) → the tuned candidate if the harmonic balance
     accepts it, else ``cand``."""
-    from .. import scenario as SC
-    from .. import tune as T
-    from . import pipeline as PL
 
     g0 = cand.gains
     t_end, _ = _run_length(cand.drive, M_mean, g0, req, T_c)
@@ -589,11 +601,8 @@ def _verification(req, res, table, final, law, T_c, t_end, scn_doc, scn, clock):
     multibody backend from rest, longer runs (up to MAX_CYCLES) until its last two cycles agree →
     (scenario doc, scenario, achieved figures of the last cycle, {"multibody": trajectory});
     ``res``: ``machine`` (a longer run), ``verification``."""
-    from .. import scenario as SC
 
     with clock("verification"):
-        from ..backends import simulate
-        from ..runner import backend_options
 
         z = float(final.drive.z)
         for attempt in range(ATTEMPTS):
@@ -631,7 +640,6 @@ def _checks(res, req, final, ach) -> list:
 def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
     """Stage "analysis": ``res["requirements_table"]`` (the pipeline's rows, plus the tracking error's
     when verified) → its failing rows as failures of stage "requirements"."""
-    from . import pipeline as PL
 
     with clock("analysis"):
         rows = PL.requirements_table(req, syn, scn, final, ach, res.get("synthesis", {}))
@@ -644,48 +652,3 @@ def _analysis_stage(req, res, syn, scn, final, ach, clock) -> list:
             rows.append(PL._row("RMS tracking error", None, ach["tracking_rms_rad"], "info", "rad", src, ok=True))
         res["requirements_table"] = rows
     return [dict(r, stage="requirements") for r in res["requirements_table"] if r["ok"] is False]
-
-
-# ============================================================================ figure
-def figure(res, path):
-    """Reference and crank angle, tracking error, motor current and gearbox torque over one cycle:
-    predicted (harmonic balance) and simulated (multibody, last cycle)."""
-    from .. import plotstyle as ps
-    from ..plots import save
-
-    ch = res.get("_final")
-    tr = (res.get("_trajectories") or {}).get("multibody")
-    with ps.context():
-        fig, ax = ps.new(2, 2, figsize=(11, 8))
-        if ch is not None and ch.ss is not None:
-            ss = ch.ss
-            tau = ss["tau"]
-            ax[0][0].plot(tau, np.degrees(ss["q_ref"]), color="0.5", label="reference (the law)")
-            ax[0][0].plot(tau, np.degrees(ss["q"]), color="C0", label="predicted")
-            ax[0][1].plot(tau, np.degrees(ss["delta"]), color="C0", label="predicted (harmonic balance)")
-            ax[1][0].plot(tau, ss["I"], color="C0", label="predicted (harmonic balance)")
-            ax[1][1].plot(tau, ss["T_gear"], color="C0", label="predicted (harmonic balance)")
-            ver = res.get("verification", {}).get("achieved", {})
-            if tr is not None and ver:
-                a, b = ver["cycle_s"]
-                sel = _cycle(tr, a, b)
-                ts = tr.t[sel] - a
-                z = float(ch.drive.z)
-                from .. import scenario as SC
-
-                ref = SC.make_machine(SC.from_raw(res["machine"], "design")).controller.reference
-                e = tr.q[sel] - ref.reference_angle(tr.t[sel]) / z
-                k0 = np.floor(tr.q[sel][0] / TWO_PI + 0.5) * TWO_PI
-                ax[0][0].plot(ts, np.degrees(tr.q[sel] - k0), "--", color="C1", label="multibody")
-                ax[0][1].plot(ts, np.degrees(e), "--", color="C1", label="multibody")
-                ax[1][0].plot(ts, tr.current[sel], "--", color="C1", label="multibody")
-                ax[1][1].plot(ts, ch.drive.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel]), "--", color="C1",
-                              label="multibody")
-        for a2, lab in ((ax[0][0], ps.label("crank angle", "°")), (ax[0][1], ps.label("tracking error q − q_ref", "°")),
-                        (ax[1][0], ps.label("motor current", "A")), (ax[1][1], ps.label("gearbox output torque", "N·m"))):
-            a2.set_xlabel(ps.label("time in the cycle", "s"))
-            a2.set_ylabel(lab)
-            if a2.get_legend_handles_labels()[0]:  # (no candidate chosen: empty panels, no legend)
-                a2.legend(loc="best", fontsize=7)
-        ps.finish(fig, f"mjbench design {res['name']} (motion law per cycle): {res['status']}")
-        return save(fig, path)

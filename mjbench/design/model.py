@@ -98,15 +98,23 @@ class DriveModel:
         Tm = np.where(X * w >= 0.0, X / self.eta, X * self.eta_back)
         return Tm + self.T0 * np.sign(w)
 
-    def gear_output(self, I, w_motor, qdd=0.0):
-        """Torque the gearbox passes to the crank [N·m]: its input torque (the motor's k_m·I less
-        its Coulomb and viscous friction and the torque that accelerates the rotor and whatever
-        turns with it, (J_m + J_a)·z·q̈) through the efficiency, z·η·T_in when the motor drives,
-        z·T_in/η_back when the load drives."""
+    def gear_output(self, T_crank, qd, qdd):
+        """Torque the gearbox output passes to the crank shaft [N·m] (docs/design.md §3, the
+        convention): the crank-side torque of the model, ``T_crank`` = z·EFF(T_m) (the motor's
+        k_m·I − T_0·sgn φ̇ through the efficiency), less what the kernel's plant keeps on the motor
+        side without loss — the rotor's and pinion's inertia (J_m + J_a)·z²·q̈ and the viscous
+        z²·λ·q̇.  It is what the mechanism and the crank-shaft inertia J_b receive:
+        (J + J_b)·q̈ + ½J'q̇² + E_p' − Q_ext."""
+        return (np.asarray(T_crank, float) - self.J_rotor * self.z ** 2 * np.asarray(qdd, float)
+                - self.c_v * np.asarray(qd, float))
+
+    def gear_output_of_run(self, I, w_motor, qdd):
+        """:meth:`gear_output` from a run's recorded current, motor speed and crank acceleration, as
+        the kernel applies it: z·EFF(k_m·I − T_0·sgn φ̇) − (J_m + J_a)·z²·q̈ − z²·λ·q̇ [N·m]."""
         w = np.asarray(w_motor, float)
-        Tin = (self.k_m * np.asarray(I, float) - self.T0 * np.sign(w) - self.lam * w
-               - self.J_rotor * self.z * np.asarray(qdd, float))
-        return self.z * np.where(Tin * w >= 0.0, Tin * self.eta, Tin / self.eta_back)
+        Tm = self.k_m * np.asarray(I, float) - self.T0 * np.sign(w)
+        Tc = self.z * np.where(Tm * w >= 0.0, Tm * self.eta, Tm / self.eta_back)
+        return self.gear_output(Tc, w / self.z, qdd)
 
     def as_drive_table(self, v_max=None, i_max=None) -> dict:
         """The scenario's ``[drive]`` table (mjbench.drive.DriveParams)."""

@@ -126,7 +126,7 @@ def steady_state(load, drive, gains: Gains, speed: float, n: int = 1024, tol: fl
     V0 = float(np.mean(r))
     c0 = -V0 / (drive.z * gains.ki) if gains.ki > 0 else 0.0
     return {"tau": tau, "T": T, "speed": W, "delta": d, "q": q, "qd": qd, "qdd": ddd, "I": I, "dI": dI, "V": Vreq,
-            "T_m": drive.k_m * I, "T_crank": Treq, "T_gear": drive.gear_output(I, wm, ddd), "w_motor": wm,
+            "T_m": drive.k_m * I, "T_crank": Treq, "T_gear": drive.gear_output(Treq, qd, ddd), "w_motor": wm,
             "c0": c0, "V0": V0, "iterations": it + 1, "residual": res, "dh": dh, "n": n,
             "M_mean": M_mean, "eta_eff": eta_eff}
 
@@ -165,7 +165,8 @@ def initial_state(ss: dict) -> dict:
 
 def summary(ss: dict, drive) -> dict:
     """Figures of one cycle: RMS/peak of current, motor torque, gearbox output, voltage; χ (motor
-    speed, time mean) and the largest speed deviation."""
+    speed, time mean) and the largest speed deviation; the gearbox output's work per cycle
+    ∮T_gear·q̇ dt (in steady state: the loads' work and the mechanism's friction per cycle)."""
     I, Tm, Tg, V, wm = ss["I"], ss["T_m"], ss["T_gear"], ss["V"], ss["w_motor"]
     rms = lambda x: float(np.sqrt(np.mean(np.asarray(x) ** 2)))  # noqa: E731
     return {"current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
@@ -175,4 +176,5 @@ def summary(ss: dict, drive) -> dict:
             "chi": float(np.ptp(wm) / np.mean(wm)),
             "speed_dev_max_rel": float(np.max(np.abs(ss["qd"] - ss["speed"])) / ss["speed"]),
             "motor_speed_max_rad_s": float(np.max(np.abs(wm))), "mean_power_W": float(np.mean(ss["T_crank"] * ss["qd"])),
+            "gear_work_per_cycle_J": float(np.mean(Tg * ss["qd"])) * ss["T"],
             "copper_loss_W": float(np.mean(I * I)) * drive.R}

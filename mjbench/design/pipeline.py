@@ -38,8 +38,20 @@ from . import sizing as SZ
 from . import synthesis as S
 from . import thermal as TH
 from .requirements import Requirements, compile_function
+from .finish import _clean_metrics, _finish, _row, accept_tuned, requirements_table  # noqa: F401
+from .checks import DRIVE_FIGURES, check_row, drive_checks, sizing_common  # noqa: F401 - design.json's shared parts
 from .solver_check import solver_check
 from .synthesis import constraint
+from .. import scenario as SC
+from .. import metrics as M
+from ..outputs import check_out_dir
+from . import law_duty
+from . import catalogue as CAT
+from .requirements import load as load_req
+from .. import mechanisms as MR
+from ..errors import ParameterError
+from ..backends import simulate
+from ..runner import backend_options
 
 TWO_PI = 2.0 * math.pi
 #: longest verification run [cycles]
@@ -72,7 +84,6 @@ def synthesize(req: Requirements):
     if t == "cam":  # a disc cam from its requirement: mjbench/design/cam.py
         return cam.synthesize(req)
     if t == "given":
-        from .. import scenario as SC
 
         scn = SC.load(req.path(m.scenario) if os.path.exists(req.path(m.scenario)) else m.scenario)
         return None, copy.deepcopy(scn.raw["mechanism"]), None
@@ -150,7 +161,6 @@ def _record_dt(dt, T):
 # ============================================================================ verification
 def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
     """Figures of the last complete crank cycle of a trajectory (the predicted ones' counterparts)."""
-    from .. import metrics as M
 
     t, q, om = tr.t, tr.q, tr.omega
     cyc = M.cycles(t, q)
@@ -164,10 +174,11 @@ def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
     def rms(x):
         return float(np.sqrt(np.trapezoid(np.asarray(x) ** 2, tt) / (tt[-1] - tt[0])))
 
-    Tg = dm.gear_output(I, wm, tr.qdd[sel])
+    Tg = dm.gear_output_of_run(I, wm, tr.qdd[sel])
     out = {"cycle_s": [float(a), float(b)], "current_rms_A": rms(I), "current_peak_A": float(np.max(np.abs(I))),
            "motor_torque_rms_Nm": dm.k_m * rms(I), "motor_torque_peak_Nm": dm.k_m * float(np.max(np.abs(I))),
            "gear_torque_rms_Nm": rms(Tg), "gear_torque_peak_Nm": float(np.max(np.abs(Tg))),
+           "gear_work_per_cycle_J": float(np.trapezoid(Tg * qd, tt)),
            "voltage_peak_V": float(np.max(np.abs(V))), "chi": float(M.chi(t, om, a, b)),
            "speed_dev_max_rel": float(np.max(np.abs(qd - speed)) / speed),
            "mean_speed_rad_s": float(M.time_mean(tt, qd)), "motor_speed_max_rad_s": float(np.max(np.abs(wm))),
@@ -180,7 +191,6 @@ def measure(tr, dm: SZ.DriveModel, speed, motor, T_amb) -> dict:
 def periodicity(tr) -> float:
     """Relative difference of the RMS current and of the mean speed between the last two complete
     cycles (0: periodic steady state reached)."""
-    from .. import metrics as M
 
     cyc = M.cycles(tr.t, tr.q)
     if len(cyc) < 2:
@@ -201,30 +211,6 @@ def start_up(tr, speed) -> dict:
 
 
 #: the drive's figures every design verifies: (key in the prediction and in the run's figures, name)
-DRIVE_FIGURES = (("current_rms_A", "motor current RMS [A]"), ("current_peak_A", "motor current peak [A]"),
-                 ("motor_torque_rms_Nm", "motor torque k_m·I RMS [N·m]"),
-                 ("motor_torque_peak_Nm", "motor torque k_m·I peak [N·m]"),
-                 ("gear_torque_rms_Nm", "gearbox output torque RMS [N·m]"),
-                 ("gear_torque_peak_Nm", "gearbox output torque peak [N·m]"),
-                 ("voltage_peak_V", "armature voltage peak [V]"))
-
-
-def check_row(name: str, p, a, t, note: str = "") -> dict:
-    """One entry of design.json's ``checks``: {name, predicted, achieved, rel_diff, tolerance, ok, note}."""
-    rd = (a - p) / abs(p) if p else (math.inf if a else 0.0)
-    return {"name": name, "predicted": p, "achieved": a, "rel_diff": rd, "tolerance": t, "ok": bool(abs(rd) <= t),
-            "note": note}
-
-
-def drive_checks(pred: dict, ach: dict, pred_th: dict, T_amb: float, tol: float, note: str) -> tuple[list, dict]:
-    """The rows of :data:`DRIVE_FIGURES` (tolerance ``tol``) and, apart, the winding temperature rise's
-    (twice ``tol``: it goes as the RMS current squared)."""
-    rows = [check_row(name, pred[key], ach[key], tol, note) for key, name in DRIVE_FIGURES]
-    temp = check_row("winding temperature rise [K] (two-node model)", pred_th["T_winding_C"] - T_amb,
-                     ach["T_winding_C"] - T_amb, 2.0 * tol, "∝ RMS current²: twice the current tolerance")
-    return rows, temp
-
-
 def checks_of(pred: dict, ach: dict, chi_stmt: dict, pred_th: dict, T_amb: float, tol: float) -> list:
     """{name, predicted, achieved, rel_diff, tolerance, ok} for every verified prediction."""
     out, temp = drive_checks(pred, ach, pred_th, T_amb, tol, "harmonic balance of the reduced model vs the multibody run")
@@ -246,7 +232,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     t0c, t0w = time.process_time(), time.perf_counter()
     req, cat = _requirements(requirements, clock)
     if out is not None:  # an unusable --out is an error before any work
-        from ..outputs import check_out_dir
         check_out_dir(out, force=force)
     res = _result_head(req, cat)
 
@@ -257,7 +242,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     if failures:
         return finish(failures)
     if req.duty.law is not None:  # the crank follows a motion law per cycle: mjbench/design/law_duty.py
-        from . import law_duty
 
         return law_duty.design(req, res, syn, table, cat, clock, t0c, t0w, out, force, log, verify=verify, tune=tune)
     speed = req.duty.omega
@@ -280,7 +264,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
     runs = _RunLength(req, cand.drive, M_mean, t_acc, T)
     final, ctl = _control_stage(req, table, cand, load, speed, runs, req.control.tune if tune is None else tune, clock)
     chi_stmt, init, t_end = _prediction(res, ctl, final, load, sz, speed, M_mean, runs, t_acc)
-    from .. import scenario as SC
 
     scn_doc = machine_scenario(req, table, final, final.gains, init, speed, t_end)
     scn = SC.from_raw(scn_doc, f"design:{req.name}")
@@ -307,8 +290,6 @@ def design(requirements, out=None, force=False, log=print, verify=True, tune=Non
 
 def _requirements(requirements, clock):
     """(Requirements, the catalogue's selected motors and gearboxes): stage "requirements"."""
-    from . import catalogue as CAT
-    from .requirements import load as load_req
 
     with clock("requirements"):
         req = requirements if isinstance(requirements, Requirements) else load_req(str(requirements))
@@ -348,9 +329,11 @@ def _synthesis_stage(req, res, clock):
                 own = getattr(syn, "check", None)  # a cam re-checks itself as the mechanism mjbench builds
                 res["synthesis"]["solver_check"] = own(table) if own else solver_check(syn, table)
             except Exception as e:  # noqa: BLE001 - a linkage the solver cannot follow is a failure, reported
-                res["synthesis"]["solver_check"] = {"error": str(e)}
+                text = "; ".join(x.strip() for x in str(e).splitlines() if x.strip())  # one line
+                text = text if len(text) <= 400 else text[:397] + "..."
+                res["synthesis"]["solver_check"] = {"error": text}
                 failures.append(dict(constraint("mjbench's position solver follows the linkage over a turn", False,
-                                                compare="true", note=str(e)), stage="synthesis"))
+                                                compare="true", note=text), stage="synthesis"))
     res["mechanism"] = table
     res["_geometry"] = geom
     return syn, table, failures
@@ -359,13 +342,11 @@ def _synthesis_stage(req, res, clock):
 def _sizing_stage(req, cat, table, speed, res, clock, log):
     """Stage "sizing" → (load model, Sizing, failures, stop): ``stop`` when no candidate is chosen
     (``res["closest"]``: the closest one, its failing checks in ``failures``)."""
-    from .. import mechanisms as MR
 
     failures = []
     with clock("sizing"):
         mech = MR.from_dict(table)
         if mech.internal or getattr(getattr(mech, "_tab", None), "lo", None) is not None:
-            from ..errors import ParameterError
 
             raise ParameterError(f"mechanism {table.get('type')!r}: the design sizes rigid machines whose input turns "
                                  f"fully (internal elastic coordinates or a slide input are not supported)")
@@ -373,7 +354,10 @@ def _sizing_stage(req, cat, table, speed, res, clock, log):
         sz = SZ.size(load, req, cat, speed, log=log)
         best = sz.chosen or sz.closest
         if best.gains is not None and not best.screened_out:
-            SZ.finalize(best, load, req, speed)
+            if sz.chosen is None:
+                SZ.refine_closest(best, lambda: SZ.finalize(best, load, req, speed))
+            else:
+                SZ.finalize(best, load, req, speed)
     res["sizing"] = _sizing_json(sz, load)
     if sz.chosen is None:
         failures += [dict(c, stage="sizing", candidate=best.label) for c in best.checks if not c["ok"]]
@@ -430,7 +414,6 @@ def _control_stage(req, table, cand, load, speed, runs, do_tune, clock):
 def _tuned(req, table, cand, load, speed, runs, box, ctl):
     """``mjbench.tune`` from the candidate's gains within ``box`` (``ctl``: ``tune``, ``source``) →
     the tuned candidate if the sizing model accepts it, else ``cand``."""
-    from .. import scenario as SC
 
     g0 = cand.gains
     t_end, _ = runs(g0)
@@ -451,17 +434,6 @@ def _tuned(req, table, cand, load, speed, runs, box, ctl):
         return accept_tuned(ctl, tuned, cand, "mjbench.tune")
     except Exception as e:  # noqa: BLE001 - tuning trouble keeps the design rule, reported
         ctl["source"] = f"design rule: tuning failed ({type(e).__name__}: {e})"
-    return cand
-
-
-def accept_tuned(ctl, tuned, cand, how: str):
-    """The tuned candidate if the sizing model accepts it, else the design rule's ``cand``;
-    ``ctl["source"]`` says which (and which checks the tuned gains fail)."""
-    if tuned.ok:
-        ctl["source"] = f"tuned ({how}), accepted by the sizing model"
-        return tuned
-    ctl["source"] = ("design rule: the tuned gains fail the sizing model ("
-                     + "; ".join(c["name"] for c in tuned.checks if not c["ok"]) + ")")
     return cand
 
 
@@ -494,9 +466,6 @@ def _verification(req, res, table, final, init, speed, t_end, runs, scn_doc, scn
     backend from the predicted steady state, longer runs (up to MAX_CYCLES) until its last two
     cycles agree → (scenario doc, scenario, achieved figures, {"multibody": trajectory}); ``res``:
     ``machine`` (a longer run), ``verification``."""
-    from .. import scenario as SC
-    from ..backends import simulate
-    from ..runner import backend_options
 
     T = runs.T
     with clock("verification"):
@@ -546,176 +515,6 @@ def _gain_box(cand, load, req, speed):
     return {"kp": (lo_p, hi_p), "ki": (lo_i, hi_i), "kd": (kd0 / 10.0, kd0 * 10.0)}, scan
 
 
-def _clean_metrics(d):
-    out = {}
-    for k, v in (d or {}).items():
-        if isinstance(v, dict):
-            out[k] = {kk: vv for kk, vv in v.items() if isinstance(vv, (int, float, str, bool)) or vv is None}
-    return out
-
-
 def _sizing_json(sz: SZ.Sizing, load) -> dict:
     return {"speed_rad_s": sz.speed, "torque_at_constant_speed": sz.torque, "flywheel": sz.flywheel,
             **sizing_common(sz, load, "chi")}
-
-
-def sizing_common(sz, load, figure: str) -> dict:
-    """What design.json's ``sizing`` holds for every duty: the load model, the gear-ratio study (60
-    of its points), every candidate (with its summary's ``figure``), the counts, the choice, timing."""
-    sw = sz.sweep
-    k = np.unique(np.linspace(0, len(sw["z"]) - 1, 60).astype(int))
-    return {"load_model": {"J_mean": load.J_mean, "J_ptp": load.J_ptp, "affine_error": load.affine_error,
-                           "nodes": load.n},
-            "ratio_sweep": {"motor": (sz.chosen or sz.closest).motor.name, "z_best": sw["z_best"],
-                            "rms_best_Nm": sw["rms_best_Nm"], "z_closed_form": sw["z_closed_form"],
-                            "best_at_envelope_limit": sw["at_limit"],
-                            "z": sw["z"][k].tolist(), "rms_Nm": sw["rms_Nm"][k].tolist(),
-                            "peak_Nm": sw["peak_Nm"][k].tolist(), "allowed": sw["allowed"][k].tolist()},
-            "candidates": [{"label": c.label, "ok": c.ok, "cost": c.cost, "violation": c.violation,
-                            "screened_out": c.screened_out, "current_rms_A": c.summary.get("current_rms_A"),
-                            figure: c.summary.get(figure),
-                            "fails": [x["name"] for x in c.checks if not x["ok"]]} for c in sz.candidates],
-            "n_candidates": len(sz.candidates), "n_analysed": sum(not c.screened_out for c in sz.candidates),
-            "n_feasible": sum(c.ok for c in sz.candidates),
-            "chosen": sz.chosen.label if sz.chosen else None, "timing": sz.timing}
-
-
-# ============================================================================ requirements vs achieved
-def _row(name, required, achieved, compare, unit="", source="", ok=None):
-    if ok is None:
-        if compare == "max":
-            ok = achieved <= required * (1 + 1e-9)
-        elif compare == "min":
-            ok = achieved >= required * (1 - 1e-9)
-        elif compare == "eq":
-            ok = abs(achieved - required) <= 1e-6 * max(1.0, abs(required))
-        else:
-            ok = bool(achieved)
-    if compare == "max" and required:
-        margin = (required - achieved) / abs(required)
-    elif compare == "min" and required:
-        margin = (achieved - required) / abs(required)
-    elif compare == "eq" and required:
-        margin = -abs(achieved - required) / abs(required)
-    else:
-        margin = None
-    return {"name": name, "required": required, "achieved": achieved, "compare": compare, "unit": unit,
-            "margin": margin, "ok": bool(ok), "source": source}
-
-
-def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
-    """Every requirement with the achieved value (kinematics: mjbench.analyze on the machine,
-    i.e. mjbench's own position solver; drive: the multibody run) and its margin."""
-    from .. import analyze as A
-
-    an = A.analyze(scn, speeds=[req.duty.omega], n=720)
-    rows = _kinematic_rows(req, syn, an, syn_json)
-    if req.mechanism.type == "cam":
-        rows += cam.requirement_rows(req, an, ach, _row)
-    if ach is not None:
-        rows += _drive_rows(req, cand, ach)
-    return rows
-
-
-def _kinematic_rows(req, syn, an, syn_json) -> list:
-    """The mechanism's requirements: stroke or swing and time ratio, structural error, poses
-    (mjbench analyze / the solver check), transmission angle, the synthesis's size constraints."""
-    rows = []
-    m = req.mechanism
-    src_k = "mjbench analyze (own position solver)"
-    if m.type == "slider-crank":
-        st = an["strokes_m"].get("guide")
-        rows.append(_row("stroke", m.stroke * 1e3, st * 1e3, "eq", "mm", src_k,
-                         ok=abs(st - m.stroke) <= 1e-6 * m.stroke))
-        arcs = an["stroke_arcs_deg"].get("guide")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(_row("time ratio (slow / return stroke)", m.time_ratio, Q, "eq", "1", src_k,
-                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
-    if m.type in ("crank-rocker",):
-        sw = an["swings_deg"].get("D")
-        rows.append(_row("rocker swing", math.degrees(m.swing), sw, "eq", "°", src_k,
-                         ok=sw is not None and abs(sw - math.degrees(m.swing)) <= 1e-3))
-        arcs = an["stroke_arcs_deg"].get("D")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(_row("time ratio (slow / fast swing)", m.time_ratio, Q, "eq", "1", src_k,
-                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
-    if m.type == "function-generator":
-        sc = syn_json.get("solver_check", {})
-        if m.max_structural_error is not None:
-            rows.append(_row("structural error (max |ψ − ψ_desired|)", math.degrees(m.max_structural_error),
-                             sc.get("structural_error_max_deg_solver"), "max", "°", "mjbench position solver, 201 points"))
-        else:
-            rows.append(_row("structural error (max |ψ − ψ_desired|)", None, sc.get("structural_error_max_deg_solver"),
-                             "info", "°", "mjbench position solver, 201 points", ok=True))
-        if m.method == "chebyshev":
-            rows.append(_row("precision points met (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
-                             "mjbench position solver"))
-    if m.type == "motion-generator":
-        sc = syn_json.get("solver_check", {})
-        rows.append(_row("poses met, position (solver)", 1e-9, sc.get("position_residual_m"), "max", "m",
-                         "mjbench position solver"))
-        rows.append(_row("poses met, angle (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
-                         "mjbench position solver"))
-    if m.type not in ("given", "cam"):  # (a cam's pressure angle: design/cam.py requirement_rows)
-        trans = an["transmission_angles_deg"]
-        if trans:
-            mu = min(v["min"] for v in trans.values())
-            if m.min_transmission is not None:
-                rows.append(_row("minimum transmission angle", math.degrees(m.min_transmission), mu, "min", "°", src_k))
-            else:
-                rows.append(_row("minimum transmission angle", None, mu, "info", "°", src_k, ok=True))
-        if syn is not None:
-            for c in syn.constraints:
-                if c["name"].startswith(("link-length", "envelope", "input crank")):
-                    rows.append(_row(c["name"], c["limit"], c["value"], {"max": "max", "min": "min"}.get(c["compare"], "true"),
-                                     c["unit"], "synthesis (closed form)", ok=c["ok"]))
-    return rows
-
-
-def _drive_rows(req, cand, ach) -> list:
-    """The drive's requirements against the multibody run's last cycle (speed, χ, motor and gearbox
-    ratings, winding temperature, supply, current limit, flywheel)."""
-    rows = []
-    src = "multibody run, last cycle"
-    W = req.duty.omega
-    rows.append(_row("mean input speed", W, ach["mean_speed_rad_s"], "eq", "rad/s", src,
-                     ok=abs(ach["mean_speed_rad_s"] - W) <= req.verify.tolerance * W))
-    if req.duty.chi_max is not None:
-        rows.append(_row("speed fluctuation χ", req.duty.chi_max, ach["chi"], "max", "1", src))
-    mo, g = cand.motor, cand.gearbox
-    T_amb = req.duty.ambient_temperature
-    rows += [
-        _row("RMS motor torque ≤ continuous rating", TH.derated_continuous_torque(mo, T_amb),
-             ach["motor_torque_rms_Nm"], "max", "N·m", src),
-        _row("peak motor torque ≤ T_peak", mo.T_peak, ach["motor_torque_peak_Nm"], "max", "N·m", src),
-        _row("winding temperature ≤ T_max", mo.T_max, ach["T_winding_C"], "max", "°C",
-             "two-node model on the simulated current"),
-        _row("armature voltage ≤ supply", req.drive.supply_voltage, ach["voltage_peak_V"], "max", "V", src),
-        _row("motor speed ≤ maximum", mo.speed_max, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
-    if req.drive.current_limit is not None:
-        rows.append(_row("current ≤ amplifier limit", req.drive.current_limit, ach["current_peak_A"], "max", "A", src))
-    if g is not None:
-        rows += [_row("gearbox output torque RMS ≤ T_cont_out", g.T_cont_out, ach["gear_torque_rms_Nm"], "max", "N·m", src),
-                 _row("gearbox output torque peak ≤ T_peak_out", g.T_peak_out, ach["gear_torque_peak_Nm"], "max",
-                      "N·m", src),
-                 _row("gearbox input speed ≤ maximum", g.speed_max_in, ach["motor_speed_max_rad_s"], "max", "rad/s", src)]
-    if cand.J_f > 0 and req.drive.flywheel_max is not None:
-        rows.append(_row("flywheel ≤ flywheel_max", req.drive.flywheel_max, cand.J_f, "max", "kg·m²", "sizing"))
-    return rows
-
-
-def _finish(res, req, failures, scn_doc, clock, t0c, t0w, out, force, log):
-    from . import report as RP
-
-    res["status"] = "ok" if not failures else "infeasible"
-    res["failures"] = failures
-    t = dict(clock.t)
-    syn_size = sum(t.get(k, {}).get("cpu_s", 0.0) for k in ("synthesis", "solver_check", "sizing"))
-    res["timing"] = {**t, "synthesis_and_sizing_cpu_s": syn_size, "total_cpu_s": time.process_time() - t0c,
-                     "total_wall_s": time.perf_counter() - t0w}
-    if out is not None:
-        res["files"] = RP.write(res, out, scn_doc, force=force)
-    log(RP.summary_text(res))
-    return res

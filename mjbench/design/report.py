@@ -14,6 +14,13 @@ import numpy as np
 
 from ..outputs import atomic_write, staged_dir, write_json
 from . import build as B
+from .law_figure import figure as law_figure
+from .. import plotstyle as ps
+from ..plots import save
+from .. import mechanisms as MR
+from .. import linear as LN
+from .. import scenario as S
+from .sizing import FLYWHEEL_COST
 
 
 def _fmt(x, unit=""):
@@ -61,6 +68,61 @@ def _law_text(duty) -> str:
                if lw.get("tracking_error_max_rad") else ""))
 
 
+#: steel for the flywheel's size (kg/m³) and its shape: a disc whose thickness is this fraction of its diameter
+STEEL_DENSITY, DISC_THICKNESS = 7850.0, 0.2
+
+
+def flywheel_disc(J: float) -> dict | None:
+    """A steel disc of inertia J [kg·m²] (thickness = :data:`DISC_THICKNESS` × diameter):
+    J = ½·m·r² = π·ρ·t·r⁴/2, so D = (32·J/(π·ρ·k))^(1/5) with t = k·D; {diameter_m, thickness_m, mass_kg}."""
+    if not J or J <= 0:
+        return None
+    D = (32.0 * J / (math.pi * STEEL_DENSITY * DISC_THICKNESS)) ** 0.2
+    t = DISC_THICKNESS * D
+    return {"diameter_m": D, "thickness_m": t, "mass_kg": STEEL_DENSITY * math.pi * D * D / 4.0 * t}
+
+
+def flywheel_text(ch) -> str:
+    """"0.0058 kg·m² on the motor shaft: a steel disc Ø130 × 26 mm, 2.7 kg (14.5 kg·m² at the crank)"."""
+    J = float(ch.get("flywheel_kgm2") or 0.0)
+    if J <= 0:
+        return "none"
+    loc = ch.get("flywheel_location", "crank")
+    disc = flywheel_disc(J)
+    at_crank = J * float(ch["ratio"]) ** 2 if loc == "motor" else J
+    return (f"{_fmt(J)} kg·m² on the {loc} shaft: a steel disc Ø{1e3 * disc['diameter_m']:.0f} × "
+            f"{1e3 * disc['thickness_m']:.0f} mm, {disc['mass_kg']:.3g} kg"
+            + (f" (acts as {_fmt(at_crank)} kg·m² at the crank, ×z²)" if loc == "motor" else ""))
+
+
+def failure_text(f) -> str:
+    """One readable line for a failed check: "voltage (hot winding): 23.16 V, above the allowed 21.6 V
+    (supply × (1 − headroom)) by 7.2 %" — the quantity, its value and the limit once each."""
+    name = str(f.get("name", ""))
+    v, lim, cmp_, unit = f.get("value", f.get("achieved")), f.get("limit", f.get("required")), f.get("compare"), \
+        f.get("unit", "")
+    u = "" if not unit or unit == "1" else unit if unit == "°" else f" {unit}"
+    num = lambda x: isinstance(x, (int, float)) and not isinstance(x, bool)  # noqa: E731
+    if cmp_ in ("max", "min") and num(v) and num(lim):
+        sym = "≤" if cmp_ == "max" else "≥"
+        qty, _, rule = name.partition(sym)
+        rule = rule.strip()
+        if " = " in rule:  # "supply × (1 − headroom) = 21.6 V": the number is the limit, shown once
+            rule = rule.split(" = ")[0].strip()
+        word = "above the allowed" if cmp_ == "max" else "below the required"
+        by = abs(v - lim) / abs(lim) if lim else math.inf
+        return (f"{qty.strip() or name}: {_fmt(v)}{u}, {word} {_fmt(lim)}{u}"
+                + (f" ({rule})" if rule and not _same_number(rule, lim) else "") + f" by {100 * by:.3g} %")
+    return f"{name}: not met" if cmp_ == "true" or isinstance(v, bool) else name
+
+
+def _same_number(text, x) -> bool:
+    try:
+        return math.isclose(float(text.split()[0]), float(x), rel_tol=1e-3)
+    except (ValueError, IndexError):
+        return False
+
+
 def public(res: dict) -> dict:
     """The result without its in-memory objects (keys starting with '_')."""
     return {k: v for k, v in res.items() if not k.startswith("_")}
@@ -72,7 +134,7 @@ def summary_text(res: dict) -> str:
     ch = res.get("chosen")
     if ch:
         lines.append(f"  drive: {ch['motor']} + {ch['gearbox'] or 'direct drive'} (z = {ch['ratio']:g})"
-                     + (f", flywheel {ch['flywheel_kgm2']:.4g} kg·m²" if ch["flywheel_kgm2"] > 0 else ", no flywheel")
+                     + (f", flywheel {flywheel_text(ch)}" if ch["flywheel_kgm2"] > 0 else ", no flywheel")
                      + f"; gains {_gains_text(ch['gains'])} ({res.get('control', {}).get('source', '')})")
     for c in res.get("checks", []):
         lines.append(f"  check {c['name']}: predicted {_fmt(c['predicted'])}, simulated {_fmt(c['achieved'])}, "
@@ -82,10 +144,7 @@ def summary_text(res: dict) -> str:
         lines.append(f"  closest candidate: {c['motor']} + {c['gearbox'] or 'direct drive'}"
                      + (f", flywheel {c['flywheel_kgm2']:.4g} kg·m²" if c["flywheel_kgm2"] else ""))
     for f in res.get("failures", []):
-        v = f.get("value")
-        lim = f.get("limit", f.get("required"))
-        lines.append(f"  FAILS ({f.get('stage')}): {f['name']}" + (f" = {_fmt(v)}" if not isinstance(v, bool) and v is not None else "")
-                     + (f" (limit {_fmt(lim)} {f.get('unit', '')})" if lim is not None and not isinstance(lim, bool) else "")
+        lines.append(f"  FAILS ({f.get('stage')}): {failure_text(f)}"
                      + (f" — {f['note']}" if f.get("note") else "")
                      + (f" [{f['candidate']}]" if f.get("candidate") else ""))
     t = res.get("timing", {})
@@ -99,10 +158,11 @@ def requirements_rows(res) -> tuple:
     head = ["requirement", "required", "achieved", "unit", "margin", "pass", "source"]
     body = []
     for r in res.get("requirements_table", []):
+        k, unit = _display_unit(r["name"], r["unit"])
         req = r["required"]
         cmp = {"max": "≤ ", "min": "≥ ", "eq": "= "}.get(r["compare"], "")
-        body.append([r["name"], (cmp + _fmt(req)) if req is not None else "—", _fmt(r["achieved"]), r["unit"],
-                     _pct(r["margin"]) if r["margin"] is not None else "—", "✔" if r["ok"] else "✘", r["source"]])
+        body.append([r["name"], (cmp + _fmt(_scaled(req, k))) if req is not None else "—", _fmt(_scaled(r["achieved"], k)),
+                     unit, _pct(r["margin"]) if r["margin"] is not None else "—", "✔" if r["ok"] else "✘", r["source"]])
     syn = res.get("synthesis", {})
     measured = ("stroke", "time ratio", "rocker swing", "minimum transmission angle", "precision points met",
                 "poses met")
@@ -111,17 +171,118 @@ def requirements_rows(res) -> tuple:
             continue
         if res.get("requirements_table") and c["name"].startswith(measured):
             continue  # the same requirement measured by mjbench's own solver is in the table
-        body.append([c["name"], ({"min": "≥ ", "max": "≤ "}.get(c["compare"], "") + _fmt(c["limit"]))
-                     if c["limit"] is not None else "—", _fmt(c["value"]), c["unit"], "—", "✔" if c["ok"] else "✘",
+        k, unit = _display_unit(c["name"], c["unit"])
+        body.append([c["name"], ({"min": "≥ ", "max": "≤ "}.get(c["compare"], "") + _fmt(_scaled(c["limit"], k)))
+                     if c["limit"] is not None else "—", _fmt(_scaled(c["value"], k)), unit, "—", "✔" if c["ok"] else "✘",
                      "synthesis (closed form)" + (f"; {c['note']}" if c.get("note") else "")])
     return head, body
 
 
+#: the units every table shows: lengths in mm, speed fluctuations and deviations in percent
+UNIT_SHOWN = {"m": ("mm", 1e3), "m/s": ("mm/s", 1e3)}
+
+
+def _is_fraction(name: str) -> bool:
+    return "χ" in name or "/Ω" in name
+
+
+def _display_unit(name: str, unit: str) -> tuple:
+    """(scale, unit shown) of a value in ``unit`` (SI) named ``name``: mm for lengths, % for χ."""
+    if _is_fraction(name) and unit in ("1", ""):
+        return 100.0, "%"
+    if unit in UNIT_SHOWN:
+        return UNIT_SHOWN[unit][1], UNIT_SHOWN[unit][0]
+    return 1.0, unit
+
+
+def _scaled(x, k):
+    return x * k if isinstance(x, (int, float)) and not isinstance(x, bool) else x
+
+
 def checks_rows(res) -> tuple:
     head = ["prediction", "predicted", "simulated", "rel. diff", "tolerance", "pass"]
-    body = [[c["name"], _fmt(c["predicted"]), _fmt(c["achieved"]), _pct(c["rel_diff"]),
-             f"{100 * c['tolerance']:.3g} %", "✔" if c["ok"] else "✘"] for c in res.get("checks", [])]
+    body = []
+    for c in res.get("checks", []):
+        k = 100.0 if _is_fraction(c["name"]) else 1.0
+        name = c["name"] + (" [%]" if k == 100.0 and "[" not in c["name"] else "")
+        body.append([name, _fmt(_scaled(c["predicted"], k)), _fmt(_scaled(c["achieved"], k)), _pct(c["rel_diff"]),
+                     f"{100 * c['tolerance']:.3g} %", "✔" if c["ok"] else "✘"])
     return head, body
+
+
+def selection_text(res) -> str:
+    """The selection rule, in the numbers of this design."""
+    sz = res.get("sizing") or {}
+    if not sz:
+        return ""
+    fw0, fw1 = FLYWHEEL_COST
+    return (f"Every motor × gearbox of the catalogue ({sz.get('n_candidates')} combinations) is first screened on "
+            f"mean values (speed, mean torque, mean voltage); the {sz.get('n_analysed')} left get their own flywheel "
+            f"(energy method) and design-rule gains, and their periodic steady state is solved (harmonic balance): "
+            f"RMS and peak current and torque, voltage with the hot winding, speeds, χ, winding temperature. "
+            f"{sz.get('n_feasible')} meet every check. **Rule: the cheapest feasible candidate wins** — catalogue cost "
+            f"of motor and gearbox plus a flywheel figure ({fw0:g} + {fw1:g} per kg·m²); a tie goes to the smaller RMS "
+            f"motor torque. None feasible: the candidate of least total relative violation is reported with what fails.")
+
+
+def runners_up_rows(res, n: int = 3) -> tuple:
+    """The chosen candidate and the next ``n`` feasible ones by cost: cost, its difference, χ or
+    the RMS current, and the tightest check with its margin."""
+    sz = res.get("sizing") or {}
+    feas = sorted((c for c in sz.get("candidates", []) if c.get("ok")), key=lambda c: c["cost"])
+    fig = "chi" if any("chi" in c for c in feas) else None
+    head = ["rank", "candidate", "cost", "more than the chosen", "χ [%] (design-rule gains)" if fig else "figure",
+            "RMS current [A]", "tightest check (margin)"]
+    body = []
+    if not feas:
+        return head, body
+    c0 = feas[0]["cost"]
+    for i, c in enumerate(feas[: n + 1]):
+        t = c.get("tightest")
+        tt = f"{t['name'].split(' ≤')[0].split(' ≥')[0]}: {100 * t['margin']:.1f} %" if t else "—"
+        figv = _fmt(100 * c["chi"]) if fig and c.get("chi") is not None else "—"
+        body.append(["chosen" if i == 0 else str(i + 1), c["label"], _fmt(c["cost"]),
+                     "—" if i == 0 else f"+{_fmt(c['cost'] - c0)} ({100 * (c['cost'] - c0) / c0:.2g} %)", figv,
+                     _fmt(c.get("current_rms_A")), tt])
+    return head, body
+
+
+def loop_rows(res) -> tuple:
+    """The speed loop: crossover, margins (linearised at the running point), slowest pole, settling."""
+    ctl = res.get("control") or {}
+    head = ["quantity", "value"]
+    body = []
+    if ctl.get("crossover_rad_s") is not None:
+        w = ctl["crossover_rad_s"]
+        body.append(["design crossover ω_c (the gains' basis)", f"{_fmt(w)} rad/s ({_fmt(w / (2 * math.pi))} Hz)"])
+    lp = ctl.get("loop") or {}
+    if lp.get("phase_margin_deg") is not None:
+        body += [["gain crossover of the loop at the plant input (linearised)",
+                  f"{_fmt(lp['w_gain_crossover_rad_s'])} rad/s ({_fmt(lp['w_gain_crossover_rad_s'] / (2 * math.pi))} Hz)"],
+                 ["phase margin", f"{_fmt(lp['phase_margin_deg'])}°"],
+                 ["gain margin", f"{_fmt(lp['gain_margin_dB'])} dB"],
+                 ["peak sensitivity M_s", _fmt(lp["Ms"])]]
+    elif lp.get("note"):
+        body.append(["margins", lp["note"]])
+    if ctl.get("slowest_decay_1_s") is not None:
+        body.append(["slowest closed-loop pole (mean-inertia model)", f"−{_fmt(ctl['slowest_decay_1_s'])} 1/s"])
+    if ctl.get("settling_time_s") is not None:
+        body.append(["settling time (4 / slowest decay)", f"{_fmt(ctl['settling_time_s'])} s"])
+    return head, body
+
+
+def loop_margins(res) -> dict:
+    """The designed machine's speed loop linearised at its running point (mjbench.linearize: the
+    loop broken at the plant input): crossover, phase and gain margins, M_s; a note if not possible."""
+    if res.get("status") != "ok" or not res.get("machine"):
+        return {"note": "no machine (the design is infeasible)"}
+    try:
+        spec = S.from_raw(res["machine"], "design")
+        m = LN.study(spec, spec.mode(None), n_angles=0, multibody=False)["objects"]["margins"]  # the reduced plant
+        return {"w_gain_crossover_rad_s": m.w_gain_crossover_rad_s, "phase_margin_deg": m.phase_margin_deg,
+                "gain_margin_dB": m.gain_margin_dB, "Ms": m.Ms, "source": "mjbench.linearize at the running point"}
+    except Exception as e:  # noqa: BLE001 - a report line, not the design
+        return {"note": f"not linearised: {type(e).__name__}: {e}"}
 
 
 def drive_rows(res) -> tuple:
@@ -131,20 +292,18 @@ def drive_rows(res) -> tuple:
         return head, []
     p = ch["predicted"]
     body = [["motor", ch["motor"]], ["gearbox", ch["gearbox"] or "direct drive"], ["ratio z", _fmt(ch["ratio"])],
-            [f"flywheel on the {ch.get('flywheel_location', 'crank')} shaft [kg·m²]", _fmt(ch["flywheel_kgm2"])],
+            ["flywheel", flywheel_text(ch)],
             _gains_row(ch.get("gains")),
             ["gains from", res.get("control", {}).get("source", "—")],
             ["RMS / peak motor current [A]", f"{_fmt(p.get('current_rms_A'))} / {_fmt(p.get('current_peak_A'))}"],
             ["winding temperature (steady) [°C]", _fmt(ch["thermal"].get("T_winding_C"))],
-            ["speed fluctuation χ", _fmt(p.get("chi"))] if p.get("tracking_peak_rad") is None else
+            ["speed fluctuation χ [%]", _fmt(_scaled(p.get("chi"), 100.0))] if p.get("tracking_peak_rad") is None else
             ["tracking error |q_ref − q|, peak / RMS [rad]",
              f"{_fmt(p.get('tracking_peak_rad'))} / {_fmt(p.get('tracking_rms_rad'))}"]]
     sz = res.get("sizing", {})
     sw = sz.get("ratio_sweep", {})
     if sw:
-        body.append([f"ratio of least RMS torque for {sw['motor']} (brute force; closed form)",
-                     f"{_fmt(sw['z_best'])}{' (at the speed/voltage limit)' if sw.get('best_at_envelope_limit') else ''}; "
-                     f"{_fmt(sw['z_closed_form'])}"])
+        body.append([f"gear-ratio study for {sw['motor']} (continuous ratio, no flywheel)", ratio_study_text(sw, ch)])
     fw = sz.get("flywheel", {})
     if fw:
         body.append(["energy swing ΔE per cycle [J]", _fmt(fw.get("dE_J"))])
@@ -154,18 +313,48 @@ def drive_rows(res) -> tuple:
     return head, body
 
 
+def ratio_study_text(sw, ch) -> str:
+    """The gear-ratio study in words: what it assumes, where its optimum is and why, and how the
+    chosen ratio relates to it."""
+    txt = (f"least RMS motor torque at z = {_fmt(sw['z_best'])}, the crank held at exactly constant speed without "
+           f"a flywheel, so the motor carries the whole torque ripple")
+    if sw.get("best_at_envelope_limit"):
+        txt += (" — there the ripple's torque peaks bring the armature voltage (or the motor speed, or T_peak) to its "
+                "limit, so a higher ratio is not allowed in this study")
+    z = ch.get("ratio")
+    if z is not None and sw.get("z_best") and abs(float(z) - float(sw["z_best"])) > 1e-6 * float(z):
+        txt += (f"; the chosen catalogue ratio z = {_fmt(z)} "
+                + ("lies beyond it because its flywheel carries the ripple (peak motor torque "
+                   f"{_fmt((ch.get('predicted') or {}).get('motor_torque_peak_Nm'))} N·m), which keeps the voltage "
+                   f"within the supply" if ch.get("flywheel_kgm2") and float(z) > float(sw["z_best"])
+                   else "is the cheapest feasible gearbox, not this study's optimum"))
+    return txt + f"; the lossless closed form without limits: z = {_fmt(sw['z_closed_form'])}"
+
+
+#: how linkage_rows shows the synthesis's quantities: key suffix → (unit shown, scale)
+LINKAGE_UNITS = (("_m", "mm", 1e3), ("_rad", "°", 180.0 / math.pi), ("_deg", "°", 1.0))
+
+
 def linkage_rows(res) -> tuple:
     syn = res.get("synthesis", {})
     head = ["quantity", "value"]
     if syn.get("kind") == "given":
         return head, [["mechanism", f"given: scenario {syn.get('scenario')}"]]
     a = syn.get("achieved", {})
-    body = [[k, _fmt(v)] for k, v in a.items() if isinstance(v, (int, float)) and not isinstance(v, bool)]
+    body = []
+    for k, v in a.items():
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            continue
+        suf = next((s for s in LINKAGE_UNITS if k.endswith(s[0])), None)
+        if suf is None:
+            body.append([k.replace("_", " "), _fmt(v)])
+        else:
+            body.append([f"{k[:-len(suf[0])].replace('_', ' ')} [{suf[1]}]", _fmt(v * suf[2])])
     sc = syn.get("solver_check", {})
     if "residual" in sc:
         body.append(["largest residual vs mjbench's position solver", _fmt(sc["residual"])])
-        body.append(["branch: largest closed-form vs solver joint distance over a turn [m]",
-                     _fmt(sc.get("branch_max_position_diff_m"))])
+        body.append(["branch: largest closed-form vs solver joint distance over a turn [mm]",
+                     _fmt(_scaled(sc.get("branch_max_position_diff_m"), 1e3))])
     return head, body
 
 
@@ -184,19 +373,26 @@ def markdown(res) -> str:
           f"Requirements: `{res['requirements_source']}`; catalogue: `{os.path.basename(res['catalogue']['source'])}`"
           + (" (**illustrative values**, not a vendor's data)" if res["catalogue"].get("illustrative") else "") + ".",
           f"Duty: {res['duty']['speed_rpm']:.4g} rpm ({res['duty']['speed_rad_s']:.4g} rad/s)"
-          + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "") + _law_text(res["duty"])
+          + (f", χ ≤ {100 * res['duty']['chi_max']:g} %" if res["duty"].get("chi_max") else "") + _law_text(res["duty"])
           + f", ambient {res['duty']['ambient_C']:g} °C.", ""]
     if res.get("failures"):
         md += ["**What fails:**", ""]
         for f in res["failures"]:
-            md.append(f"- ({f.get('stage')}) {f['name']}" + (f": {_fmt(f.get('value'))}" if not isinstance(f.get('value'), bool) and f.get('value') is not None else "")
-                      + (f" vs {_fmt(f.get('limit'))}" if f.get("limit") is not None and not isinstance(f.get("limit"), bool) else "")
+            md.append(f"- ({f.get('stage')}) {failure_text(f)}"
                       + (f" — {f['note']}" if f.get("note") else "") + (f" [{f['candidate']}]" if f.get("candidate") else ""))
         md.append("")
+    if selection_text(res):
+        md += ["## Why this drive", "", selection_text(res), ""]
+        head, body = runners_up_rows(res)
+        if body:
+            md += ["The chosen candidate and the next three feasible ones (margin: how far the tightest check is "
+                   "from its limit):", ""] + _md_table(head, body) + [""]
     md += ["## Requirements vs achieved", ""] + _md_table(*requirements_rows(res)) + [""]
     if res.get("checks"):
         md += ["## Predicted (sizing model) vs simulated (multibody)", ""] + _md_table(*checks_rows(res)) + [""]
     md += ["## Drive", ""] + _md_table(*drive_rows(res)) + [""]
+    if loop_rows(res)[1]:
+        md += ["## Speed loop", ""] + _md_table(*loop_rows(res)) + [""]
     md += ["## Linkage", ""] + _md_table(*linkage_rows(res)) + [""]
     if "design.png" in (res.get("files") or []) or res.get("_figure"):
         md += ["![design](design.png)", ""]
@@ -238,16 +434,29 @@ def html_page(res) -> str:
              f"<code>{e(os.path.basename(res['catalogue']['source']))}</code>"
              + (" (<b>illustrative values</b>, not a vendor's data)" if res["catalogue"].get("illustrative") else "")
              + f". Duty {res['duty']['speed_rpm']:.4g} rpm"
-             + (f", χ ≤ {res['duty']['chi_max']:g}" if res["duty"].get("chi_max") else "")
+             + (f", χ ≤ {100 * res['duty']['chi_max']:g} %" if res["duty"].get("chi_max") else "")
              + e(_law_text(res["duty"])) + ".</p>"]
     if res.get("failures"):
         parts.append("<p><b>What fails:</b></p><ul>" + "".join(
-            f"<li>({e(str(f.get('stage')))}) {e(f['name'])}" + (f" — {e(f['note'])}" if f.get("note") else "") + "</li>"
+            f"<li>({e(str(f.get('stage')))}) {e(failure_text(f))}" + (f" — {e(f['note'])}" if f.get("note") else "")
+            + (f" [{e(f['candidate'])}]" if f.get("candidate") else "") + "</li>"
             for f in res["failures"]) + "</ul>")
+    if selection_text(res):
+        import re
+
+        rule = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", e(selection_text(res)))
+        parts += ["<h2>Why this drive</h2>", f"<p>{rule}</p>"]
+        head, body = runners_up_rows(res)
+        if body:
+            parts += ["<p>The chosen candidate and the next three feasible ones (margin: how far the tightest check "
+                      "is from its limit):</p>", _html_table(head, body)]
     parts += ["<h2>Requirements vs achieved</h2>", _html_table(*requirements_rows(res), pass_col=5)]
     if res.get("checks"):
         parts += ["<h2>Predicted (sizing model) vs simulated (multibody)</h2>", _html_table(*checks_rows(res), pass_col=5)]
-    parts += ["<h2>Drive</h2>", _html_table(*drive_rows(res)), "<h2>Linkage</h2>", _html_table(*linkage_rows(res))]
+    parts += ["<h2>Drive</h2>", _html_table(*drive_rows(res))]
+    if loop_rows(res)[1]:
+        parts += ["<h2>Speed loop</h2>", _html_table(*loop_rows(res))]
+    parts += ["<h2>Linkage</h2>", _html_table(*linkage_rows(res))]
     if "design.png" in (res.get("files") or []) or res.get("_figure"):
         parts.append('<p><img src="design.png" alt="design figure"></p>')
     parts.append("</body></html>")
@@ -258,12 +467,8 @@ def html_page(res) -> str:
 def figure(res, path):
     """Linkage at eight crank angles (or the traced point's path), torques, current and speed over
     one cycle: predicted (harmonic balance) and simulated (multibody)."""
-    from .. import plotstyle as ps
-    from ..plots import save
 
     if res.get("duty", {}).get("law"):  # a motion-law duty: over the cycle's time
-        from .law_duty import figure as law_figure
-
         return law_figure(res, path)
     sz = res.get("_sizing")
     tr = (res.get("_trajectories") or {}).get("multibody")
@@ -293,13 +498,10 @@ def figure(res, path):
             a.plot(ss[key][:, 0], ss[key][:, 1], ":", color="C3", lw=1, label="output point path")
             a.legend(loc="best", fontsize=7)
         elif mech:
-            from .. import mechanisms as MR
             m = MR.from_dict(mech)
             qq = np.linspace(0, 2 * np.pi, 361)
             tp = m.trace_point(qq)
-            draw = getattr(m, "draw_profile", None)  # a cam: its profile and pitch curve
-            if draw is not None:
-                draw(a)
+            m.draw_profile(a)  # outlines beyond the points (a cam: its profile and pitch curve)
             if tp is not None:
                 a.plot(tp[0], tp[1], color="C3", label="traced point")
                 a.legend(loc="best", fontsize=7)
@@ -326,7 +528,7 @@ def figure(res, path):
                 qs = np.degrees(tr.q[sel]) % 360
                 os_ = np.argsort(qs)
                 dm = ch.drive
-                ax[0][1].plot(qs[os_], dm.gear_output(tr.current[sel], tr.omega[sel], tr.qdd[sel])[os_], "--", color="C1",
+                ax[0][1].plot(qs[os_], dm.gear_output_of_run(tr.current[sel], tr.omega[sel], tr.qdd[sel])[os_], "--", color="C1",
                               label="gearbox output, multibody")
                 ax[1][0].plot(qs[os_], tr.current[sel][os_], "--", color="C1", label="multibody")
                 ax[1][1].plot(qs[os_], tr.qd[sel][os_], "--", color="C1", label="multibody")
@@ -361,6 +563,8 @@ def write(res: dict, out, scn_doc, force=False) -> list:
                 files.append("design.png")
         except Exception as e:  # noqa: BLE001 - a figure problem must not lose the design
             res["figure_error"] = f"{type(e).__name__}: {e}"
+        if res.get("control") is not None and "loop" not in res["control"]:
+            res["control"]["loop"] = loop_margins(res)
         res["files"] = files + ["design.json", "design.md", "design.html"]
         write_json(tmp / "design.json", public(res))
         md = markdown(res)

@@ -32,6 +32,9 @@ from pydantic_core import PydanticCustomError
 
 from ..errors import ScenarioError
 from ..schema import Bool, OptQ, Q, Strict, format_errors
+from ..motionlaws import BezierLaw, PseudoPolynomialLaw
+from ..linear import parse_margin
+from ..errors import ParameterError
 from .cam import CamReq
 
 Length = Q("length", plausible=False)
@@ -232,6 +235,25 @@ class MotionReq(_MechBase):
             v = getattr(self, name)
             if v is not None and len(v) != 2:
                 raise _err("{n} needs two points, got {k}", n=name, k=len(v))
+            if v is not None and math.hypot(v[1][0] - v[0][0], v[1][1] - v[0][1]) <= 1e-9:
+                raise _err("{n}: the two points are the same ({p}): they must differ", n=name, p=list(v[0]))
+        if self.search_box is not None and not all(self.search_box[1][i] > self.search_box[0][i] for i in (0, 1)):
+            raise _err("search_box = {b}: need [[xmin, ymin], [xmax, ymax]] with xmin < xmax and ymin < ymax",
+                       b=[list(x) for x in self.search_box])
+        scale = max(1e-3, max(math.hypot(x, y) for x, y, _ in self.poses))
+        for i in range(3):
+            for j in range(i + 1, 3):
+                (xi, yi, ai), (xj, yj, aj) = self.poses[i], self.poses[j]
+                turn = abs(math.remainder(aj - ai, 2 * math.pi))
+                if math.hypot(xj - xi, yj - yi) <= 1e-9 * scale and turn <= 1e-9:
+                    raise _err("poses {i} and {j} are the same pose ({p}): three different poses are needed (a "
+                               "pivot's three positions would not define its circle)", i=i + 1, j=j + 1,
+                               p=[float(xi), float(yi), float(ai)])
+        (x1, y1, a1), (x2, y2, a2), (x3, y3, a3) = self.poses
+        same_angle = all(abs(math.remainder(a - a1, 2 * math.pi)) <= 1e-9 for a in (a2, a3))
+        if same_angle and abs((x2 - x1) * (y3 - y1) - (y2 - y1) * (x3 - x1)) <= 1e-12 * scale ** 2:
+            raise _err("the poses are a pure translation along a line (one angle, collinear positions): every pivot's "
+                       "three positions are then collinear and no four-bar passes them (a slider would)")
         return self
 
 
@@ -298,7 +320,6 @@ class DutyLaw(Strict):
 
     def build(self, T_cycle: float):
         """The crank's law over one cycle: 2π in move_fraction × T_cycle [s] (crank side)."""
-        from ..motionlaws import BezierLaw, PseudoPolynomialLaw
 
         T = self.move_fraction * float(T_cycle)
         if self.kind == "pseudopoly":
@@ -374,8 +395,6 @@ class ControlReq(Strict):
     @field_validator("margins")
     @classmethod
     def _m(cls, v):
-        from ..linear import parse_margin
-        from ..errors import ParameterError
 
         for m in v:
             try:

@@ -306,7 +306,9 @@ def size(load: LoadModel, req, cat, speed: float, log=None) -> Sizing:
     feas = [c for c in cands if c.ok]
     chosen = min(feas, key=lambda c: (c.cost, c.summary.get("motor_torque_rms_Nm", 0.0))) if feas else None
     pool = [c for c in cands if not c.screened_out] or cands
-    closest = chosen or min(pool, key=lambda c: (c.violation, c.cost))
+    # the closest: a candidate whose steady state was found (its figures say by how much it fails) before
+    # one without (whose failure says nothing about the requirement the others miss)
+    closest = chosen or min(pool, key=lambda c: (c.ss is None, c.violation, c.cost))
     log(f"sizing: {len(cands)} candidates, {sum(not c.screened_out for c in cands)} analysed, {len(feas)} feasible")
     # gear-ratio study for the chosen (or closest) motor with its gearbox's efficiency
     best = chosen or closest
@@ -331,6 +333,20 @@ def size(load: LoadModel, req, cat, speed: float, log=None) -> Sizing:
 def finalize(c: Candidate, load, req, speed, n=1024):
     """The full-resolution periodic steady state of a candidate (n samples per cycle)."""
     return evaluate(c, load, req, speed, n=n, tol=1e-9)
+
+
+def refine_closest(c: Candidate, run) -> None:
+    """``run()`` (the full-resolution harmonic balance of ``c``, in place) for the closest of no
+    feasible candidates: if that one does not converge where the screening's did, ``c`` keeps the
+    screening's figures and checks — they say which requirement it misses and by how much (an
+    impossible tracking bound is not "harmonic balance did not converge") — with a note."""
+    keep = (c.ss, c.summary, c.thermal, list(c.checks), c.note)
+    run()
+    lost = any(x["name"].startswith("periodic steady state") and not x["ok"] for x in c.checks)
+    if lost and keep[0] is not None:
+        c.ss, c.summary, c.thermal, c.checks = keep[:4]
+        c.note = ((keep[4] + "; ") if keep[4] else "") + ("figures of the screening harmonic balance (256 samples per "
+                                                          "cycle): the full-resolution one did not converge")
 
 
 def chi_energy_statement(c: Candidate, load, dE, speed, T_L=None) -> dict:

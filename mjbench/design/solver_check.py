@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from . import synthesis as S
+from ..mechanisms import linkage as LK
 
 TWO_PI = 2.0 * math.pi
 
@@ -21,7 +22,6 @@ def solver_check(syn, table) -> dict:
     loop-closure equations, mjbench.mechanisms.linkage): residuals at the synthesis's precision
     positions and, over 72 crank angles, the largest distance between the closed-form and the
     solver's joint positions (the branch)."""
-    from ..mechanisms import linkage as LK
 
     params = LK.LinkageParams.model_validate(table)
     c = LK.compiled(params)

@@ -62,6 +62,13 @@ def mode_output_problems(scn, drive_type: str) -> list[str]:
                        else f"give {drive_type} = … instead")
                 out.append(f"modes.{name}: type = \"constant\" with {kind} = … needs [drive] type = \"{kind}\"; "
                            f"this drive is type = \"{drive_type}\" ({fix})")
+        elif typ == "signal" and getattr(mp, "kind", None) is not None:
+            kind = mp.kind
+            need = "dcmotor" if kind == "voltage" else kind
+            if need != drive_type:
+                out.append(f"modes.{name}: type = \"signal\" with {kind} = … needs [drive] type = \"{need}\"; this "
+                           f"drive is type = \"{drive_type}\" (give "
+                           f"{'voltage' if drive_type == 'dcmotor' else drive_type} = … instead)")
         elif drive_type != "dcmotor" and typ in VOLTAGE_MODES:
             out.append(f"modes.{name}: type = \"{typ}\" {VOLTAGE_MODES[typ]}, but [drive] type = \"{drive_type}\" is an "
                        f"ideal {drive_type} source without motor electrics: use type = \"constant\" with "

@@ -16,6 +16,7 @@ from pydantic_core import PydanticCustomError
 
 from .. import units as U
 from ..fields import Bool, OptQ, Q, Strict, UnitMeta
+from ..mechanisms import build as _build
 
 
 def _torque_or_force(v):
@@ -241,7 +242,6 @@ def check_against(drive, scn) -> list[str]:
     fr = drive.friction
     if fr is not None and fr.joints:
         try:
-            from ..mechanisms import build as _build
 
             mech = _build(scn.mechanism)
             spec = mech.build_spec(0.0, {"timestep": dt})

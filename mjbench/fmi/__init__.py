@@ -4,11 +4,11 @@ FMI 2.0 co-simulation FMU (:func:`export_fmu`, pythonfmu) and run controller FMU
 
 Heavy imports (pythonfmu, fmpy) happen inside the functions that need them."""
 from __future__ import annotations
+from .export import export_fmu as _export
 
 
 def export_fmu(scn, out, **kw):
     """Write an FMU of ``scn`` (see :func:`mjbench.fmi.export.export_fmu`)."""
-    from .export import export_fmu as _export
 
     return _export(scn, out, **kw)
 

@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import copy
+import importlib.util
 import json
 import os
 import shutil
@@ -22,7 +23,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .._version import __version__
 from ..errors import ParameterError
+from .session import ControllerSession, PlantSession
 
 #: third-party distributions the FMU's Python code imports at run time (name → import name)
 RUNTIME = (("mujoco", "mujoco"), ("numpy", "numpy"), ("scipy", "scipy"), ("pydantic", "pydantic"), ("pint", "pint"))
@@ -56,13 +59,8 @@ def _requirements() -> str:
 
 def _copy_sources(dest: Path) -> list[Path]:
     """mjbench's and the controllers' Python sources and data files (no caches) under ``dest``."""
-    import controllers
-
-    import mjbench
-
     out = []
-    for pkg in (mjbench, controllers):
-        src = Path(pkg.__file__).parent
+    for src in (Path(__file__).resolve().parents[1], Path(importlib.util.find_spec("controllers").origin).parent):
         dst = dest / src.name
         shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
         out.append(dst)
@@ -79,7 +77,6 @@ def export_fmu(scn, out, kind: str = "plant", input: str = "voltage", backend: s
     once before anything is written."""
     from pythonfmu.builder import FmuBuilder
 
-    from .session import ControllerSession, PlantSession
 
     out = Path(out)
     if out.suffix != ".fmu":
@@ -105,8 +102,6 @@ def export_fmu(scn, out, kind: str = "plant", input: str = "voltage", backend: s
         desc = f"mjbench controller of scenario {name!r}, mode {mode!r} ({scn.modes[mode].type})"
         config = {"kind": "controller", "mode": mode}
         slave = "ControllerSlave"
-    import mjbench
-
     raw = copy.deepcopy(scn.raw)
     with tempfile.TemporaryDirectory(prefix="mjbench_fmu_") as tmp:
         tmp = Path(tmp)
@@ -119,7 +114,7 @@ def export_fmu(scn, out, kind: str = "plant", input: str = "voltage", backend: s
             mech["file"] = f"models/{os.path.basename(f)}"
             files.append(tmp / "models")
         config.update({"model_name": model, "description": desc, "scenario": raw,
-                       "source": scn.source, "mjbench_version": mjbench.__version__,
+                       "source": scn.source, "mjbench_version": __version__,
                        "overrides": list(scn.overrides)})
         cfg = tmp / "mjbench_fmu.json"
         cfg.write_text(json.dumps(config, indent=1, allow_nan=True), encoding="utf-8")

@@ -19,10 +19,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controllers.base import Controller, Measurement
+from ..control import REGISTRY as CONTROLLERS
+from ..control import Controller, Measurement
 
 from .. import compiled as C
 from ..errors import ParameterError, SimulationDiverged
+from ..fields import UnitMeta
+from .. import scenario as S
+from ..machine import Machine
+from .. import kernel
+from ..runner import backend_options
+from ..backends.multibody import MultibodyPlant
+from ..backends.reduced import ReducedPlant
+from ..kernel import KS_K
+from ..drive import drive_torque
 
 INPUTS = ("voltage", "torque")
 BACKENDS = ("multibody", "reduced")
@@ -43,7 +53,6 @@ class Param:
 
 
 def _unit_kind(field) -> str | None:
-    from ..fields import UnitMeta
 
     for m in field.metadata:
         if isinstance(m, UnitMeta):
@@ -79,7 +88,6 @@ def parameters(scn, mode: str | None = None) -> list[Param]:
 
 def with_parameters(scn, base: list[Param], values: dict):
     """The scenario with the parameters that differ from ``base`` set (validated again)."""
-    from .. import scenario as S
 
     changed = {p.path: float(values[p.path]) for p in base
                if p.path in values and float(values[p.path]) != p.value}
@@ -200,8 +208,6 @@ class PlantSession:
 
     # ---------------------------------------------------------------- run
     def _machine(self, scn):
-        from .. import scenario as S
-        from ..machine import Machine
 
         if self.input_kind == "torque":
             check_torque_input(scn.drive)
@@ -214,8 +220,6 @@ class PlantSession:
 
     def start(self, t_stop: float | None = None) -> None:
         """Build the machine with the current parameter values and start a run at t = 0."""
-        from .. import kernel
-        from ..runner import backend_options
 
         self.finish()
         scn = with_parameters(self.scn0, self.params, self.values)
@@ -223,10 +227,8 @@ class PlantSession:
         self.h = h = float(scn.simulation.dt)
         mc = self._machine(scn)
         if self.backend == "multibody":
-            from ..backends.multibody import MultibodyPlant
             plant = MultibodyPlant(mc, backend_options(scn, "multibody"))
         else:
-            from ..backends.reduced import ReducedPlant
             o = backend_options(scn, "reduced")
             plant = ReducedPlant(mc, o["timestep"], o["method"], o["rtol"], o["atol"], o["model"])
         plant.start()
@@ -268,7 +270,6 @@ class PlantSession:
 
     def step(self, t: float, dt: float) -> None:
         """Advance from the communication point t by dt (both whole multiples of the co-step)."""
-        from ..kernel import KS_K
 
         st = self.stepper
         if st is None:
@@ -282,7 +283,6 @@ class PlantSession:
         self._update()
 
     def _update(self):
-        from ..drive import drive_torque
 
         st = self.stepper
         s = st.state()
@@ -340,13 +340,10 @@ class ControllerSession:
         self.ctrl = None
 
     def start(self) -> None:
-        import controllers
-
-        from .. import scenario as S
 
         scn = with_parameters(self.scn0, self.params, self.values)
         drive = S.make_drive(scn)
-        self.ctrl = controllers.build(scn.modes[self.mode], drive=drive, mechanism=S.make_mechanism(scn), scenario=scn)
+        self.ctrl = CONTROLLERS.build(scn.modes[self.mode], drive=drive, mechanism=S.make_mechanism(scn), scenario=scn)
         self.ctrl.reset()
         self.y = Measurement(z=float(drive.z))
         self.u = 0.0

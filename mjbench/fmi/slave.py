@@ -16,6 +16,11 @@ import traceback
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
+from mjbench import scenario as S
+from mjbench.errors import MjbenchError
+from mjbench.fmi.session import CONTROLLER_INPUTS, ControllerSession, PlantSession
+from mjbench.fmi.units import definitions, unit_of
+
 CONFIG = "mjbench_fmu.json"
 #: extra references to the entry modules' namespaces (see :func:`keep_namespace`)
 _KEEP: list = []
@@ -34,7 +39,7 @@ def _resources_on_path(resources):
     """The mjbench sources shipped in the FMU, when the importing Python has none of its own."""
     if resources and os.path.isdir(os.path.join(resources, "mjbench")) and resources not in sys.path:
         try:
-            import mjbench  # noqa: F401 - the host's own wins
+            import mjbench  # noqa: F401 - probe: the host's own mjbench wins over the FMU's copy
         except ImportError:
             sys.path.append(resources)
 
@@ -69,8 +74,6 @@ class _Base(Fmi2Slave):
         _resources_on_path(res)
         with open(os.path.join(res, CONFIG), encoding="utf-8") as f:
             self.config = json.load(f)
-        from mjbench import scenario as S
-
         raw = self.config["scenario"]
         mech = raw.get("mechanism")
         if isinstance(mech, dict) and isinstance(mech.get("file"), str) and not os.path.isabs(mech["file"]):
@@ -87,8 +90,6 @@ class _Base(Fmi2Slave):
         self.t_stop = None
 
     def _var(self, name, kind, causality, getter, setter=None, description="", start_from_getter=False):
-        from mjbench.fmi.units import unit_of
-
         unit = unit_of(kind)
         self._units.append(unit)
         kw = {"causality": causality, "description": description or None, "getter": getter, "setter": setter}
@@ -102,8 +103,6 @@ class _Base(Fmi2Slave):
 
     def to_xml(self, model_options=dict()):  # noqa: B006 - pythonfmu's signature
         from xml.etree.ElementTree import Element, SubElement
-
-        from mjbench.fmi.units import definitions
 
         root = super().to_xml(model_options)
         root.set("description", self.config.get("description", ""))
@@ -140,8 +139,6 @@ class _Base(Fmi2Slave):
 
     def _fail(self, e) -> bool:
         self.log(f"{type(e).__name__}: {e}", Fmi2Status.error)
-        from mjbench.errors import MjbenchError
-
         if not isinstance(e, MjbenchError):
             self.log(traceback.format_exc(), Fmi2Status.error, "logAll")
         return False
@@ -152,8 +149,6 @@ class PlantSlave(_Base):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        from mjbench.fmi.session import PlantSession
-
         c = self.config
         self.session = s = PlantSession(self.scn, c["input"], c["backend"])
         if c["input"] == "voltage":
@@ -187,8 +182,6 @@ class ControllerSlave(_Base):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        from mjbench.fmi.session import CONTROLLER_INPUTS, ControllerSession
-
         self.session = s = ControllerSession(self.scn, self.config["mode"])
         for name, kind, desc in CONTROLLER_INPUTS:
             self._var(name, kind, Fmi2Causality.input, (lambda n=name: s.inputs[n]),

@@ -3,10 +3,11 @@ and what it says when a run diverges."""
 from __future__ import annotations
 
 import math
-import os
 
+from .. import environment
 from ..errors import ParameterError
 from .loop import MAX_CURRENT, MAX_SPEED
+from ..backends.table import mechanism_key
 
 
 def check_times(t_end, h, record_dt):
@@ -54,7 +55,6 @@ _CHECKED: set = set()
 
 def _machine_key(mc):
     """What :func:`check_machine` depends on: the mechanism's parameters and the drives' inertias."""
-    from ..backends.table import mechanism_key
 
     try:
         mech = (type(mc.mechanism).__name__, mechanism_key(mc.mechanism))
@@ -85,6 +85,8 @@ def diagnose(machine, h: float) -> str:
     an initial current beyond the amplifier's limit; a mechanical time constant J·R/(z·k_m)²
     (J the smallest input inertia) below 2·h, i.e. an inertia too small for the step (or a unit
     slip in the inertias)."""
+    if len(machine.drives) > 1:
+        return ""  # (the causes below are stated for one axis)
     drive = machine.drive
     own = getattr(drive, "diagnose", None)  # a drive type with its own causes (mjbench.drives)
     if own is not None:
@@ -128,15 +130,9 @@ def memory_limit(need: int | None = None) -> int:
     machine's available memory (Linux ``MemAvailable``; 4 GiB where it cannot be read).  With
     ``need`` [bytes] at most :data:`SMALL_RECORD` and no ``MJBENCH_MAX_RECORD_MB``, ``need`` itself
     without reading the system's figure (a record that small is never refused)."""
-    env = os.environ.get("MJBENCH_MAX_RECORD_MB")
-    if env:
-        try:
-            v = float(env)
-        except ValueError:
-            v = math.nan
-        if not (math.isfinite(v) and v > 0):
-            raise ParameterError(f"MJBENCH_MAX_RECORD_MB = {env!r}: must be a finite number of MiB > 0")
-        return int(v * 2 ** 20)
+    env = environment.max_record_mb()  # (checked in one place: a finite number > 0, else an error naming it)
+    if env is not None:
+        return int(env * 2 ** 20)
     if need is not None and need <= SMALL_RECORD:
         return int(need)
     try:

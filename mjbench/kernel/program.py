@@ -31,7 +31,7 @@ import numpy as np
 from .. import compiled as C
 from .. import signals as SIG
 from ..compiled import contract
-from ..control import controller_form
+from ..control import controller_form, reference_form
 from ..errors import ParameterError
 from . import layout as LY
 from . import wiring as W
@@ -141,14 +141,20 @@ class Program:
             pr.wire(f"CTRL_{c}", cf, axis, SIG.CONTROLLER_OUTPUTS,
                     f"controller {getattr(ctrl, 'type_name', '') or type(ctrl).__name__!r}")
             parts[f"ctrl_{c}"] = cf
+            refs = {}
             ref = cf.children.get("reference")
             if ref is not None:
-                if pr.flags[f"HAS_REF_{axis}"]:
-                    raise ParameterError(f"axis {axis} has two references (one per axis)")
-                pr.flags[f"HAS_REF_{axis}"] = True
-                pr.wire(f"REF_{axis}", ref, axis, SIG.REFERENCE_OUTPUTS,
-                        f"reference {type(getattr(ctrl, 'reference', None)).__name__}")
-                parts[f"ref_{axis}"] = ref
+                refs[axis] = (ref, type(getattr(ctrl, "reference", None)).__name__)
+            per_axis = getattr(ctrl, "axis_references", None)  # one controller for all axes: one per axis
+            if per_axis is not None:
+                for a, r in enumerate(per_axis(pr.naxes)):
+                    refs[a] = (reference_form(r, h * every, float(drives[a].z)), type(r).__name__)
+            for a, (form, name) in refs.items():
+                if pr.flags[f"HAS_REF_{a}"]:
+                    raise ParameterError(f"axis {a} has two references (one per axis)")
+                pr.flags[f"HAS_REF_{a}"] = True
+                pr.wire(f"REF_{a}", form, a, SIG.REFERENCE_OUTPUTS, f"reference {name}")
+                parts[f"ref_{a}"] = form
         for a in range(pr.naxes):
             if f"REF_{a}" not in pr.wired:
                 pr.wired[f"REF_{a}"] = (_ABSENT, None)

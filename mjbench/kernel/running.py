@@ -24,16 +24,20 @@ import numpy as np
 
 from .. import compiled as C
 from .. import signals as SIG
+from .. import environment
 from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
 from . import loop as LP
 from .program import Program, Run
+from ..backends.table import composing
+from ..compiled import jit
+from .program import MIN_STEPS
 
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.05
 #: the values ``MJBENCH_JIT`` may take
-JIT_MODES = {"": "", "0": "python", "python": "python", "1": "compiled", "compiled": "compiled", "check": "check"}
+JIT_MODES = environment.JIT_VALUES
 
 
 class Record:
@@ -310,7 +314,6 @@ def _programs(plants, machines, h: float) -> list:
     """Each run's :class:`Program` (its plant started), after the checks of a job: every machine
     (once per mechanism and drive inertia in this process), one step for all, the same recorded
     columns."""
-    from ..backends.table import composing
 
     with composing():
         progs = []
@@ -340,10 +343,14 @@ def _job_loop(progs, steps: int, loop: str | None) -> tuple:
 
 def _job_meta(plant, machine, h: float, decim: int, mode: str, why: str) -> dict:
     """The job's meta: steps, control period, the plant's meta, the loop and the drive train."""
+    drives = machine.drives
     meta = {"dt": h, "record_dt": decim * h, "control_period": CK.machine_every(machine, h) * h,
-            "z": float(machine.drive.z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
+            "z": float(drives[0].z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
             "loop_reason": why}
-    train = getattr(machine.drive, "train", None)
+    if len(drives) > 1:
+        meta["axes"] = list(machine.axis_labels)
+        meta["z_axes"] = [float(d.z) for d in drives]
+    train = getattr(drives[0], "train", None) if len(drives) == 1 else None
     if train is not None:
         meta["drivetrain"] = train.describe()
     return meta
@@ -422,7 +429,6 @@ def loop_function(program: Program, mode: str):
     """The loop of ``mode`` ("python", "compiled", "check") for this composition."""
     if mode == "python":
         return python_loop(program)
-    from ..compiled import jit
 
     return jit.loop_for(program, LP.source(program.naxes, program.nctrl), check=mode == "check")
 
@@ -435,17 +441,11 @@ def jit_mode(loop: str | None = None) -> str:
         if v not in JIT_MODES:
             raise ParameterError(f"loop = {loop!r}: choose python, compiled or check")
         return JIT_MODES[v]
-    env = os.environ.get("MJBENCH_JIT", "")
-    v = env.strip().lower()
-    if v not in JIT_MODES:
-        raise ParameterError(f"MJBENCH_JIT = {env!r}: choose 0 (python), 1 (compiled) or check (compiled, "
-                             f"bounds-checked), or leave it unset (chosen by the job's size)")
-    return JIT_MODES[v]
+    return environment.jit()  # (MJBENCH_JIT checked in one place: mjbench/environment.py)
 
 
 def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> tuple[str, str]:
     """("compiled" | "check" | "python", why) for a job of ``run_steps`` co-steps (all runs together)."""
-    from ..compiled import jit
 
     mode = jit_mode(loop)
     if mode == "python":
@@ -480,8 +480,6 @@ def choose_loop(program: Program, run_steps: float, loop: str | None = None) -> 
 def preload(run_steps: float) -> bool:
     """Load numba now when a design loop plans ``run_steps`` co-steps over all its runs and that
     pays for the start-up (then every later run of the process is compiled); → whether loaded."""
-    from ..compiled import jit
-    from .program import MIN_STEPS
 
     if jit_mode() == "python" or not jit.available():
         return False

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from .. import signals as SIG
 from ..errors import ParameterError
+from ..signals import law_parameters
 
 
 @dataclass(frozen=True)
@@ -30,18 +31,9 @@ class Wiring:
     names: tuple
     outputs: tuple
 
-
-def law_parameters(fn, nfn: int) -> list[str]:
-    """The signal names a law reads: its parameters after ``nfn`` function arguments, before its
-    parameter tuple and state (the last two)."""
-    try:
-        params = list(inspect.signature(fn).parameters)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{_name(fn)}: its parameters cannot be read (a law is a plain def function)") from None
-    if len(params) < nfn + 2:
-        raise ParameterError(f"{_name(fn)}: a control law takes its signals, then its parameter tuple and its state "
-                             f"(… P, S); it has {len(params)} parameter(s)")
-    return params[nfn:-2]
+    def source(self, name: str, target: str) -> str:
+        """The adapter's source (:func:`adapter_source`): what the compiled loop's module holds."""
+        return adapter_source(name, target, self)
 
 
 def wire(form, axis: int, naxes: int, default_outputs: tuple, what: str) -> Wiring:

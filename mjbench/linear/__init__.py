@@ -2,8 +2,8 @@
 
 A machine (mechanism + drive + controller) is linearised at an *operating point* — input angle
 q*, input speed q̇* (crank side, rad/s), current I*, time t* (for K_p·t and time-dependent loads);
-by default I* is the current that holds q̈ = 0 at (q*, q̇*), so that the point is stationary at
-that instant (:func:`operating_point`).  Everything returned is a python-control object
+by default I* is, running, the current that sustains q̇* on average over a turn (a linkage's q̈* ≠ 0
+at the point) and, at rest, the current that holds q̈ = 0 (:func:`operating_point`).  Everything returned is a python-control object
 (``control.StateSpace``) with named signals, or a small dataclass of plain numbers.
 
 Plant (input ``V`` [V]; outputs ``q`` [rad], ``qd`` [rad/s], ``I`` [A], the internal coordinates):

@@ -7,6 +7,7 @@ import numpy as np
 from ..errors import ParameterError
 from .point import OperatingPoint
 from .signals import FD_Q, LAW_INPUTS, REF_INPUTS, REF_OUTPUTS, _ct
+from ..kernel import control_every
 
 
 # ============================================================================ references, controllers
@@ -85,7 +86,6 @@ def controller_counterpart(machine, op: OperatingPoint, h: float, reference_feed
     parameter of the reference and of a model-based law (SMC's ℑ(q), C(q), Q0(q)), as it is of
     the plant (:func:`freeze_angle`); the measured angle still enters where it is a state (the
     PID's integral, the servo's position loop)."""
-    from ..kernel import control_every
 
     ct = _ct()
     ctrl = machine.controller

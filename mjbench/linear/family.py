@@ -14,6 +14,7 @@ from .loop import _reachable, analyse, loop, margins
 from .plant import _angle_mode, reduced_plant, sample
 from .point import operating_point
 from .signals import MEAS, _ct
+from ..kernel import control_every
 
 
 # ============================================================================ angle dependence
@@ -115,7 +116,7 @@ def parse_margin(text: str) -> tuple:
     m = re.fullmatch(r"\s*(pm|gm|ms|bw)\s*(>=|<=)\s*([-+0-9.eE]+)\s*", str(text))
     if not m:
         raise ParameterError(f"--margin {text!r}: expected pm>=DEG, gm>=DB, ms<=VALUE or bw>=RAD_S "
-                             f"(e.g. --margin pm>=45 --margin ms<=2)")
+                             f"(e.g. --margin 'pm>=45' --margin 'ms<=2', quoted for the shell)")
     key, op, val = m.group(1), m.group(2), float(m.group(3))
     if op != MARGIN_KEYS[key][1]:
         raise ParameterError(f"--margin {text!r}: {key} is a {'lower' if MARGIN_KEYS[key][1] == '>=' else 'upper'} "
@@ -128,7 +129,6 @@ def parse_margin(text: str) -> tuple:
 def plant_family(machine, h: float, n_angles: int = 12, t: float = 0.0, speed=None) -> list:
     """(angle, operating point, plant at the controller period) at ``n_angles`` frozen angles:
     the part of the loop analysis that does not depend on the controller gains."""
-    from ..kernel import control_every
 
     N = control_every(machine.controller, h)
     out = []

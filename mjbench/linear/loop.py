@@ -13,16 +13,20 @@ from .plant import (
     _angle_mode, frequency_grid, multibody_plant, reduced_plant, response, s_poles, sample)
 from .point import OperatingPoint
 from .signals import MEAS, _ct
+from ..kernel import control_every
 
 
 # ============================================================================ loop
 @dataclass
 class Loop:
     """A closed loop, discrete time at the controller period: ``plant`` (V → q, qd, I, ...,
-    qd_prev), ``controller``, ``L`` (loop at the plant input, SISO), ``S`` = 1/(1+L),
-    ``T`` = L/(1+L), ``closed`` (q_set, qd_set, d → q, qd, I, V, u; d = voltage disturbance added
-    at the plant input), ``feedback`` (the feedback loop alone, without pure reference dynamics:
-    its poles are the closed-loop poles)."""
+    qd_prev), ``controller``, ``L`` (loop at the plant input, SISO: input ``V``, output ``-u``,
+    the controller's reaction with the loop's sign), ``S`` = 1/(1+L) (``d`` → ``V``),
+    ``T`` = L/(1+L) (``d`` → ``-u``), ``closed`` (q_set, qd_set, d → q, qd, I, V, u; d = voltage
+    disturbance added at the plant input), ``feedback`` (the feedback loop alone, without pure
+    reference dynamics: ``d`` → the measurements; its poles are the closed-loop poles).  Every one
+    names its states: the plant's (``q``, ``qd``, ``I``, ``qd_prev`` ...) then the controller's
+    (``ctrl.<name>``)."""
 
     plant: object
     controller: object
@@ -42,19 +46,22 @@ def loop(plant_T, controller) -> Loop:
         raise ParameterError("open-loop controller: there is no feedback loop to analyse")
     if abs(float(plant_T.dt) - float(controller.dt)) > 1e-12 * float(plant_T.dt):
         raise ParameterError(f"plant period {plant_T.dt} s != controller period {controller.dt} s")
-    Cfb = _reachable(controller[["V"], list(MEAS)])
+    Cfb = _reachable(_sub(controller, ["V"], list(MEAS)))
     # measurements the controller does not use are left out, then plant states no used output
     # sees (e.g. the angle of a frozen plant under a pure speed law: a free integrator, z = 1)
     used = [k for k, nm in enumerate(MEAS) if np.any(np.asarray(Cfb.D)[:, k] != 0)
             or (Cfb.nstates and np.any(np.asarray(Cfb.B)[:, k] != 0))]
     meas = [MEAS[k] for k in used] or ["qd"]
-    Cfb = _reachable(controller[["V"], meas])
-    Pfb = _observable(plant_T[meas, ["V"]])
-    L = -(Cfb * Pfb)
-    L.name = "L"
-    S = ct.feedback(ct.ss([], [], [], [[1.0]], dt=plant_T.dt), L)
-    T = ct.feedback(L, 1)
-    fb = ct.feedback(Pfb, Cfb, sign=1)  # the feedback loop alone: its poles are the loop's
+    Cfb = _reachable(_sub(controller, ["V"], meas))
+    Pfb = _observable(_sub(plant_T, meas, ["V"]))
+    # python-control names the signals of a product or a feedback u[0], y[0], x[0..]: every loop
+    # object is given its signals' names again (the plant's states first, then the controller's)
+    states = list(Pfb.state_labels) + [f"ctrl.{s}" for s in Cfb.state_labels]
+    L = _named(-(Cfb * Pfb), ["V"], ["-u"], states, "L")
+    S = _named(ct.feedback(ct.ss([], [], [], [[1.0]], dt=plant_T.dt), L), ["d"], ["V"], states, "S")
+    T = _named(ct.feedback(L, 1), ["d"], ["-u"], states, "T")
+    # the feedback loop alone: its poles are the loop's
+    fb = _named(ct.feedback(Pfb, Cfb, sign=1), ["d"], list(Pfb.output_labels), states, "feedback")
     # closed loop: the controller's output u plus a voltage disturbance d drives the plant
     ctrl_u = ct.ss(controller.A, controller.B, controller.C, controller.D, controller.dt,
                    inputs=list(controller.input_labels), outputs=["u"], states=list(controller.state_labels),
@@ -65,6 +72,20 @@ def loop(plant_T, controller) -> Loop:
                              inputs=["q_set", "qd_set", "d"], outputs=outs + ["V", "u"], name="closed_loop",
                              check_unused=False)
     return Loop(plant_T, controller, L, S, T, closed, feedback=fb)
+
+
+def _sub(sys, outputs, inputs):
+    """``sys[outputs, inputs]`` keeping the names of its states (python-control's indexing
+    numbers them)."""
+    sub = sys[outputs, inputs]
+    return _named(sub, inputs, outputs, list(sys.state_labels), sys.name)
+
+
+def _named(sys, inputs, outputs, states, name):
+    """``sys`` with its signals named (python-control's products and feedbacks number them)."""
+    ct = _ct()
+    return ct.ss(sys.A, sys.B, sys.C, sys.D, sys.dt, inputs=list(inputs), outputs=list(outputs),
+                 states=list(states), name=name)
 
 
 def _reachable(sys):
@@ -228,7 +249,6 @@ def analyse(machine, op: OperatingPoint, h: float, plant_kind="reduced", options
     """Plant at the controller period + controller counterpart + loop + margins at ``op``.
     ``plant_kind`` "reduced" or "multibody" (input coordinates); ``angle`` None: frozen when
     q̇* ≠ 0, the full Jacobian at a stationary point.  Returns (Loop, Margins)."""
-    from ..kernel import control_every
 
     N = control_every(machine.controller, h)
     if plant_kind == "reduced":

@@ -11,6 +11,8 @@ import numpy as np
 from ..errors import ParameterError
 from .point import OperatingPoint, _accel
 from .signals import FD_MB, FD_Q
+from ..mechanisms.base import Mechanism
+from ..backends.multibody import DEFAULT_OPTIONS, build_model
 
 
 # ============================================================================ mechanics
@@ -46,7 +48,6 @@ def _input_names(mech):
 
 def reduced_mechanics(machine, op: OperatingPoint) -> Mechanics:
     """Jacobian of the reduced model at ``op`` (states q, x, q̇, ẋ; input τ)."""
-    from ..mechanisms.base import Mechanism
 
     mech, d = machine.mechanism, machine.drive
     nx = len(mech.internal)
@@ -126,7 +127,6 @@ def _linearisation_model(machine, options):
     (qvel⁺ = qvel + h·q̈ exactly), one unit-gain force actuator per joint → (model, actuated dofs)."""
     import mujoco
 
-    from ..backends.multibody import DEFAULT_OPTIONS, build_model
 
     o = {**DEFAULT_OPTIONS, **(options or {})}
     o["integrator"] = "Euler"

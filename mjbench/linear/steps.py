@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from collections import namedtuple
 
-from controllers.reference import Reference as _Reference
+from ..control import Reference as _Reference
 import numpy as np
 
 from ..compiled import law
@@ -14,6 +14,8 @@ from .loop import Loop, analyse
 from .plant import response
 from .point import OperatingPoint
 from .signals import _ct
+from ..backends import simulate
+from ..kernel import control_every
 
 
 # ============================================================================ responses
@@ -81,8 +83,6 @@ def step_check(machine, op: OperatingPoint, h: float, dq=0.0, dqd=0.0, t_step=0.
     (simulated and predicted) and max |difference| / max |predicted| for q and q̇."""
     import copy
 
-    from ..backends import simulate
-    from ..kernel import control_every
 
     ctrl = machine.controller
     z = float(machine.drive.z)

@@ -15,6 +15,8 @@ from .plant import (
 from .point import operating_point
 from .signals import _ct
 from .steps import agree_above, rise_time, step_response
+from .. import scenario as S
+from ..kernel import control_every
 
 
 # ============================================================================ JSON
@@ -51,9 +53,8 @@ def study(scn, mode=None, q=None, qd=None, I=None, t=None, n_angles=36, multibod
     family, the K_p·t stability limit.  Returns {"json": plain data for ``outputs.write_json``,
     "objects": the python-control objects, for the figures}.
     Defaults: q = the scenario's initial angle, q̇ = the running speed there, I = the current
-    holding q̈ = 0, t = simulation.t_end for a K_p·t PID (the largest gain of the run), else 0."""
-    from .. import scenario as S
-
+    sustaining it on average over a turn (at rest: holding q̈ = 0), t = simulation.t_end for a K_p·t
+    PID (the largest gain of the run), else 0."""
     mode = scn.mode(mode)
     mach = S.make_machine(scn, mode)
     h = float(scn.simulation.dt)
@@ -93,7 +94,6 @@ def _plant_study(scn, mode, mach, op, h, angle, objs, multibody) -> dict:
     """The study's header and plants: the reduced plant (and its full Jacobian for a frozen angle),
     the co-step against the exact ZOH, the multibody plant in model and input coordinates, the
     transmission modes of an elastic machine."""
-    from ..kernel import control_every
 
     ct = _ct()
     ctrl = mach.controller
@@ -135,7 +135,6 @@ def _multibody_study(js, objs, mach, op, opts, angle, red_full, om) -> None:
 def _loop_study(js, objs, mach, op, h, angle, ramp, t, n_angles) -> bool:
     """The loop at the point: margins, closed-loop modes, rise time, the K_p·t limit → whether the
     controller has a linear counterpart (else ``loop_note`` says why: plant only)."""
-    from ..kernel import control_every
 
     ctrl = mach.controller
     try:

@@ -27,6 +27,9 @@ from ..errors import GeometryError, ParameterError
 from ..fields import Q, Strict
 from . import register
 from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
+from .linkage_kin import _angle_ranges
+from .linkage_kin import PeriodicTable
+from .linkage import Linkage, LinkageParams, table_from_fourbar
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
 AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
@@ -393,7 +396,6 @@ class FourBar(Mechanism):
     def linkage_view(self):
         """The same linkage as a generic :class:`~mjbench.mechanisms.linkage.Linkage` (link lines:
         transmission angles, toggles, velocity ratios for ``mjbench analyze``)."""
-        from .linkage import Linkage, LinkageParams, table_from_fourbar
 
         return Linkage(LinkageParams.model_validate(table_from_fourbar(self)))
 
@@ -554,7 +556,6 @@ def _speed_ratio_table(fb, key, point):
     hit = _RATIO_CACHE.get(key)
     if hit is not None:
         return hit
-    from .linkage_kin import PeriodicTable
 
     for n in (1024, 2048, 4096, 8192, 16384):
         u = np.arange(n) * (2 * np.pi / n)
@@ -729,25 +730,6 @@ def _dof_cache(model):
 #: geometries (a, b, c, h_x, h_y, n) whose crank makes the full turn, found by :meth:`FourBar.check`
 #: (its scan of n crank angles costs ≈ 0.15 ms: done once per geometry and process)
 _TURNS_FULL: set = set()
-
-
-def _angle_ranges(alpha, mask):
-    """Contiguous [lo, hi] ranges of alpha where mask is True (wrapping at 2π)."""
-    n = len(alpha)
-    step = alpha[1] - alpha[0]
-    idx = np.flatnonzero(mask)
-    ranges, start, prev = [], idx[0], idx[0]
-    for i in idx[1:]:
-        if i != prev + 1:
-            ranges.append((start, prev))
-            start = i
-        prev = i
-    ranges.append((start, prev))
-    if len(ranges) > 1 and ranges[0][0] == 0 and ranges[-1][1] == n - 1:
-        first = ranges.pop(0)
-        last = ranges.pop()
-        ranges.append((last[0], first[1] + n))
-    return [(alpha[s % n], alpha[s % n] + (e - s) * step) for s, e in ranges]
 
 
 class FourBarParams(Strict):

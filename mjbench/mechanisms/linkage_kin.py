@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..compiled import law
+from ..spline import periodic_cubic
 
 TWO_PI = 2.0 * math.pi
 
@@ -411,7 +412,6 @@ class PeriodicTable:
     """
 
     def __init__(self, q0, values):
-        from ..spline import periodic_cubic
 
         values = np.asarray(values, dtype=float)
         N, k = values.shape
@@ -468,3 +468,22 @@ def ptable_channel(q, ch, T):
     b = 4 * ((i & T.M) if T.M >= 0 else i % T.N)
     R = T.rows
     return ((R[ch, b] * t + R[ch, b + 1]) * t + R[ch, b + 2]) * t + R[ch, b + 3]
+
+
+def _angle_ranges(alpha, mask):
+    """Contiguous [lo, hi] ranges of alpha where mask is True (wrapping at 2π)."""
+    n = len(alpha)
+    step = alpha[1] - alpha[0]
+    idx = np.flatnonzero(mask)
+    ranges, start, prev = [], idx[0], idx[0]
+    for i in idx[1:]:
+        if i != prev + 1:
+            ranges.append((start, prev))
+            start = i
+        prev = i
+    ranges.append((start, prev))
+    if len(ranges) > 1 and ranges[0][0] == 0 and ranges[-1][1] == n - 1:
+        first = ranges.pop(0)
+        last = ranges.pop()
+        ranges.append((last[0], first[1] + n))
+    return [(alpha[s % n], alpha[s % n] + (e - s) * step) for s, e in ranges]

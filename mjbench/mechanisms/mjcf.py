@@ -43,6 +43,8 @@ from ..fields import Bool, OptQ, Strict
 from . import register
 from .base import PLANE_INDEX, Mechanism, closure_solref, integrator_enum
 from .linkage_kin import TWO_PI, PeriodicTable
+from .. import compiled as C
+from .linkage.view import _roots
 
 
 class MjcfParams(Strict):
@@ -548,7 +550,6 @@ class MjcfMechanism(Mechanism):
         outside the range a NaN, i.e. a diverged run)."""
         if self._m.hinge:
             return super().model_form()
-        from .. import compiled as C
 
         P = self._tab.P._replace(damped=bool(self._damped))
         info = {"model": "table", "table_nodes": int(P.n), "table_range": [P.lo, P.hi]}
@@ -632,7 +633,6 @@ class MjcfMechanism(Mechanism):
     def kinematics(self, q) -> dict:
         """Velocity ratios of the file's joints (constraint Jacobian null space) and their limit
         positions; a MuJoCo model has no link lines, so no transmission angles or toggles."""
-        from .linkage.view import _roots
 
         ratios = {k: v for k, v in self.joint_rates(q).items() if k != self.input_joint}
         lim = {k: [float(x) for x in _roots(q, v)] for k, v in ratios.items()} if self._m.hinge else {}

@@ -33,6 +33,7 @@ MuJoCo inside every step):
 from __future__ import annotations
 
 import math
+import os
 from collections import namedtuple
 from dataclasses import dataclass
 from typing import Literal
@@ -46,6 +47,9 @@ from ..errors import ParameterError
 from ..fields import Q, Strict
 from . import register
 from .base import Mechanism, new_spec
+from ..trajectory import atomic_write
+from .mjcf_export import standalone_xml
+from .base import RenderView
 
 J_MIN = 1e-9  #: [kg·m²] smallest body inertia given to MuJoCo for the motor-side body
 
@@ -232,7 +236,6 @@ class Platform(Mechanism):
 
     def render_view(self):
         """Top view: the platform hinge turns ρ·φ + ψ, the deflection column needle (render.py)."""
-        from .base import RenderView
 
         return RenderView("top", output_joint="platform", output_body="platform", ratio=float(self.ratio),
                           deflection="deflection", label=f"{self.variant} platform")
@@ -447,33 +450,15 @@ def platform_accel(t, S, iy, ia, tau, Ja, c_add, P):
 
 
 def export_default_mjcf(folder="assets/mjcf"):
-    """Write the default models to ``folder``/belt_platform.xml and elastic_platform.xml."""
-    import os
-
-    from ..trajectory import atomic_write
-
+    """Write the default models to ``folder``/belt_platform.xml and elastic_platform.xml (stand-alone:
+    mjbench/mjcf_export.py)."""
     out = []
     for obj, fname in ((BeltPlatform(), "belt_platform.xml"), (ElasticPlatform(), "elastic_platform.xml")):
         spec = obj.build_spec()
-        spec.compile()
-        xml = _xml_with_inertials(spec)
+        model = spec.compile()  # at rest, undeflected: qpos0 and the keyframe ``initial``
+        xml = standalone_xml(spec, model, obj.initial_qpos(model, 0.0), obj.initial_qvel(model, 0.0, 0.0),
+                             obj.input_joint)
         path = os.path.join(folder, fname)
         atomic_write(path, lambda f, x=xml: f.write(x))
         out.append(path)
     return out
-
-
-def _xml_with_inertials(spec) -> str:
-    """``spec.to_xml()`` with any explicit ``<inertial>`` element it left out restored (MuJoCo
-    4.0.0's ``to_xml`` drops one whose ``ipos`` is unset; the XML would then not compile)."""
-    import re
-
-    xml = spec.to_xml()
-    for b in spec.bodies[1:]:
-        if not b.explicitinertial or re.search(rf'<body name="{re.escape(b.name)}"[^>]*>\s*<inertial', xml):
-            continue
-        tag = (f'<inertial pos="0 0 0" mass="{b.mass:.17g}" '
-               f'diaginertia="{b.inertia[0]:.17g} {b.inertia[1]:.17g} {b.inertia[2]:.17g}"/>')
-        xml = re.sub(rf'(\n(\s*)<body name="{re.escape(b.name)}"[^>]*>)', lambda m: f"{m.group(1)}\n{m.group(2)}  {tag}",
-                     xml, count=1)
-    return xml

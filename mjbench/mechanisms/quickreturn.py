@@ -44,13 +44,17 @@ from typing import Literal
 from pydantic import Field
 
 from .. import compiled as C
-from ..backends.table import table_model
+from .table import table_model
 from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..fields import OptQ, Q, Strict
 from . import register
 from .linkage_kin import PeriodicTable, ptable_channel
 from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
+from .base import table_form
+from .linkage import Linkage, LinkageParams, table_from_quickreturn
+from ..trajectory import atomic_write
+from .mjcf_export import standalone_xml
 
 G = 9.81  #: gravitational acceleration [m/s²]
 AXIS = HINGE_AXIS  #: hinge axis in MuJoCo (the plane convention of mechanisms/base.py)
@@ -329,7 +333,6 @@ class QuickReturn(Mechanism):
     def model_form(self):
         """The reduced model as a law: the spline table of J, ½J', E_p' plus the cutting torque
         (:func:`quickreturn_model`)."""
-        from .base import table_form
 
         tf = table_form(self)
         if not self.has_external_torque():
@@ -507,17 +510,17 @@ class QuickReturn(Mechanism):
     def linkage_view(self):
         """The same mechanism as a generic :class:`~mjbench.mechanisms.linkage.Linkage` (link lines:
         transmission angles, toggles, velocity ratios for ``mjbench analyze``)."""
-        from .linkage import Linkage, LinkageParams, table_from_quickreturn
 
         return Linkage(LinkageParams.model_validate(table_from_quickreturn(self)))
 
-    def export_mjcf(self, path, armature: float = 0.0, options=None):
-        """Write the MJCF (XML) of this mechanism to ``path`` atomically (assets/mjcf/quickreturn.xml)."""
-        from ..trajectory import atomic_write
+    def export_mjcf(self, path, armature: float = 0.0, options=None, q0: float = 0.0):
+        """Write the MJCF (XML) of this mechanism to ``path`` atomically, assembled at crank angle
+        ``q0`` at rest (qpos0 and the keyframe ``initial``: mjbench/mjcf_export.py)."""
 
         spec = self.build_spec(armature=armature, options=options)
-        spec.compile()
-        xml = spec.to_xml()
+        model = spec.compile()
+        xml = standalone_xml(spec, model, self.initial_qpos(model, q0), self.initial_qvel(model, q0, 0.0),
+                             self.input_joint)
         atomic_write(path, lambda f: f.write(xml))
         return path
 

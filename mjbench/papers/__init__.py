@@ -22,6 +22,18 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass, field
 
+#: submodules that import matplotlib or scipy.optimize when loaded: this package's ONE lazy place —
+#: ``papers.<name>`` imports them on first use (:func:`__getattr__`), so a paper's rows cost no
+#: plotting or optimiser imports
+LAZY = ("hulako2025_plots", "incerti_platforms_plots", "yigit2023_plots", "yigit2023_design")
+
+
+def __getattr__(name: str):
+    if name in LAZY:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 #: paper key → module (one module per paper)
 MODULES = {
     "incerti2012": "mjbench.papers.incerti2012",

@@ -33,6 +33,10 @@ import numpy as np
 from mjbench import metrics as M
 from mjbench import scenario as S
 from mjbench.errors import SimulationDiverged
+from mjbench.backends import simulate as sim
+from mjbench.papers import yigit2023_metrics as MQ
+from mjbench import plotstyle as ps
+from mjbench.plots import save
 
 DT = 1e-4
 PWM = ['drive.pwm.model="switching"', 'drive.pwm.frequency="20 kHz"', "drive.pwm.v_bus=48",
@@ -70,7 +74,6 @@ def case_overrides(name, estimator="difference") -> list:
 
 def simulate(name, overrides, backend="reduced", t_end=None):
     """One run of the machine's studied mode: (Trajectory or None, divergence message or "")."""
-    from mjbench.backends import simulate as sim
 
     mode, T, _, _ = MACHINES[name]
     scn = S.load(name, overrides)
@@ -131,7 +134,6 @@ def evaluate(name, tr) -> dict:
         out["chi_last_cycle"] = s.get("chi_last_cycle", math.nan)
         out["speed_error"] = abs(s["mean_motor_speed_rad_s"] - 30.0) / 30.0
     else:
-        from mjbench.papers import yigit2023_metrics as MQ
 
         out["steady_error"] = MQ.steady_error(tr, 5.0, t0)["error_abs_mean"]
     out.update(chatter(tr, t0, t1))
@@ -223,8 +225,6 @@ def breakdown(name, m, ideal_m) -> bool:
 # ------------------------------------------------------------------ figures
 def figure_compare(name, trajs: dict, path, title=""):
     """Speed, voltage and current of the ideal and realistic runs: whole run and a 20 ms zoom."""
-    from mjbench import plotstyle as ps
-    from mjbench.plots import save
 
     mode, T, (t0, t1), _ = MACHINES[name]
     fig, ax = ps.new(3, 2, figsize=(12, 8.5), sharex="col")
@@ -260,8 +260,6 @@ def figure_sweep(sweeps: list, path, title=""):
     """Heat maps of the main metric over encoder lines × sample period, broken-down cells hatched."""
     from matplotlib.colors import LogNorm
 
-    from mjbench import plotstyle as ps
-    from mjbench.plots import save
 
     fig, axes = ps.new(1, len(sweeps), figsize=(6.2 * len(sweeps), 4.6))
     axes = np.atleast_1d(axes)

@@ -18,6 +18,9 @@ import math
 import numpy as np
 
 from mjbench.papers import Case
+from mjbench import analyze as A
+from mjbench import scenario as S
+from mjbench.reproduce import default_figures
 
 KEY = "examples"
 CITATION = "engineered examples"
@@ -44,7 +47,6 @@ DESIGN = "designer figure (mjbench analyze at the set-point speed); no paper val
 def _analysis(ctx):
     hit = ctx.extra.get("analysis")
     if hit is None:
-        from mjbench import analyze as A
 
         hit = ctx.extra["analysis"] = A.analyze(ctx.scn)
     return hit
@@ -100,7 +102,6 @@ def rows(ctx) -> list:
 def _mjcf_vs_closed_form(ctx) -> list:
     """The MuJoCo-derived J, J', E_p' of the user's MJCF four-bar against FourBar.reduced (the
     file holds the Incerti 2012 geometry of incerti2012.toml)."""
-    from mjbench import scenario as S
 
     mech = ctx.machines[ctx.case.modes[-1]].mechanism
     ref = S.make_mechanism(S.load("incerti2012"))
@@ -117,8 +118,6 @@ def _mjcf_vs_closed_form(ctx) -> list:
 
 def figures(ctx) -> list:
     """The run's time series (``timeseries.png``) and the ``mjbench analyze`` figures."""
-    from mjbench import analyze as A
-    from mjbench.reproduce import default_figures
 
     figs = default_figures(ctx)
     res = _analysis(ctx)

@@ -22,6 +22,10 @@ import math
 import numpy as np
 
 from mjbench.papers import drivetrain_study as DT
+from mjbench import frest
+from mjbench import scenario as S
+from mjbench import plotstyle as ps
+from mjbench.plots import save
 
 SETTINGS = {"backend": "reduced", "n_lines": 12, "periods": 2, "settle": 1.0}
 NO_LIMIT = ["drive.v_max=inf", "modes.pid.v_limit=none"]
@@ -39,8 +43,6 @@ VARIANTS = {
 
 def measure(name) -> dict:
     """{label: frest.measure result} for every variant of ``name`` (:data:`SETTINGS`)."""
-    from mjbench import frest
-    from mjbench import scenario as S
 
     return {label: frest.measure(S.load(name, ov), mode, **SETTINGS) for label, mode, ov in VARIANTS[name]}
 
@@ -210,8 +212,6 @@ def report_table(ctx, name) -> dict:
 def report_figure(ctx, name):
     """Bode magnitude of the measured plant and loop of every variant, with the linearisation (line)
     and the frozen-angle family along the turn (dashed)."""
-    from mjbench import plotstyle as ps
-    from mjbench.plots import save
 
     res = _results(ctx, name)
     fig, ax = ps.new(1, 2, figsize=(12, 4.6))

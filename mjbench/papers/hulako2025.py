@@ -19,6 +19,10 @@ import numpy as np
 
 from mjbench import scenario as S
 from mjbench.papers import Case
+from mjbench import runner
+from mjbench import linear
+from mjbench import linear, linear_plots
+from .. import papers
 
 KEY = "hulako2025"
 CITATION = "Hülako & Çakar 2025"
@@ -73,7 +77,6 @@ def _poles(p):
 
 def rows(ctx) -> list:
     """Last-second residual, the plain-Eq-21 what-if, and the start-up table (ctx.tables)."""
-    from mjbench import runner
 
     mode = ctx.case.modes[-1]
     scn = ctx.scn
@@ -137,7 +140,6 @@ def _poles_text(ps):
 def _rise(lp, h):
     import numpy as np
 
-    from mjbench import linear
 
     t = np.arange(0.0, 4.0, h)
     return linear.rise_time(t, linear.step_response(lp.speed or lp, t, qd_set=1.0)["qd"])
@@ -145,7 +147,6 @@ def _rise(lp, h):
 
 def _linear(ctx):
     """The Eq 21 loop at frozen angles (computed once per case): family, rise times, PI variant."""
-    from mjbench import linear
 
     if "linear" in ctx.extra:
         return ctx.extra["linear"]
@@ -208,7 +209,7 @@ def linear_rows(ctx) -> list:
 
 def figures(ctx) -> list:
     """Figs 9-12 (crank speed and error) and 18-21 (coupler-point speed)."""
-    from . import hulako2025_plots as PC
+    PC = papers.hulako2025_plots  # (matplotlib: loaded on first use)
 
     mode = ctx.case.modes[-1]
     mach = ctx.machines[mode]
@@ -221,7 +222,6 @@ def figures(ctx) -> list:
     PC.coupler_speed(ctx.runs[mode], mach.mechanism, ref, p2,
                      title=f"{ctx.case.name}: coupler-point speed (cf. Hülako & Çakar Figs 18-21)",
                      paper_dev=dev["max"] if dev else None)
-    from mjbench import linear, linear_plots
 
     lin = _linear(ctx)
     fam, i = lin["family"], lin["i"]

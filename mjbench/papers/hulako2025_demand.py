@@ -26,6 +26,8 @@ import math
 import numpy as np
 
 from mjbench import linear
+from mjbench import scenario as S
+from mjbench.errors import ParameterError
 
 H_CONTROL = 1e-4  #: [s] control period of the Hülako & Çakar PID (the scenarios' co-step)
 
@@ -133,13 +135,11 @@ def predicted_error(mechanism, drive, reference, kp, ki, kd, n: int = 4096, harm
 
 def from_scenario(scn, mode: str | None = None, n: int = 4096) -> dict:
     """Demand report for a scenario (built through scenario.make_machine)."""
-    from mjbench import scenario as S
 
     mach = S.make_machine(scn, mode)
     ctrl = mach.controller
     ref = getattr(ctrl, "reference", None)
     if ref is None or not hasattr(ref, "vc_at"):
-        from mjbench.errors import ParameterError
         raise ParameterError("the scenario's controller has no coupler_speed reference")
     z = float(mach.drive.z)
     if hasattr(ctrl, "kp"):

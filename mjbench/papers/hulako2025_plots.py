@@ -3,10 +3,7 @@ Figs 9-12 (desired vs actual crank speed, crank-speed error), Figs 18-21 (couple
 vs desired), Fig. 22 (coupler speed for several V_C; deviation vs V_C)."""
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from mjbench.plotstyle import no_pyplot as plt  # figures without pyplot: the user's backend is left alone
 import numpy as np  # noqa: E402
 
 from .hulako2025_metrics import signals  # noqa: E402

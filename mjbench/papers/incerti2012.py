@@ -30,6 +30,12 @@ import math
 from mjbench.papers import Case
 from mjbench.papers import drivetrain_study as DT
 from mjbench.papers import frest_study as FR
+from mjbench import metrics as M
+from mjbench import runner
+from mjbench import scenario as S
+from mjbench import linear
+from mjbench import linear_plots
+from mjbench.reproduce import default_figures
 
 KEY = "incerti2012"
 CITATION = "Incerti 2012"
@@ -63,9 +69,6 @@ def _fig(scn, mode, metric):
 def limiter_variants(scn, t_end: float, backend: str = "multibody") -> dict:
     """χ in the metrics window of the PID mode for each :data:`LIMITER_VARIANTS` entry (a run to
     ``t_end`` on ``backend``): {label: (χ as a fraction, the --set items)}."""
-    from mjbench import metrics as M
-    from mjbench import runner
-    from mjbench import scenario as S
 
     out = {}
     mt = scn.metrics
@@ -95,7 +98,6 @@ def rows(ctx) -> list:
 
 def _chi_rows(ctx) -> list:
     """χ over the last 2π (open loop), the limiter variants and the time at the limit (PID)."""
-    from mjbench import metrics as M
 
     scn, out = ctx.scn, []
     if "open" in ctx.metrics:
@@ -154,7 +156,6 @@ N_ANGLES = 24
 
 def _families(ctx):
     """Frozen-angle families of the PID loop at LOOP_TIMES (computed once per case)."""
-    from mjbench import linear
 
     if "linear" not in ctx.extra:
         mach = ctx.machines.get("pid")
@@ -216,8 +217,6 @@ def linear_rows(ctx) -> list:
 def figures(ctx) -> list:
     """Incerti 2012 Fig. 4 layout (one column per mode, every backend, set-point dashed) and the
     frozen-angle Bode family of the PID loop at the end of the paper's χ window."""
-    from mjbench import linear_plots
-    from mjbench.reproduce import default_figures
 
     figs = default_figures(ctx, "fig4.png")  # the paper's own figure name
     if ctx.case.name.endswith("-realdrive"):

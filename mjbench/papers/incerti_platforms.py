@@ -19,6 +19,11 @@ import math
 import os
 
 from mjbench.papers import Case
+from mjbench.motionlaws import PseudoPolynomialLaw
+from mjbench import linear
+from mjbench import scenario as S
+from mjbench import linear_plots as LP
+from .. import papers
 
 KEY = "incerti-platforms"
 CITATION = "Incerti belt / Incerti Bezier"
@@ -82,7 +87,6 @@ def rows(ctx) -> list:
                 rows.append({"name": f"3-4-5 polynomial coefficient C{i + 1} (Table II)", "unit": "1", "paper": cp,
                              "ours": {"ours": co}, "reason": ""})
     if "table_II_pseudo_gammas" in pap and "table_II_pseudo_C" in pap:
-        from mjbench.motionlaws import PseudoPolynomialLaw
         law0 = ctx.extra["study"]["objects"]["laws"]["initial"]
         try:
             cs = PseudoPolynomialLaw(law0.Phi, law0.T, pap["table_II_pseudo_gammas"]).C
@@ -136,8 +140,6 @@ def rows(ctx) -> list:
 
 def _linear(ctx):
     """Modes of the linear machine in four limits and the servo loop (computed once per case)."""
-    from mjbench import linear
-    from mjbench import scenario as S
 
     if "linear" not in ctx.extra:
         scn = ctx.scn
@@ -224,7 +226,7 @@ def _servo_table(ctx, rep):
 
 def figures(ctx) -> list:
     """Response before/after, commands + platform, ideal vs real servo, ω_n sensitivity."""
-    from . import incerti_platforms_plots as PV
+    PV = papers.incerti_platforms_plots  # (matplotlib: loaded on first use)
 
     st = ctx.extra["study"]["objects"]
     laws, osc, ta = st["laws"], st["osc"], st["t_after"]
@@ -248,8 +250,6 @@ def figures(ctx) -> list:
 
 
 def _linear_figures(ctx) -> list:
-    from mjbench import linear
-    from mjbench import linear_plots as LP
 
     lin = _linear(ctx)
     lp, mg = lin["loop"], lin["margins"]

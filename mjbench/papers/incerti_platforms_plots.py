@@ -7,15 +7,13 @@ from __future__ import annotations
 
 import io
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from mjbench.plotstyle import no_pyplot as plt  # figures without pyplot: the user's backend is left alone
 import numpy as np  # noqa: E402
 
 from mjbench.motionlaws import BezierLaw  # noqa: E402
 from mjbench.trajectory import atomic_write  # noqa: E402
 from mjbench.vibration import ode_response  # noqa: E402
+from mjbench.vibration import simulate_multibody
 
 
 def save(fig, path):
@@ -146,7 +144,6 @@ def fig_laws(laws: dict, path, title="Motor laws"):
 def fig_multibody_check(platform, law, osc, path, t_after=0.5, dt=1e-3):
     """Transmission deflection ψ(t) from MuJoCo (RK4, driven joint imposed per stage) over the
     reduced ODE, and their difference."""
-    from mjbench.vibration import simulate_multibody
 
     t_end = law.T + t_after
     r = simulate_multibody(platform, law, t_end=t_end, dt=dt, record_dt=max(dt, 1e-3))

@@ -26,6 +26,9 @@ from mjbench import scenario as S
 from mjbench.papers import Case
 from mjbench.papers import drivetrain_study as DT
 from mjbench.papers import frest_study as FR
+from mjbench import runner
+from . import yigit2023_metrics as MQ
+from .. import papers
 
 KEY = "yigit2023"
 CITATION = "Yiğit & Şen 2023"
@@ -63,9 +66,7 @@ def ts_study(ctx, backend: str = "multibody") -> dict:
     """The SMC's steady error for each control period of :data:`TS_STUDY` (the scenario's own Ts
     is taken from the case's run): {"rows": [(Ts, |mean e| %, max |e| %)],
     "matched": Ts at which |mean e| equals the paper's figure (log-log interpolation) or None}."""
-    from mjbench import runner
 
-    from . import yigit2023_metrics as MQ
 
     scn = ctx.scn
     t_start = float(S.get(scn, "metrics.steady_start", 2.0))
@@ -90,7 +91,6 @@ def ts_study(ctx, backend: str = "multibody") -> dict:
 
 
 def _fig6_rows(ctx) -> list:
-    from . import yigit2023_metrics as MQ
 
     scn = ctx.scn
     pap = scn.paper
@@ -148,7 +148,7 @@ def _fig6_rows(ctx) -> list:
 def study(ctx):
     """``yigit2023-design``: :func:`yigit2023_design.optimise` for every :data:`DESIGNS` entry and,
     for the first, with no margin on the strict inequalities (eps = 0)."""
-    from . import yigit2023_design as D
+    D = papers.yigit2023_design  # (scipy.optimize: loaded on first use)
 
     res = {}
     for label, (lo, c4) in DESIGNS.items():
@@ -160,7 +160,7 @@ def study(ctx):
 
 
 def _design_rows(ctx) -> list:
-    from . import yigit2023_design as D
+    D = papers.yigit2023_design  # (scipy.optimize: loaded on first use)
 
     res = ctx.extra["design"]
     paper_sum = float(ctx.scn.paper.get("design_sum_mm", float(np.sum(D.TABLE_I))))
@@ -229,10 +229,10 @@ def rows(ctx) -> list:
 def figures(ctx) -> list:
     """Figs 6 (crank speed, all modes) and 7 (voltage of the closed loop), the Ts study; or the
     design comparison."""
-    from . import yigit2023_plots as PQ
+    PQ = papers.yigit2023_plots  # (matplotlib: loaded on first use)
 
     if ctx.case.kind == "study":
-        from . import yigit2023_design as D
+        D = papers.yigit2023_design  # (scipy.optimize: loaded on first use)
 
         res = ctx.extra["design"]
         designs = {"Table I (paper)": D.TABLE_I}

@@ -32,6 +32,12 @@ import math
 
 import numpy as np
 from scipy.optimize import minimize
+from mjbench.mechanisms.quickreturn import QuickReturn
+from mjbench import scenario as S
+from mjbench.backends import simulate_many
+from mjbench.errors import MjbenchError
+from mjbench.runner import backend_options
+from . import yigit2023_metrics as MQ
 
 TABLE_I = np.array([54.0, 324.0, 78.0, 140.0, 207.0])  #: paper's optimum (mm)
 NAMES = ("r2", "r3", "r4", "a", "b")
@@ -146,7 +152,6 @@ def optimise(starts: int = 8, seed: int = 0, bounds=DEFAULT_BOUNDS, include_tabl
 
 def check_with_mechanism(x_mm) -> dict:
     """Cross-check the closed forms with the full kinematics of QuickReturn (lengths in mm)."""
-    from mjbench.mechanisms.quickreturn import QuickReturn
 
     r2, r3, r4, a, b = (float(v) * 1e-3 for v in x_mm)
     m = QuickReturn(r2=r2, r3=r3, r4=r4, a=a, b=b)
@@ -173,7 +178,6 @@ def candidates(res) -> list:
 
 
 def _scenario(x_mm, overrides=()):
-    from mjbench import scenario as S
 
     keys = {n: float(v) * 1e-3 for n, v in zip(NAMES, x_mm)}
     return S.with_values(S.load("yigit2023", list(overrides)), {f"mechanism.{k}": v for k, v in keys.items()})
@@ -183,12 +187,7 @@ def simulate_designs(designs, backend="reduced", mode="smc", t_end=None, overrid
     """Closed-loop figures (:data:`DYN_FIGURES`) of each design x [mm] with Table I's masses and drive,
     the runs simulated together on ``backend``; a design that cannot be built or diverges gives
     {"error": message}."""
-    from mjbench import scenario as S
-    from mjbench.backends import simulate_many
-    from mjbench.errors import MjbenchError
-    from mjbench.runner import backend_options
 
-    from . import yigit2023_metrics as MQ
 
     out, machines, idx = [None] * len(designs), [], []
     scn0 = None

@@ -1,4 +1,4 @@
-"""Figures of the Yiğit & Şen 2023 scenario in the style of the paper's Figs 6-7 (matplotlib, Agg).
+"""Figures of the Yiğit & Şen 2023 scenario in the style of the paper's Figs 6-7 (matplotlib, no pyplot).
 
 ``plot_speed`` (Fig. 6: crank angular velocity, with a zoom on the steady state) and
 ``plot_voltage`` (Fig. 7: a section of the input signal) take Trajectory objects.
@@ -7,15 +7,14 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from mjbench.plotstyle import no_pyplot as plt  # figures without pyplot: the user's backend is left alone
 import numpy as np  # noqa: E402
+from mjbench.trajectory import atomic_write
+from mjbench import scenario
+from mjbench.backends import simulate
 
 
 def _save(fig, path):
-    from mjbench.trajectory import atomic_write
 
     ext = os.path.splitext(path)[1].lstrip(".") or "png"
     atomic_write(path, lambda f: fig.savefig(f, format=ext, dpi=130), mode="wb")
@@ -214,8 +213,6 @@ def draw_geometry(mech, path=None, q=2.0):
 def docs_figures(outdir="docs", t_end=5.0, backend="multibody"):
     """Regenerate docs/quickreturn_{geometry,fig6,fig7}.png from the yigit2023 scenario
     (open 48 V, SMC, PID; ≈ 5 s of computing per mode)."""
-    from mjbench import scenario
-    from mjbench.backends import simulate
 
     scn = scenario.load("yigit2023")
     runs = {}

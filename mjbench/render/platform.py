@@ -13,6 +13,7 @@ from .overlay import TextBox
 from .scene import BACKDROP_RGB, frame_camera
 from .video import VideoWriter, _frame_bar, _video_info, frame_indices
 from .view import MechanismView
+from ..vibration import simulate_multibody
 
 
 # ============================================================================ platforms (seeds 001/003)
@@ -150,7 +151,6 @@ def render_platform_laws(platform, laws: dict, out, t_after=0.5, fps=30.0, width
     simulated by ``vibration.simulate_multibody`` (step ``dt``, every step recorded) over
     [0, T + t_after] and played in real time.  Returns an info dict."""
 
-    from ..vibration import simulate_multibody
 
     t0 = time.perf_counter()
     runs = {k: simulate_multibody(platform, law, t_end=law.T + t_after, dt=dt) for k, law in laws.items()}

@@ -11,38 +11,70 @@ from .gl import gl_setup
 from .platform import _render_platform_run
 from .video import VideoWriter, _frame_bar, _video_info, frame_indices
 from .view import MechanismView
+from .. import scenario as scenario_mod
+from ..backends import multibody
+from ..errors import ScenarioError
+from ..outputs import atomic_write
 
 
 # ============================================================================ scenario → video
 def simulate_for_video(scn, mode: str | None = None, t_end: float | None = None):
     """Multibody run of the scenario with every control step recorded.  Returns (machine, traj)."""
-    from .. import scenario as scenario_mod
-    from ..backends import multibody
 
     mode = scn.mode(mode)
     machine = scenario_mod.make_machine(scn, mode)
     t_end = float(t_end if t_end is not None else scn.simulation.t_end)
     h = scn.simulation.dt
     o = scn.multibody_options()
-    if getattr(machine.mechanism, "frames_from_joints", False):  # its pose is more than q (a cam's follower)
+    if machine.mechanism.frames_from_joints:  # its pose is more than q (a cam's follower)
         o = {**o, "record_joints": True}
     traj = multibody.simulate(machine, t_end, record_dt=h, options=o)
     return machine, traj
 
 
+def overlay_text(machine, traj, idx) -> list:
+    """The overlay's lines below the time of every frame ``idx``: the crank and motor speeds, the
+    drive's voltage, current and torque on the crank (an ideal drive: its torque), each process load
+    of the mechanism (its magnitude from the mechanism's load law at the frame's angle); each line
+    at most 47 characters (the text box)."""
+    t, q, qd, V, I = traj.t, traj.q, traj.qd, traj.voltage, traj.current
+    T = traj["torque_crank_Nm"]
+    z = float(getattr(machine.drive, "z", 1.0))
+    mech = machine.mechanism
+    loads = []
+    if hasattr(mech, "load_forces") and getattr(mech, "load_specs", None):
+        for name, ld, (_, _, F) in zip(mech.load_names(), mech.load_specs, mech.load_forces(q[idx], qd[idx])):
+            loads.append((name[:16], "kN" if ld.link is None else "kN·m", np.asarray(F, float) + 0.0 * q[idx]))
+    out = []
+    for k, i in enumerate(idx):
+        lines = [f"crank {qd[i]:7.2f} rad/s   motor {z * qd[i]:8.2f} rad/s"]
+        if np.isfinite(V[i]):
+            lines.append(f"V {V[i]:6.2f} V  I {I[i]:6.2f} A  T {T[i]:7.2f} N·m")
+        else:
+            lines.append(f"drive torque {T[i]:8.2f} N·m")
+        lines += [f"load {n}: {1e-3 * F[k]:7.3f} {u}" for n, u, F in loads[:2]]
+        out.append(lines)
+    return out
+
+
 def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title="", progress=True,
-                      t_end=None, options=None, crf=23):
-    """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps)."""
+                      t_end=None, options=None, crf=23, poster=None, poster_at=0.6):
+    """Write the video of a recorded run.  Returns a dict of numbers (frames, seconds, fps).
+    ``poster``: also write that PNG, a frame of the machine running (:func:`poster_frame`, after
+    ``poster_at`` of the video; not at rest at t = 0): the page's still image before the video
+    plays (``info["poster"]``)."""
 
     mech, drive = machine.mechanism, machine.drive
     if mech.render_view().kind == "top":  # the mechanism's class says how it is shown
         return _render_platform_run(machine, traj, out, fps, width, height, title, progress, t_end, crf)
     idx = frame_indices(traj.t, fps, t_end)
-    t, q, qd, V = traj.t, traj.q, traj.qd, traj.voltage
+    t, q, qd = traj.t, traj.q, traj.qd
     t0 = time.perf_counter()
+    text = overlay_text(machine, traj, idx)
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
-                         overlay_lines=4 if title else 3)
-    poses = _recorded_poses(view.model, traj) if getattr(mech, "frames_from_joints", False) else None
+                         overlay_lines=(1 if title else 0) + 2 + max(len(x) for x in text))
+    k_poster = poster_frame(traj, idx, poster_at)
+    poses = _recorded_poses(view.model, traj) if mech.frames_from_joints else None
     # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
@@ -56,18 +88,37 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
                 if trail is not None and trail[-1] != q[i]:
                     trail = np.append(trail, q[i])
                 lines = ([title] if title else []) + [
-                    f"t = {t[i]:6.3f} s   (real time, {fps:g} fps)",
-                    f"crank speed {qd[i]:7.2f} rad/s   motor {drive.z * qd[i]:7.2f} rad/s",
-                    f"voltage {V[i]:7.2f} V   grid {view.grid_step * 1000:g} mm",
-                ]
+                    f"t = {t[i]:6.3f} s  ({fps:g} fps)  grid {view.grid_step * 1000:g} mm"] + text[k]
                 r0 = time.perf_counter()
                 img = view.frame(q[i], lines, trail_q=trail, out=buf, qpos=None if poses is None else poses(i))
                 n_render += time.perf_counter() - r0
                 writer.write(img)
+                if poster is not None and k == k_poster:
+                    _write_png(poster, img)
                 bar.update(1)
     finally:
         view.close()
-    return _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
+    info = _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
+    if poster is not None:
+        info["poster"] = str(poster)
+        info["poster_t_s"] = float(t[idx[k_poster]])
+    return info
+
+
+def poster_frame(traj, idx, after=0.6) -> int:
+    """The frame the still image shows: the machine working hardest (largest |drive torque on the
+    crank|) in the last part of the video (from ``after`` of it), so the still shows it running
+    under its load, not at rest at t = 0."""
+    k0 = min(len(idx) - 1, int(after * len(idx)))
+    T = np.abs(np.asarray(traj["torque_crank_Nm"], dtype=float)[np.asarray(idx[k0:])])
+    return k0 + int(np.nanargmax(T)) if np.any(np.isfinite(T)) else k0
+
+
+def _write_png(path, img) -> None:
+    """A frame (H, W, 3 uint8) as a PNG, written atomically."""
+    from PIL import Image
+
+    atomic_write(path, lambda f: Image.fromarray(np.ascontiguousarray(img)).save(f, format="PNG"), mode="wb")
 
 
 def _recorded_poses(model, traj):
@@ -91,12 +142,11 @@ def _recorded_poses(model, traj):
 
 
 def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,
-                    crf=23):
+                    crf=23, poster=None):
     """Simulate (multibody) and render ``scn``.  Returns the render info dict plus ``sim_s``."""
     if not (np.isfinite(fps) and fps > 0):
         raise ParameterError(f"--fps = {fps!r}: must be > 0")
     gl_setup()
-    from ..errors import ScenarioError
 
     if not scn.modes:
         raise ScenarioError(f"scenario {scn.name!r} defines no [modes.*] controller to simulate")
@@ -106,7 +156,7 @@ def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, 
     sim_s = time.perf_counter() - t0
     info = render_trajectory(machine, traj, out, fps=fps, width=width, height=height,
                              title=f"{scn.name} — mode {mode} (multibody)", progress=progress, t_end=t_end,
-                             options=scn.multibody_options(), crf=crf)
+                             options=scn.multibody_options(), crf=crf, poster=poster)
     info["sim_s"] = sim_s
     info["mode"] = mode
     return info

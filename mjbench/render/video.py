@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import ParameterError
 from . import gl
 from .gl import RenderError
+from ..outputs import FILE_MODE, _test_hook
 
 
 # ============================================================================ writers
@@ -121,7 +122,6 @@ class VideoWriter:
                     raise RenderError("no frame to write")
                 imgs[0].save(self.tmp, format="GIF", save_all=True, append_images=imgs[1:],
                              duration=int(round(1000 / self.fps)), loop=0, optimize=False)
-            from ..outputs import FILE_MODE, _test_hook
             if self.ext == ".mp4":
                 _check_mp4(self.tmp, self.path)  # ffmpeg reports a failed write (disk full) only on its log
             os.chmod(self.tmp, FILE_MODE)  # mkstemp creates 0600

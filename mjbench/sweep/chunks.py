@@ -16,11 +16,13 @@ from ..trajectory import atomic_write
 from .rows import RowScenarios
 from .spec import SweepSpec, VERIFY
 from .table import _fmt, default_metric
+from ..backends import SEARCH_BACKENDS
+from ..runner import backend_options, duty_limits
+from ..backends import batch, simulate_many
 
 
 # ======================================================================== simulation of a chunk
 def settings(spec: SweepSpec, scn) -> dict:
-    from ..backends import SEARCH_BACKENDS
 
     if spec.backend not in SEARCH_BACKENDS:
         raise ParameterError(f"--backend {spec.backend!r}: choose one of {list(SEARCH_BACKENDS)}")
@@ -31,7 +33,6 @@ def settings(spec: SweepSpec, scn) -> dict:
 
 def _run_settings(scn, t_end_fixed, backend="multibody"):
     """Per-row run settings (a sweep may vary simulation.dt, the integrator, the χ window ...)."""
-    from ..runner import backend_options
 
     opts = backend_options(scn, backend)
     if backend == "reduced":
@@ -40,19 +41,21 @@ def _run_settings(scn, t_end_fixed, backend="multibody"):
             "record_dt": scn.simulation.record_dt,
             "options": opts,
             "chi_window": scn.metrics.chi_window,
-            "chi_average": scn.metrics.chi_average}
+            "chi_average": scn.metrics.chi_average,
+            "steady_from": scn.metrics.steady_start, "band_rel": scn.metrics.band_rel}
 
 
 def row_metrics(traj, st) -> dict:
     win = st["chi_window"]
-    m = M.summary(traj, chi_window=win, average=st["chi_average"])
+    drive, v_limit = st.get("duty") or (None, None)
+    m = M.summary(traj, chi_window=win, average=st["chi_average"], steady_from=st.get("steady_from"),
+                  band_rel=st.get("band_rel", 0.10), drive=drive, v_limit=v_limit)
     return {k: v for k, v in m.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
 
 def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[dict]:
     """Simulate ``rows`` of the sweep in one batch (per model structure) on ``st["backend"]`` →
     result rows.  Pure: the same input gives the same output locally and on a Dask worker."""
-    from ..backends import batch, simulate_many
 
     backend = st.get("backend", "multibody")
     outputs.route_mujoco_log()  # on a Dask worker too: MuJoCo warnings recorded, no ./MUJOCO_LOG.TXT
@@ -64,6 +67,8 @@ def run_chunk(scn, rows: list, keys: list, st: dict, nthread: int = 0) -> list[d
             s = scenarios(r)
             st_r = _run_settings(s, st.get("t_end_fixed"), backend)
             mc = S.make_machine(s, st["mode"])
+            # the row's limits for its duty figures (several axes: the rows carry no per-axis duty figures)
+            st_r["duty"] = duty_limits(mc.drive, mc.controller) if mc.naxes == 1 else (None, None)
             if backend == "multibody":
                 o = {**batch.DEFAULT_OPTIONS, **st_r["options"]}
                 key = batch._model_key(mc, o)

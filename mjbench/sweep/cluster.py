@@ -2,10 +2,9 @@
 re-run when a worker dies, the scenario shipped to the workers."""
 from __future__ import annotations
 
-import os
 
-from .. import outputs
-from ..errors import MjbenchError, ParameterError
+from .. import environment, outputs
+from ..errors import MjbenchError, ParameterError, RunFailed
 from .chunks import run_chunk
 
 
@@ -38,10 +37,7 @@ def connect(address: str):
     from dask.distributed import Client
 
     full = check_scheduler(address)
-    try:
-        timeout = float(os.environ.get("MJBENCH_DASK_TIMEOUT") or CONNECT_TIMEOUT)
-    except ValueError:
-        raise ParameterError(f"MJBENCH_DASK_TIMEOUT = {os.environ['MJBENCH_DASK_TIMEOUT']!r}: must be seconds") from None
+    timeout = environment.dask_timeout(CONNECT_TIMEOUT)  # (checked: finite seconds > 0, else an error naming it)
     try:
         return Client(full, timeout=timeout)
     except (OSError, TimeoutError) as e:
@@ -55,31 +51,77 @@ def connect(address: str):
 #: times Dask re-runs a chunk whose worker died or raised (then the sweep stops cleanly)
 DASK_RETRIES = 2
 
+#: seconds a sweep waits for its cluster to have a worker again (``MJBENCH_DASK_TIMEOUT`` overrides)
+WORKER_TIMEOUT = 30.0
+
+#: seconds between two looks at the cluster while chunks are pending
+POLL = 0.5
+
+
+class ClusterLost(RunFailed):
+    """The Dask cluster had no worker (or no scheduler) for longer than the stated timeout."""
+
+
+def _workers(client) -> int | None:
+    """Number of workers the scheduler has, None if the scheduler does not answer."""
+    try:
+        return len(client.nthreads())
+    except Exception:  # noqa: BLE001 - a scheduler gone away: comm errors, timeouts
+        return None
+
 
 def _run_on_dask(client, scn, chunks, keys, st, nthread, collect, table, nrows, ndone):
     """Submit every chunk (``DASK_RETRIES`` retries each: a chunk whose worker is lost runs again
-    elsewhere) and collect them as they complete.  If the cluster still loses a chunk, stop
+    elsewhere) and collect them as they complete.  If the cluster still loses a chunk, or has no
+    worker (or no answering scheduler) for :data:`WORKER_TIMEOUT` s (``MJBENCH_DASK_TIMEOUT``), stop
     cleanly: ONE error saying how many rows are saved and that the same command resumes."""
-    from dask.distributed import as_completed
+    import time
 
+    from dask.distributed import wait
+
+    limit = environment.dask_timeout(WORKER_TIMEOUT)
     scn_f = ship_scenario(client, scn)
     futs = [client.submit(run_chunk, scn_f, ch, keys, st, nthread, pure=False, retries=DASK_RETRIES)
             for ch in chunks]
     saved = ndone
+
+    def stop(why):
+        for f in futs:
+            f.cancel()
+        if saved:
+            return ClusterLost(f"{why}; {saved} of {nrows} rows are saved in {table}: run the same command again to "
+                               f"resume")
+        return ClusterLost(f"{why}; no row was saved: run the same command again once the cluster has workers")
+
+    pending, idle = set(futs), None
     try:
-        for fut in as_completed(futs):
-            res = fut.result()
-            collect(res)
-            saved += len(res)
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # (dask.distributed.TimeoutError is the built-in one)
+                done = set()
+            for fut in done:
+                res = fut.result()
+                collect(res)
+                saved += len(res)
+            if done:
+                idle = None
+                continue
+            n = _workers(client)
+            if n:
+                idle = None
+            elif idle is None:
+                idle = time.monotonic()
+            elif time.monotonic() - idle > limit:
+                what = "no Dask scheduler answered" if n is None else "the Dask cluster had no worker"
+                raise stop(f"{what} for {limit:g} s (MJBENCH_DASK_TIMEOUT) with {len(pending)} chunk(s) of the sweep "
+                           f"pending")
     except (MjbenchError, KeyboardInterrupt):
         raise
     except Exception as e:  # noqa: BLE001 - the cluster's failures: lost workers, cancelled futures, comms
-        for f in futs:
-            f.cancel()
         first = (str(e).splitlines() or [""])[0][:200]
-        raise MjbenchError(f"the Dask cluster lost a chunk of the sweep ({type(e).__name__}: {first}) after "
-                           f"{DASK_RETRIES} retries; {saved} of {nrows} rows are saved in {table}: run the same "
-                           f"command again to resume") from None
+        raise stop(f"the Dask cluster lost a chunk of the sweep ({type(e).__name__}: {first}) after {DASK_RETRIES} "
+                   f"retries") from None
 
 
 def ship_scenario(client, scn):

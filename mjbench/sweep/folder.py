@@ -7,7 +7,7 @@ import os
 
 from .. import outputs
 from .. import scenario as S
-from ..errors import MjbenchError, ScenarioError
+from ..errors import MjbenchError, ParameterError, ScenarioError
 from ..trajectory import atomic_write
 from .chunks import run_chunk, settings, verify_best
 from .cluster import _run_on_dask, connect
@@ -30,6 +30,13 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     scn = S.load(spec.scenario, spec.overrides)
     metric = check_metric(metric, scn)
     rows = make_rows(spec, scn)
+    if metric is None and scn.metrics.chi_window is None and spec.backend != "multibody" and spec.verify > 0:
+        # the default ranking is χ in the scenario's window: without one, the "best" rows would be
+        # ranked by whatever figure happens to exist (once: the slowest machines, by mean speed)
+        raise ParameterError(f"--metric: scenario {scn.name!r} has no metrics.chi_window, so the sweep has no default "
+                             f"figure to rank its best rows by before re-running them on MuJoCo; name the figure to "
+                             f"minimise, e.g. --metric chi_last_cycle, --metric current_rms_steady_A, --metric "
+                             f"torque_output_rms_steady_Nm (or --verify 0)")
     keys = spec.keys()
     st = settings(spec, scn)
     own_client = None
@@ -40,17 +47,19 @@ def run_sweep(spec: SweepSpec, out_dir, client=None, scheduler: str | None = Non
     spec_json = outputs.dumps(spec.to_json(), sort_keys=True, indent=1)
     results, bar = {}, None
     made = []
+    saved = [0]  # rows the table on disk holds (its last complete write): what a failure reports
     try:
         made = outputs._make_parents(outputs.Path(os.path.abspath(out_dir)))
         done = _resume(spec_json, out_dir, spec_path, table)
         pending = [r for r in rows if r["row"] not in done]
         results.update(done)
+        saved[0] = len(done)
         if progress:
             from tqdm import tqdm
             bar = tqdm(total=len(rows), initial=len(done), desc="sweep", unit="sim")
-        _run_pending(spec, scn, client, pending, keys, st, nthread, results, table, bar, len(rows), len(done))
+        _run_pending(spec, scn, client, pending, keys, st, nthread, results, table, bar, len(rows), len(done), saved)
     except BaseException as e:
-        _abandon(e, out_dir, table, spec_path, made, len(results), len(rows))
+        _abandon(e, out_dir, table, spec_path, made, saved[0], len(rows))
         raise
     finally:
         if bar is not None:
@@ -80,13 +89,14 @@ def _resume(spec_json, out_dir, spec_path, table) -> dict:
     return {}
 
 
-def _run_pending(spec, scn, client, pending, keys, st, nthread, results, table, bar, nrows, ndone) -> None:
+def _run_pending(spec, scn, client, pending, keys, st, nthread, results, table, bar, nrows, ndone, saved) -> None:
     """The pending rows in chunks (locally, or on the Dask cluster), the table rewritten as each
-    chunk ends."""
+    chunk ends (``saved[0]``: the rows it holds once written)."""
     def collect(chunk_result):
         for r in chunk_result:
             results[r["row"]] = r
-        write_table(table, list(results.values()), keys)
+        write_table(table, list(results.values()), keys)  # (atomic: all the rows so far, or the old table)
+        saved[0] = len(results)
         if bar is not None:
             bar.update(len(chunk_result))
 

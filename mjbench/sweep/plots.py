@@ -7,15 +7,15 @@ import os
 import numpy as np
 
 from .spec import SweepSpec
-from .table import default_metric
+from .table import default_metric, plot_metric
+from .. import plots as P
+from ..plotstyle import new
 
 
 def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | None = None) -> list:
     """Heat map (two grid keys), line (one grid key) and, for Monte Carlo, histograms."""
-    from .. import plots as P
-    import matplotlib.pyplot as plt
 
-    metric = metric or default_metric(results)
+    metric = metric or default_metric(results) or plot_metric(results)
     if metric is None:
         return []
     paths = []
@@ -29,7 +29,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
                 Z[ys.index(_match(ys, r[gk[1]])), xs.index(_match(xs, r[gk[0]]))] = r[metric]
             except ValueError:
                 pass
-        fig, ax = plt.subplots(figsize=(6.4, 5))
+        fig, ax = new(figsize=(6.4, 5))
         im = ax.imshow(Z, origin="lower", aspect="auto", cmap="viridis")
         ax.set_xlabel(gk[0])
         ax.set_ylabel(gk[1])
@@ -45,7 +45,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
         paths.append(P.save(fig, os.path.join(out_dir, f"heatmap_{metric}.png")))
     elif not spec.samples and len(gk) == 1:
         xs = [r[gk[0]] for r in ok]
-        fig, ax = plt.subplots(figsize=(6.4, 4))
+        fig, ax = new(figsize=(6.4, 4))
         ax.plot(xs, [r[metric] for r in ok], "o-")
         ax.set_xlabel(gk[0])
         ax.set_ylabel(metric)
@@ -53,7 +53,7 @@ def summary_plots(spec: SweepSpec, results: list[dict], out_dir, metric: str | N
         paths.append(P.save(fig, os.path.join(out_dir, f"line_{metric}.png")))
     if spec.samples:
         vals = np.array([r[metric] for r in ok])
-        fig, ax = plt.subplots(figsize=(6.4, 4))
+        fig, ax = new(figsize=(6.4, 4))
         if len(vals):
             ax.hist(vals, bins=max(5, min(40, len(vals) // 4)), color="tab:blue", alpha=0.8)
             q = np.percentile(vals, [5, 50, 95])

@@ -3,13 +3,14 @@ CLI, the chunk size and the row-count limits."""
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from .. import environment
 from .. import scenario as S
 from ..errors import ParameterError, ScenarioError
+from ..kernel import memory_limit
 
 
 RESULTS = "results.csv"
@@ -78,22 +79,13 @@ ROW_BYTES = 4096
 
 def max_rows() -> int:
     """The row limit: ``MJBENCH_MAX_SWEEP_ROWS`` if set, else :data:`MAX_ROWS`."""
-    env = os.environ.get("MJBENCH_MAX_SWEEP_ROWS")
-    if not env:
-        return MAX_ROWS
-    try:
-        n = int(float(env))
-    except ValueError:
-        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be a whole number of rows") from None
-    if n < 1:
-        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {env!r}: must be >= 1")
-    return n
+    n = environment.max_sweep_rows()  # (checked: a whole number >= 1, else an error naming it)
+    return MAX_ROWS if n is None else n
 
 
 def check_size(nrows: int, detail: str = "") -> None:
     """Refuse, before anything runs, a sweep of more rows than :func:`max_rows` or than half the
     available memory holds (ROW_BYTES each)."""
-    from ..kernel import memory_limit
 
     lim = max_rows()
     need = nrows * ROW_BYTES
@@ -177,7 +169,7 @@ def parse_perturb(items) -> dict:
         except ValueError:
             raise ScenarioError(f"--perturb {item!r}: {text!r} is not a number or percentage") from None
         if not (math.isfinite(r) and r >= 0):
-            raise ScenarioError(f"--perturb {item!r}: the relative half-width must be >= 0")
+            raise ScenarioError(f"--perturb {item!r}: the relative half-width must be a finite number >= 0")
         if r >= 1:
             raise ScenarioError(f"--perturb {item!r}: a half-width of {100 * r:g} % can change the value's sign "
                                 f"(factor 1 ± r); use less than 100 %")

@@ -177,4 +177,7 @@ def _search_pivots(P, min_transmission, max_link_ratio, envelope, box, n, seed):
     z = res.x if res.fun <= obj(z0) else z0
     mA, mB = z[:2], z[2:]
     (A, _), (Dp, _) = centre_point(P, mA), centre_point(P, mB)
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(Dp))):
+        raise ParameterError(f"motion generator: no moving pivot in the search box {np.asarray(box).tolist()} has its "
+                             f"three positions on a circle (finite ground pivot): widen search_box or change the poses")
     return mA, A, mB, Dp

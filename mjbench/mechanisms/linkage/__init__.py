@@ -65,6 +65,7 @@ from .kinematics import KinematicsMixin
 from .loads import LinkageExtP, LinkageModelP, LoadsP, linkage_model, linkage_torque, load_abscissa, load_force
 from .mechanism import Linkage
 from .mjspec import PALETTE, MjSpecMixin
+from .multi_mechanism import MultiLinkage, cbar, unpack
 from .model import _CACHE, compiled
 from .multibody_loads import (LinkageLoadP, MultibodyLoadsMixin, chain_load_forces, closure_damping_forces,
                               link_torque_forces, linkage_load, slide_load_forces, write_forces)
@@ -80,7 +81,7 @@ __all__ = [
     "compiled", "TreeMixin", "KinematicsMixin", "AssemblyMixin", "ReducedMixin", "COARSE_STEPS", "COND_TOL",
     "TABLE_NODES", "TABLE_TARGET",
     # the mechanism and its parts
-    "Linkage", "MjSpecMixin", "MultibodyLoadsMixin", "AnalysisViewMixin", "PALETTE",
+    "Linkage", "MultiLinkage", "unpack", "cbar", "MjSpecMixin", "MultibodyLoadsMixin", "AnalysisViewMixin", "PALETTE",
     # laws
     "LoadsP", "LinkageExtP", "LinkageModelP", "LinkageLoadP", "load_force", "load_abscissa", "linkage_torque",
     "linkage_model", "linkage_load", "closure_damping_forces", "slide_load_forces", "chain_load_forces",

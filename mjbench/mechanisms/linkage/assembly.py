@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ...errors import GeometryError
-from ..linkage_kin import TWO_PI, SolveError
+from ..linkage_kin import TWO_PI, SolveError, _angle_ranges
 from .gears import check_racks, set_constants, symmetric_gears
 from .kinematics import _deg
 
@@ -176,6 +176,5 @@ class AssemblyMixin:
 
 def _ranges_text(qs, mask):
     """'a..b, c..d' (degrees) for the runs of True in mask over the grid qs (wrapping)."""
-    from ..fourbar import _angle_ranges
 
     return ", ".join(f"{_deg(lo)}..{_deg(hi)}" for lo, hi in _angle_ranges(qs, mask))

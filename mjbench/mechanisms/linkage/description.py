@@ -99,7 +99,12 @@ class LoadSpec(Strict):
 
     **Point load** (``point``, ``direction``): magnitude ``force`` (constant) or a table ``s``/``F``
     of the point's coordinate along the direction, s = P·d [m] (piecewise linear, constant beyond
-    the ends).  ``active``: always, or only on the stroke where — with the input turning forward
+    the ends) — or the same table over the stroke, measured from the end of the active stroke:
+    ``profile`` = [[distance before the end [m], force], ...] or ``profile_fraction`` =
+    [[fraction of the stroke before the end (0-1), force], ...] (as design requirements give
+    loads; ``active`` must then name the stroke: the end of ``stroke_against`` is the point's
+    smallest s over a turn, of ``stroke_along`` its largest; converted to s/F when the mechanism
+    is built).  ``active``: always, or only on the stroke where — with the input turning forward
     (q increasing) — the point moves along (``stroke_along``) or against (``stroke_against``) the
     direction, i.e. where ds/dq > 0 or < 0.  The gate depends on the input angle only (a process
     timed by the stroke, as seed 004's working-stroke window), not on the momentary direction of
@@ -125,6 +130,10 @@ class LoadSpec(Strict):
     torque: Q("torque", plausible=False) | None = Field(None, description="torque load: constant torque, counter-clockwise")
     q: list[Q("angle")] | None = Field(None, description="torque load: input angles of the table T(q)")
     T: list[Q("torque", plausible=False)] | None = Field(None, description="torque load: torques of the table (against q or s)")
+    profile: list[tuple[Length, Q("force", plausible=False)]] | None = Field(
+        None, description="point load: [[distance before the end of the active stroke, force], ...]")
+    profile_fraction: list[tuple[float, Q("force", plausible=False)]] | None = Field(
+        None, description="point load: [[fraction of the stroke before the end of the active stroke, force], ...]")
     active: Literal["always", "stroke_along", "stroke_against"] = "always"
 
     @model_validator(mode="after")
@@ -133,6 +142,7 @@ class LoadSpec(Strict):
             return self._torque_law()
         what = self.point or "?"
         extra = [k for k in ("torque", "q", "T") if getattr(self, k) is not None]
+        prof = [k for k in ("profile", "profile_fraction") if getattr(self, k) is not None]
         if extra:
             raise PydanticCustomError("mjbench_value", "load on {p}: {k} belong to a torque load (give link = ...)",
                                       {"p": what, "k": ", ".join(extra)})
@@ -142,9 +152,24 @@ class LoadSpec(Strict):
         if not math.hypot(*self.direction) > 0:
             raise PydanticCustomError("mjbench_value", "load on {p}: direction has zero length", {"p": self.point})
         table = self.s is not None or self.F is not None
-        if (self.force is None) == (not table):
-            raise PydanticCustomError("mjbench_value", "load on {p}: give either force or the table s, F",
-                                      {"p": self.point})
+        if (self.force is not None) + table + len(prof) != 1:
+            raise PydanticCustomError("mjbench_value", "load on {p}: give one of force, the table s, F (the point's "
+                                      "coordinate), profile (distance before the stroke's end) or profile_fraction "
+                                      "(fraction of the stroke before its end)", {"p": self.point})
+        if prof:
+            rows = getattr(self, prof[0])
+            if len(rows) < 2:
+                raise PydanticCustomError("mjbench_value", "load on {p}: {k} needs at least two points",
+                                          {"p": self.point, "k": prof[0]})
+            if self.active == "always":
+                raise PydanticCustomError("mjbench_value", "load on {p}: a {k} is measured from the end of a stroke: set "
+                                          "active = 'stroke_along' or 'stroke_against'", {"p": self.point, "k": prof[0]})
+            hs = sorted(h for h, _ in rows)
+            hi = 1.0 if prof[0] == "profile_fraction" else math.inf
+            if hs[0] < 0 or hs[-1] > hi or any(b <= a for a, b in zip(hs, hs[1:])):
+                raise PydanticCustomError("mjbench_value", "load on {p}: the {k} positions must be distinct and "
+                                          "{r}", {"p": self.point, "k": prof[0],
+                                                  "r": "in [0, 1]" if hi == 1.0 else ">= 0"})
         if table:
             if self.s is None or self.F is None or len(self.s) != len(self.F) or len(self.s) < 2:
                 raise PydanticCustomError("mjbench_value", "load on {p}: s and F need the same length >= 2",
@@ -154,9 +179,9 @@ class LoadSpec(Strict):
 
     def _torque_law(self):
         where = f"link {self.link}"
-        if self.force is not None or self.F is not None:
-            raise PydanticCustomError("mjbench_value", "torque load on {w}: give torque or the table T (force and F "
-                                      "are a point load's)", {"w": where})
+        if self.force is not None or self.F is not None or self.profile is not None or self.profile_fraction is not None:
+            raise PydanticCustomError("mjbench_value", "torque load on {w}: give torque or the table T (force, F and "
+                                      "the profiles are a point load's)", {"w": where})
         if (self.torque is None) == (self.T is None):
             raise PydanticCustomError("mjbench_value", "torque load on {w}: give either torque or the table T with q "
                                       "(input angles) or s (a point's stroke)", {"w": where})
@@ -200,8 +225,15 @@ class LinkageParams(Strict):
     ground: dict[str, Point] = Field(default_factory=dict, description="named frame points [m]")
     links: dict[str, LinkSpec]
     joints: list[JointSpec]
-    input: str = Field(description="name of the driven joint (revolute, ground → input link)")
+    input: str | None = Field(None, description="name of the driven joint (revolute, ground → input link)")
     input_angle: Q("angle") = Field(0.0, description="input angle q of the stated pose (link angles)")
+    inputs: list[str] | None = Field(None, description="the driven joints of a machine with several motors (revolute; "
+                                                       "instead of input): one axis each, in this order")
+    input_angles: list[Q("angle")] | None = Field(None, description="each input's coordinate in the stated pose "
+                                                                    "(a joint's relative angle; default 0)")
+    input_ranges: list[tuple[Q("angle"), Q("angle")]] | None = Field(
+        None, description="several inputs: the range of each input the reduced model is tabulated over "
+                          "(default: a full turn, periodic)")
     gravity: tuple[Q("acceleration", plausible=False), Q("acceleration", plausible=False)] = Field(
         (0.0, -9.81), description="gravity in the plane [m/s²] ((0, 0): plane horizontal)")
     springs: list[SpringSpec] = Field(default_factory=list)
@@ -219,6 +251,32 @@ class LinkageParams(Strict):
             if not k or any(ch in k for ch in ". /"):
                 raise PydanticCustomError("mjbench_value", "link name {k!r}: no '.', '/' or spaces", {"k": k})
         return v
+
+    @model_validator(mode="after")
+    def _inputs(self):
+        if (self.input is None) == (self.inputs is None):
+            raise PydanticCustomError("mjbench_value", "give input = \"JOINT\" (one motor) or inputs = [\"J1\", "
+                                      "\"J2\", …] (one motor per joint), not both")
+        if self.inputs is not None:
+            if not self.inputs or len(set(self.inputs)) != len(self.inputs):
+                raise PydanticCustomError("mjbench_value", "inputs = {i}: name each driven joint once",
+                                          {"i": list(self.inputs)})
+            n = len(self.inputs)
+            for key in ("input_angles", "input_ranges"):
+                v = getattr(self, key)
+                if v is not None and len(v) != n:
+                    raise PydanticCustomError("mjbench_value", "{k}: {m} values for {n} inputs",
+                                              {"k": key, "m": len(v), "n": n})
+            for lo, hi in self.input_ranges or ():
+                if not hi > lo:
+                    raise PydanticCustomError("mjbench_value", "input_ranges: [{a}, {b}] needs lo < hi [rad]",
+                                              {"a": lo, "b": hi})
+        return self
+
+    @property
+    def input_list(self) -> list:
+        """The driven joints, in axis order (one: ``[input]``)."""
+        return list(self.inputs) if self.inputs is not None else [self.input]
 
     @model_validator(mode="after")
     def _topology(self):

@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from ... import compiled as C
-from ...backends.table import table_model
+from ..table import table_model
 from ...compiled import law
 from ..linkage_kin import TWO_PI, ptable_channel
 from .description import LoadSpec
@@ -102,6 +102,24 @@ def linkage_model(q, qd, t, P):
     """The reduced model law: the spline table's (J, ½J', E_p') and :func:`linkage_torque` as Q_ext."""
     J, H, E, Q = table_model(q, qd, t, P.table)
     return J, H, E, Q + linkage_torque(q, qd, P.ext)
+
+
+def stroke_table(ld: LoadSpec, s_min: float, s_max: float) -> LoadSpec:
+    """A point load given over the stroke (``profile``: distance before the end of the active
+    stroke; ``profile_fraction``: fraction of the stroke before its end) as the table s/F of the
+    point's coordinate, the stroke being [s_min, s_max] over one turn: the end of
+    ``stroke_against`` is s_min (the point moves against the direction), of ``stroke_along``
+    s_max.  Other loads are returned as they are."""
+    rows = ld.profile if ld.profile is not None else ld.profile_fraction
+    if rows is None:
+        return ld
+    scale = (s_max - s_min) if ld.profile is None else 1.0
+    if ld.active == "stroke_against":
+        pts = sorted((s_min + scale * float(h), float(F)) for h, F in rows)
+    else:
+        pts = sorted((s_max - scale * float(h), float(F)) for h, F in rows)
+    return ld.model_copy(update={"s": [p[0] for p in pts], "F": [p[1] for p in pts], "profile": None,
+                                 "profile_fraction": None})
 
 
 def _loads_params(specs) -> "LoadsP":

@@ -14,7 +14,8 @@ from .. import register
 from ..base import Mechanism, table_form
 from .description import LinkageParams
 from .gears import GearsMixin
-from .loads import LinkageExtP, LinkageModelP, _force_law, _loads_params, linkage_model, linkage_torque, load_abscissa
+from .loads import (LinkageExtP, LinkageModelP, _force_law, _loads_params, linkage_model, linkage_torque, load_abscissa,
+                    stroke_table)
 from .mjspec import MjSpecMixin, _first_load_point
 from .model import compiled
 from .multibody_loads import MultibodyLoadsMixin
@@ -40,14 +41,49 @@ class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, GearsMixin, M
         t = c.table
         self._tab3, self._tab1, self._tab = t.scalar3, t.scalar, t
         self._has_ext = bool(c.damped or any(s.damping > 0 for _, _, s in c.springs) or c.loads)
-        self._loads = [(5 + 2 * k, 6 + 2 * k, _force_law(ld, k)) for k, (_, _, ld) in enumerate(c.loads)]
-        self.loads_P = _loads_params([ld for _, _, ld in c.loads])
+        #: the loads as the laws use them (a profile over the stroke converted to its table s/F)
+        self.load_specs = [self._over_stroke(k, ld) for k, (_, _, ld) in enumerate(c.loads)]
+        self._loads = [(5 + 2 * k, 6 + 2 * k, _force_law(ld, k)) for k, ld in enumerate(self.load_specs)]
+        self.loads_P = _loads_params(self.load_specs)
         self.ext_P = LinkageExtP(t.P, self.loads_P)
         self._mb = None
 
     @classmethod
+    def accepts(cls, p) -> bool:
+        """Whether this class builds the description ``p`` (one input)."""
+        return p.inputs is None
+
+    @classmethod
     def from_params(cls, p):
-        return cls(p)
+        """The linkage of a description: this class, or the subclass that declares it accepts it
+        (several inputs: :class:`.multi_mechanism.MultiLinkage`)."""
+        if cls.accepts(p):
+            return cls(p)
+        for sub in cls.__subclasses__():
+            if sub.accepts(p):
+                return sub.from_params(p)
+        raise ValueError(f"no linkage class accepts {p.name!r}")
+
+    def _stated_z(self):
+        """Body coordinates (1, 3n) of the stated pose."""
+        return self.c.exact([self.c.q0])[0]
+
+    def _over_stroke(self, k: int, ld):
+        """Load k with a profile over the stroke converted to its table s/F (:func:`stroke_table`):
+        the stroke is the range of the point's coordinate over one turn (table channel 5 + 2k)."""
+        if ld.profile is None and ld.profile_fraction is None:
+            return ld
+        s = self.load_coordinate(k)
+        return stroke_table(ld, float(s.min()), float(s.max()))
+
+    def load_coordinate(self, k: int, n: int = 2048):
+        """The coordinate s = P·d [m] of point load k over one turn (n input angles)."""
+        return self._tab(self.input_positions(n)[0], [5 + 2 * k])[..., 0]
+
+    def load_names(self) -> list[str]:
+        """Each load's name (its ``name``, else "load on <point>" / "torque on <link>")."""
+        return [ld.name or (f"load on {ld.point}" if ld.link is None else f"torque on {ld.link}")
+                for ld in self.load_specs]
 
     # ------------------------------------------------------------------ reduced model
     def reduced(self, q):

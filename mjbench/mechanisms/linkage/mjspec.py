@@ -125,8 +125,10 @@ class MjSpecMixin:
                 ax = _rot2(-ang) @ e.u
                 jt = body.add_joint(name=e.name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[ax[0], 0.0, ax[1]])
             jt.damping = [float(j.damping), 0.0, 0.0]
-            if e.name == p.input:
-                jt.armature = float(armature)
+            inputs = p.input_list
+            if e.name in inputs:  # the reflected drive inertia on each input joint (one value, or one per input)
+                arm = armature[inputs.index(e.name)] if isinstance(armature, (tuple, list)) else armature
+                jt.armature = float(arm)
             b = c.index[e.child]
             body.mass = max(float(c.mass[b]), 1e-9)
             body.ipos = [float(c.com[b][0]), 0.0, float(c.com[b][1])]
@@ -167,8 +169,7 @@ class MjSpecMixin:
         """The assembled stated pose as the keyframe ``assembled`` (a user opening the exported file
         sees it closed)."""
         c = self.c
-        z0, _, _ = c.exact([c.q0])
-        vals, _ = self._tree_values(z0)
+        vals, _ = self._tree_values(self._stated_z())
         kids = {}
         for e in c.edges:  # MuJoCo numbers bodies (and their joints) depth-first, children in order
             kids.setdefault(e.parent, []).append(e)
@@ -219,17 +220,19 @@ class MjSpecMixin:
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[1.5 * rad, 0, 0], pos=[v[0], 0, v[1]],
                           rgba=rgba, contype=0, conaffinity=0, mass=0)
 
+    def _drawing_z(self, n: int):
+        """Configurations (B, 3n) spanning the motion, for display sizes: one input turn in n steps."""
+        return self.c.z_guess(self.c.q0 + TWO_PI * np.arange(n) / n)
+
     def _extent(self):
         """Largest span of the drawing over one turn [m] (display sizes)."""
-        q = self.c.q0 + TWO_PI * np.arange(90) / 90
-        pts = self.c.world_points(self.c.z_guess(q))
+        pts = self.c.world_points(self._drawing_z(90))
         xs = np.concatenate([np.ravel(x) for x, _ in pts.values()])
         ys = np.concatenate([np.ravel(y) for _, y in pts.values()])
         return max(float(np.ptp(xs)), float(np.ptp(ys)), 1e-3)
 
     def _slide_ranges(self):
         """Travel (min, max) of every ground prismatic joint over one turn [m]."""
-        q = self.c.q0 + TWO_PI * np.arange(720) / 720
-        d = self.c.slide_positions(self.c.z_guess(q))
+        d = self.c.slide_positions(self._drawing_z(720))
         return {k: (float(np.nanmin(d[:, k])), float(np.nanmax(d[:, k]))) for k in range(d.shape[1])
                 if not np.isnan(d[0, k])}

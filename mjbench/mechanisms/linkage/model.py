@@ -68,7 +68,7 @@ class _Compiled(TreeMixin, KinematicsMixin, AssemblyMixin, ReducedMixin):
                 u = np.array(j.axis, float) / math.hypot(*j.axis)
                 self.kjoints.append(KJoint(j.name, "P", i1, i2, s1, s2, u, float(j.angle)))
         self.jindex = {j.name: k for k, j in enumerate(p.joints)}
-        kin = p.joints[self.jindex[p.input]]
+        kin = p.joints[self.jindex[p.input_list[0]]]
         la, lb = _ref(kin.at[0])[0], _ref(kin.at[1])[0]
         self.input_link = lb if la == GROUND else la
         self.gears = compile_gears(self)  # higher pairs: one solver row each (gears.py)

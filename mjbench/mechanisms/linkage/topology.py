@@ -43,6 +43,18 @@ def topology_problems(p: LinkageParams, extra_edges=()) -> list:
     out = []
     edges = _reference_problems(p, out)
     out += _zero_length_links(p)
+    if p.inputs is not None:  # several motors: each a revolute joint (the mobility is checked at assembly)
+        for name in p.inputs:
+            j = next((j for j in p.joints if j.name == name), None)
+            if j is None:
+                out.append(f"inputs: no joint {name!r} (joints: {', '.join(j.name for j in p.joints)})")
+            elif j.type != "revolute":
+                out.append(f"inputs: joint {name!r} must be revolute (a motor turns it)")
+        if out:
+            return out
+        adj = _joint_graph(p, edges)
+        lost = sorted(set(p.links) - _reachable(adj, GROUND))
+        return [f"links {', '.join(lost)}: not connected to the ground through joints"] if lost else []
     jin = next((j for j in p.joints if j.name == p.input), None)
     out += _input_joint_problems(p, jin)
     if out:
@@ -185,7 +197,7 @@ class TreeMixin:
         then the other revolute joints (closures are then revolute, ``connect`` equalities, away
         from the frame where possible: a shallow tree).  Oriented from the ground by BFS."""
         p = self.p
-        order = [self.jindex[p.input]]
+        order = [self.jindex[nm] for nm in p.input_list]  # every input joint is a tree joint
         order += [k for k, j in enumerate(p.joints) if j.type == "prismatic" and k not in order]
         order += [k for k, j in enumerate(p.joints) if GROUND in (self.jlinks[k][0], self.jlinks[k][2])
                   and k not in order]

@@ -11,6 +11,7 @@ import numpy as np
 
 from .measure import measure, measure_many, residuals_of
 from .params import DIFF_STEP, LINK, PENALTY, TARGETS, _base_values, _with, feasibility, to_u, values
+from mjbench import kernel
 
 
 @dataclass
@@ -220,5 +221,4 @@ def _preload(backend, evaluations, dt):
     """Load the compiled co-step (numba; same bits) when the planned reduced-model work pays for it:
     every evaluation is an open-loop and a PID run of ≥ 0.5 s each."""
     if backend == "reduced":
-        from mjbench import kernel
         kernel.preload(evaluations * 2 * 0.5 / dt)

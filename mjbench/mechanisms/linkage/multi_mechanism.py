@@ -1,0 +1,326 @@
+"""The generic linkage with several input joints as a mechanism (``inputs = ["A", "E"]``).
+
+One axis per input joint: the kernel drives each with its own drive and controller
+(:attr:`~mjbench.machine.Machine.drives`).  The reduced model is the n×n one of
+:mod:`.multi` (tabulated, exact values by the position solve); the MJCF is the linkage's own (every
+input joint a tree joint carrying its drive's reflected inertia).
+"""
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+
+from ... import compiled as C
+from ...errors import GeometryError, ParameterError
+from .mechanism import Linkage
+from .multi import MultiCompiled, MultiModelP, multi_model
+from .topology import _ref
+_CACHE: dict = {}
+
+
+def compiled_multi(p) -> MultiCompiled:
+    """The built multi-input description (cached by content)."""
+    key = hashlib.sha1(p.model_dump_json().encode()).hexdigest()
+    hit = _CACHE.get(key)
+    if hit is None:
+        if len(_CACHE) > 16:
+            _CACHE.clear()
+        hit = _CACHE[key] = MultiCompiled(p).build()
+    return hit
+
+
+class MultiLinkage(Linkage):
+    """A planar linkage driven at several input joints (one motor each)."""
+
+    reduced_source = "independent: own loop-closure kinematics (Newton + constraint Jacobian), n×n model V^T M V"
+    reduced_period = None
+
+    @classmethod
+    def accepts(cls, p) -> bool:
+        return p.inputs is not None
+
+    @classmethod
+    def from_params(cls, p):
+        return cls(p)
+
+    @property
+    def input_joints(self) -> tuple:
+        """The driven joints (the description's ``inputs``), one per axis."""
+        return self._inputs
+
+    def __init__(self, params):
+        self.params = params
+        self.name = params.name
+        self._inputs = tuple(params.inputs)
+        self.input_joint = self._inputs[0]
+        self.c = c = compiled_multi(params)
+        for k in c.closures:
+            if params.joints[k].damping > 0:
+                raise GeometryError(f"linkage {params.name!r}: joint {params.joints[k].name!r} closes a loop and has "
+                                    f"damping; a machine with several inputs takes damping on its tree joints only "
+                                    f"({', '.join(params.joints[e.k].name for e in c.edges)})")
+        self.table_info = dict(c.table_info)
+        self._has_ext = False
+        self._loads = []
+        self._mb = None
+
+    @property
+    def stated_inputs(self) -> tuple:
+        """The inputs' values in the stated pose (``input_angles``)."""
+        return tuple(float(x) for x in self.c.q_ref)
+
+    # ------------------------------------------------------------------ reduced model
+    def reduced(self, q):
+        raise ParameterError(f"linkage {self.name!r} has {self.n_inputs} inputs: its reduced model is the n×n "
+                             f"M̄(q) (reduced_n), not a J(q); this analysis is one-axis only")
+
+    def reduced_n(self, q):
+        """(M̄ (B, n, n), G (B, n, npairs), ḡ (B, n), D̄ (B, n, n)) at inputs q (B, n), solved exactly;
+        c̄_i(q, q̇) = Σ_{j≤k} G[i, (j, k)] q̇_j q̇_k."""
+        ch = self.c.exact_model(q)
+        return unpack(ch, self.n_inputs)
+
+    def bias_n(self, q, qd):
+        """c̄(q, q̇) + ḡ(q) + D̄(q)·q̇ (B, n) solved exactly: every generalised force on the inputs
+        besides the drives' and M̄·q̈."""
+        _, G, g, D = self.reduced_n(q)
+        qd = np.atleast_2d(np.asarray(qd, float))
+        return cbar(G, qd) + g + np.einsum("bij,bj->bi", D, qd)
+
+    def reduced_table(self, q):
+        """The same from the table (what the reduced backend integrates)."""
+        return unpack(self.c.table_n(np.atleast_2d(q)), self.n_inputs)
+
+    def potential_energy(self, q):
+        """E_p(q) [J] (gravity, springs) at inputs q (…, n), from the table."""
+        q = np.asarray(q, float)
+        v = self.c.table_n(q.reshape(-1, self.n_inputs))[:, -1]
+        return v.reshape(q.shape[:-1]) if q.ndim > 1 else float(v[0])
+
+    def kinetic_energy(self, q, qd):
+        M = self.reduced_table(np.atleast_2d(q))[0]
+        qd = np.atleast_2d(qd)
+        return 0.5 * np.einsum("bi,bij,bj->b", qd, M, qd)
+
+    def external_torque(self, q, qd, t):
+        return 0.0 * np.asarray(q, float)
+
+    def has_external_torque(self) -> bool:
+        return False
+
+    def model_form(self):
+        """The n-input model law (:func:`.multi.multi_model`) on the grid table."""
+        tab = self.c.table_n
+        return C.Form(multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
+                      flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
+                                       "table_rel_error_M": self.table_info.get("rel_error_M"),
+                                       "table_rel_error_c": self.table_info.get("rel_error_c"),
+                                       "table_rel_error_g": self.table_info.get("rel_error_g")},
+                             "channels": tab.kloop})
+
+    def has_multibody_load(self) -> bool:
+        return False
+
+    def load_form(self, model, data):
+        return None
+
+    # ------------------------------------------------------------------ configurations
+    def _stated_z(self):
+        return self.c.z_ref[None]
+
+    def _drawing_z(self, n: int):
+        """The coarse grid's configurations over the input ranges (display sizes)."""
+        Z = self.c.coarse_z.reshape(-1, self.c.sys.nz)
+        return Z[:: max(1, len(Z) // n)]
+
+    def _q(self, q):
+        q = np.asarray(q, dtype=float)
+        if q.shape[-1:] != (self.n_inputs,):
+            raise ParameterError(f"linkage {self.name!r}: input angles {q.tolist()} — give {self.n_inputs} values "
+                                 f"({', '.join(self.input_joints)})")
+        return q
+
+    def initial_qpos(self, model, q0, x0=None) -> np.ndarray:
+        q = self._q(q0)
+        z = self.c.exact_z(q[None])
+        vals, _ = self._tree_values(z)
+        qpos = np.array(model.qpos0, dtype=float)
+        for name, val in vals.items():
+            qpos[model.joint(name).qposadr[0]] = val
+        return qpos
+
+    def initial_qvel(self, model, q0, qd0, x0=None, xd0=None) -> np.ndarray:
+        q = self._q(q0)
+        qd = self._q(qd0)
+        z = self.c.exact_z(q[None])
+        V = self.c.sys.vmatrix(z)[0]
+        v = V @ qd
+        _, rates = self._tree_values(z, v[None])
+        qvel = np.zeros(model.nv)
+        for name, r in rates.items():
+            qvel[model.joint(name).dofadr[0]] = r
+        return qvel
+
+    def jacobian_inputs(self, q):
+        """V = ∂z/∂q (B, 3·nbody, n) at inputs q (B, n)."""
+        z = self.c.exact_z(np.atleast_2d(q))
+        return z, self.c.sys.vmatrix(z)
+
+    # ------------------------------------------------------------------ the task space
+    def point_ref(self, point: str):
+        """(body, local point relative to its mass centre) of "link.point"."""
+        link, pt = _ref(point)
+        if link not in self.c.pts or pt not in self.c.pts[link]:
+            raise ParameterError(f"path.point = {point!r}: no such point (links: {', '.join(self.c.links)})")
+        return self.c._body_point(link, pt)
+
+    def inverse_kinematics(self, point: str, X, Vx, Ax, times=None, tol=1e-6):
+        """Inputs q, q̇, q̈ (B, n) that put ``point`` at X (B, 2) with velocity Vx and acceleration Ax,
+        following the stated pose's assembly branch from the first sample: sequential Newton on a
+        coarse subsequence (each from the previous solution), then every sample at once from the
+        interpolated coarse solutions.  GeometryError naming the time and the point where the path
+        meets a singular configuration: the inverse kinematics' (the point cannot move in some
+        direction) or the machine's own (the inputs do not fix the linkage)."""
+        if self.n_inputs != 2:
+            raise ParameterError(f"a task-space path (a point in the plane) needs 2 inputs; {self.name!r} has "
+                                 f"{self.n_inputs}")
+        c, sysm = self.c, self.c.sys
+        b, sp = self.point_ref(point)
+        nj = 2 * len(sysm.joints)
+        X, Vx, Ax = (np.atleast_2d(np.asarray(a, float)) for a in (X, Vx, Ax))
+        B = len(X)
+        times = np.arange(B, dtype=float) if times is None else np.asarray(times, float)
+        scale = np.concatenate([sysm.row_scale[:nj], [1.0 / c.L, 1.0 / c.L]])
+        zero_q = np.zeros((1, self.n_inputs))
+
+        def psi(Z, Xt):
+            F = sysm.phi(Z, np.broadcast_to(zero_q, (len(Z), self.n_inputs)))[:, :nj]
+            return np.concatenate([F, sysm.point(Z, b, sp) - Xt], axis=1)
+
+        def jac(Z):
+            J = sysm.jac(Z)[:, :nj]
+            Jp = np.zeros((len(Z), 2, sysm.nz))
+            if b >= 0:
+                th = Z[:, 3 * b + 2]
+                cth, sth = np.cos(th), np.sin(th)
+                Jp[:, 0, 3 * b] = Jp[:, 1, 3 * b + 1] = 1.0
+                Jp[:, 0, 3 * b + 2] = -sth * sp[0] - cth * sp[1]
+                Jp[:, 1, 3 * b + 2] = cth * sp[0] - sth * sp[1]
+            return np.concatenate([J, Jp], axis=1)
+
+        def newton(Z, Xt, maxit=30):
+            Z = np.array(Z, float)
+            for _ in range(maxit):
+                F = psi(Z, Xt)
+                err = np.max(np.abs(F * scale[None, :]), axis=1)
+                if np.all(err < 1e-12):
+                    return Z, np.ones(len(Z), bool)
+                with np.errstate(all="ignore"):
+                    Z = Z - np.linalg.solve(jac(Z), F[..., None])[..., 0]
+            err = np.max(np.abs(psi(Z, Xt) * scale[None, :]), axis=1)
+            return Z, np.isfinite(err) & (err < 1e-10)
+
+        def where(k):
+            return f"t = {float(times[k]):.4g} s, point ({X[k, 0]:.6g}, {X[k, 1]:.6g}) m"
+
+        # coarse: sequential from the stated pose (the branch), every `step` samples
+        step = max(1, B // 200)
+        ic = list(range(0, B, step)) + ([B - 1] if (B - 1) % step else [])
+        Zc = np.empty((len(ic), sysm.nz))
+        z = self.c.z_ref.copy()
+        for m, k in enumerate(ic):
+            zz, ok = newton(z[None], X[k:k + 1])
+            if not ok[0]:
+                raise GeometryError(f"linkage {self.name!r}: the path cannot be followed at {where(k)} (the inverse "
+                                    f"kinematics does not converge there: outside the workspace?)")
+            z = Zc[m] = zz[0]
+        # every sample from the interpolated coarse solutions
+        Z0 = np.stack([np.interp(np.arange(B), ic, Zc[:, j]) for j in range(sysm.nz)], axis=1)
+        Z, ok = newton(Z0, X)
+        if not ok.all():
+            k = int(np.flatnonzero(~ok)[0])
+            raise GeometryError(f"linkage {self.name!r}: the path cannot be followed at {where(k)}")
+        Jz = jac(Z)
+        sv = np.linalg.svd(Jz * scale[None, :, None] / sysm.col_scale[None, None, :], compute_uv=False)
+        bad = sv[:, -1] < tol * sv[:, 0]
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise GeometryError(f"linkage {self.name!r}: the path meets a singular configuration of the inverse "
+                                f"kinematics at {where(k)} (the point cannot move in some direction there)")
+        sv2 = sysm.singular_values(Z)
+        bad = sv2[:, -1] < tol * sv2[:, 0]
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise GeometryError(f"linkage {self.name!r}: the path meets a singular configuration of the machine "
+                                f"at {where(k)} (the inputs do not fix the linkage there)")
+        rhs = np.concatenate([np.zeros((B, nj)), Vx], axis=1)
+        Zd = np.linalg.solve(Jz, rhs[..., None])[..., 0]
+        g = sysm.gamma(Z, Zd)[:, :nj]
+        if b >= 0:
+            th, w = Z[:, 3 * b + 2], Zd[:, 3 * b + 2]
+            cth, sth = np.cos(th), np.sin(th)
+            gp = np.stack([cth * sp[0] - sth * sp[1], sth * sp[0] + cth * sp[1]], axis=1) * (w * w)[:, None]
+        else:
+            gp = np.zeros((B, 2))
+        Zdd = np.linalg.solve(Jz, np.concatenate([g, Ax + gp], axis=1)[..., None])[..., 0]
+        Q, Qd, Qdd = (np.empty((B, self.n_inputs)) for _ in range(3))
+        for m, (i, j) in enumerate(c.drivers):
+            for out, arr in ((Q, Z), (Qd, Zd), (Qdd, Zdd)):
+                out[:, m] = arr[:, 3 * j + 2] - (arr[:, 3 * i + 2] if i >= 0 else 0.0)
+        return Q, Qd, Qdd
+
+    def points(self, q):
+        q = np.asarray(q, dtype=float)
+        shape = q.shape[:-1]
+        z = self.c.exact_z(q.reshape(-1, self.n_inputs))
+        pts = self.c.world_points(z)
+        return {k: (x.reshape(shape), y.reshape(shape)) if shape else (float(x[0]), float(y[0]))
+                for k, (x, y) in pts.items()}
+
+    def trace_point(self, q):
+        ref = self.params.trace
+        return None if ref is None else self.points(q)[ref]
+
+    def linkage_view(self):
+        return None
+
+    def kinematics(self, q):
+        why = f"linkage {self.name!r} has {self.n_inputs} inputs: the one-input kinematic analysis does not apply"
+        return {"source": "not available for a machine with several inputs", "ratios": {}, "ratio_units": {},
+                "transmission": {}, "toggles": {}, "limit_positions": {},
+                "unavailable": {"velocity_ratios": why, "transmission_angles": why, "toggles": why,
+                                "limit_positions": why}}
+
+    def input_positions(self, n: int):
+        raise ParameterError(f"linkage {self.name!r} has {self.n_inputs} inputs: no single input turn to sample")
+
+    def joint_states(self, model, q):
+        raise ParameterError(f"linkage {self.name!r}: record_joints on the reduced backend is one-input only")
+
+
+def unpack(ch, n):
+    """(M̄ (B, n, n), G (B, n, npairs), ḡ (B, n), D̄ (B, n, n)) from the table's channels (B, k)."""
+    ch = np.atleast_2d(ch)
+    B = ch.shape[0]
+    pr = [(j, k) for j in range(n) for k in range(j, n)]
+    npair = len(pr)
+    M = np.zeros((B, n, n))
+    D = np.zeros((B, n, n))
+    for m, (j, k) in enumerate(pr):
+        M[:, j, k] = M[:, k, j] = ch[:, m]
+        D[:, j, k] = D[:, k, j] = ch[:, npair + n * npair + n + m]
+    G = ch[:, npair:npair + n * npair].reshape(B, n, npair)
+    g = ch[:, npair + n * npair:npair + n * npair + n]
+    return M, G, g, D
+
+
+def cbar(G, qd):
+    """c̄(q, q̇) (B, n) from the coefficients G (B, n, npairs) and the rates qd (B, n)."""
+    n = qd.shape[-1]
+    pr = [(j, k) for j in range(n) for k in range(j, n)]
+    prod = np.stack([qd[:, j] * qd[:, k] for j, k in pr], axis=-1)
+    return np.einsum("bip,bp->bi", G, prod)
+
+
+__all__ = ["MultiLinkage", "compiled_multi", "unpack", "cbar"]
