@@ -32,6 +32,7 @@ from . import scenario as S
 from .errors import ParameterError
 from .mechanisms.fourbar import _angle_ranges
 from .manifest import write_json
+from . import cam_plots
 from . import plotstyle as ps
 from .plots import save
 
@@ -104,6 +105,12 @@ def analyze_parts(mech, drive, name: str, speeds, n: int = 720, mu_min_deg: floa
     _kinematic_rows(res, curves, flags, mech, q, mu_min_deg)
     res["drive"] = None if drive is None else _drive_row(drive)
     res["speeds"] = [_speed_row(w, mech, res["drive"], q, qunit, dJ, dEp, curves, flags) for w in speeds]
+    extra = mech.analysis_rows(speeds, n)  # a family's own rows (a cam's jump speed, pressure angle …)
+    if extra:
+        res.update(extra.pop("top", {}))
+        flags += extra.pop("flags", [])
+        res["family"] = mech_type
+        res[mech_type] = _jsonable_curves(extra)
     res["flags"] = flags
     res["curves"] = {k: np.asarray(v, float).tolist() for k, v in curves.items()}
     res["timing"] = {"cpu_s": time.process_time() - t_cpu, "wall_s": time.perf_counter() - t_wall}
@@ -257,6 +264,19 @@ def _speed_row(w, mech, drv, q, qunit, dJ, dEp, curves, flags) -> dict:
     return row
 
 
+def _jsonable_curves(d):
+    """``d`` with NumPy arrays (and floats of NumPy) as lists and floats, walked recursively."""
+    if isinstance(d, dict):
+        return {k: _jsonable_curves(v) for k, v in d.items()}
+    if isinstance(d, (list, tuple)):
+        return [_jsonable_curves(v) for v in d]
+    if isinstance(d, np.ndarray):
+        return d.tolist()
+    if isinstance(d, np.generic):
+        return d.item()
+    return d
+
+
 def _periodic_gradient(f, h):
     return (np.roll(f, -1) - np.roll(f, 1)) / (2.0 * h)
 
@@ -269,6 +289,11 @@ def _kinematics(mech, q) -> dict:
 
 
 # ============================================================================ outputs
+#: the figures of a mechanism family's own analysis rows (``analysis.json["family"]``, from
+#: :meth:`~mjbench.mechanisms.base.Mechanism.analysis_rows`), drawn after the linkage figures
+FAMILY_FIGURES = {"cam": cam_plots.figures}
+
+
 def write(res: dict, out_dir) -> list:
     """analysis.json and the figures into ``out_dir``; returns the written paths."""
 
@@ -278,6 +303,9 @@ def write(res: dict, out_dir) -> list:
     write_json(paths[0], res)
     if res.get("applicable"):
         paths += figures(res, out)
+        family = FAMILY_FIGURES.get(res.get("family"))  # a family's own figures (a cam's S-V-A-J …)
+        if family is not None:
+            paths += family(res, out)
     return paths
 
 
@@ -388,10 +416,12 @@ def summary_text(res: dict) -> str:
                      f"(RMS {t['rms']:.3g}), motor {row['motor_torque_Nm']['max']:.3g} N·m peak, "
                      f"{row['current_A']['max']:.3g} A, {row['voltage_V']['max']:.3g} V"
                      + (f", motor line {row['motor_line_torque_Nm']:.3g} N·m" if "motor_line_torque_Nm" in row else ""))
+    for line in (res.get(res.get("family") or "", {}) or {}).get("summary", []):
+        lines.append(f"  {line}")
     kinds = {}
     for f in res["flags"]:
         kinds.setdefault(f["kind"], []).append(f)
-    for kind in ("dead_centre", "poor_transmission", "toggle", "voltage", "current"):
+    for kind in ("dead_centre", "poor_transmission", "toggle", "voltage", "current", "jump"):
         for f in kinds.get(kind, []):
             lines.append(f"  FLAG {kind}: {f['text']}")
     if kinds.get("limit_position"):

@@ -100,12 +100,21 @@ RESIDUAL_METRICS = ("E_T_J", "E_end_J", "residual_envelope_at_T_rad", "residual_
                     "residual_peak_window_s", "peak_current_A", "peak_voltage_V", "max_tracking_error_rad")
 
 
+#: the metrics a cam's follower adds (:meth:`mjbench.mechanisms.cam.Cam.metrics`; ``_m``/``_m_s`` for a
+#: translating follower, ``_rad``/``_rad_s`` for an oscillating one)
+FOLLOWER_METRICS = ("follower_jump_speed_rad_s", "follower_separation_fraction", "follower_first_separation_s",
+                    "follower_first_separation_cam_speed_rad_s", "follower_first_separation_cam_angle_deg",
+                    "follower_max_gap_m", "follower_gap_tolerance_m", "follower_peak_speed_m_s",
+                    "follower_peak_speed_rad_s", "follower_vs_program_max_m", "follower_vs_program_max_rad")
+
+
 def known_metrics() -> list:
     """Every metric name a run's ``metrics.json`` can hold per backend (the names a scenario's
     ``[[paper.figures]] metric`` may use): :data:`SUMMARY_METRICS`, ``coupler_speed.<name>``
-    (:data:`COUPLER_METRICS`) and ``residual_vibration.<name>`` (:data:`RESIDUAL_METRICS`)."""
+    (:data:`COUPLER_METRICS`), ``residual_vibration.<name>`` (:data:`RESIDUAL_METRICS`) and a cam's
+    :data:`FOLLOWER_METRICS`."""
     return (list(SUMMARY_METRICS) + [f"coupler_speed.{k}" for k in COUPLER_METRICS]
-            + [f"residual_vibration.{k}" for k in RESIDUAL_METRICS])
+            + [f"residual_vibration.{k}" for k in RESIDUAL_METRICS] + list(FOLLOWER_METRICS))
 
 
 def unit_of(metric: str) -> str:

@@ -418,6 +418,53 @@ class BezierLaw(MotionLaw):
                 "interior": self.interior.tolist(), "interior_over_Phi": self.params.tolist()}
 
 
+# ====================================================================== cycloidal law
+#: the cycloidal law's parameters: Φ, T
+CycloidalP = namedtuple("CycloidalP", "Phi T")
+
+
+@law
+def cycloidal_motion(t, order, P):
+    """The cycloidal rest-to-rest law: φ = Φ·(τ − sin(2πτ)/2π), τ = t/T, and its derivatives
+    φ̇ = Φ/T·(1 − cos 2πτ), φ̈ = 2πΦ/T²·sin 2πτ, φ⃛ = 4π²Φ/T³·cos 2πτ; at rest outside [0, T];
+    derivatives above ``order`` are 0.  Velocity and acceleration vanish at both ends (the jerk does
+    not: Φ·4π²/T³ there)."""
+    if t < 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if t > P.T:
+        return P.Phi, 0.0, 0.0, 0.0
+    w = 2.0 * math.pi / P.T
+    tau = t / P.T
+    s = math.sin(w * t)
+    c = math.cos(w * t)
+    p = P.Phi * (tau - s / (2.0 * math.pi))
+    v = P.Phi / P.T * (1.0 - c) if order >= 1 else 0.0
+    a = P.Phi / P.T * w * s if order >= 2 else 0.0
+    j = P.Phi / P.T * w * w * c if order >= 3 else 0.0
+    return p, v, a, j
+
+
+class CycloidalLaw(MotionLaw):
+    """The cycloidal law (a cam designer's classic, e.g. Norton, *Cam Design and Manufacturing
+    Handbook*, ch. 3): the displacement of a point on a circle of circumference Φ rolling along the
+    move, φ = Φ·(t/T − sin(2πt/T)/2π); zero speed and acceleration at both ends."""
+
+    kind = "cycloidal"
+
+    @property
+    def params(self):
+        return np.zeros(0)
+
+    def with_params(self, x):
+        return CycloidalLaw(self.Phi, self.T)
+
+    def motion_form(self):
+        return C.Form(cycloidal_motion, CycloidalP(self.Phi, self.T))
+
+    def describe(self):
+        return {"kind": self.kind, "Phi": self.Phi, "T": self.T}
+
+
 def linear_interior(p: int):
     """Interior ordinates / Φ on the straight line from P_m (0) to P_{m+p+1} (Φ): j/(p+1)."""
     return np.arange(1, p + 1) / (p + 1.0)

@@ -96,11 +96,15 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     # which loop ran each backend (compiled or CPython) and why (mjbench.kernel.choose_loop)
     res["loop"] = {b: {"loop": tr.meta.get("loop", ""), "loop_reason": tr.meta.get("loop_reason", "")}
                    for b, tr in trajs.items()}
-    for b, tr in trajs.items():  # the families the controller (and its reference) add
+    for b, tr in trajs.items():  # the families the controller (and its reference) and the mechanism add
         res["backends"][b].update(machine.controller.metrics(tr, machine, mt) or {})
+        res["backends"][b].update(machine.mechanism.metrics(tr, machine, mt) or {})
     if "multibody" in trajs and "reduced" in trajs:
         res["multibody_vs_reduced"] = M.compare(trajs["reduced"], trajs["multibody"])
         res["plausibility"] = plausibility.backends(res["multibody_vs_reduced"], mt.backend_tolerance)
+        why = res["backends"]["multibody"].get("backends_differ_by_design")
+        if why and not res["plausibility"]["backends_agree"]:  # the mechanism's own reason (a cam's jump)
+            res["plausibility"].update(expected=True, note=why)
         # the reduced model against MuJoCo's own mass matrix and bias forces: controller-independent
         try:
             res["plausibility"]["model"] = plausibility.reduced_vs_mujoco(machine.mechanism, multibody_options or {})

@@ -15,8 +15,8 @@ from mjbench.design import pipeline as DP
 from mjbench.design.requirements import builtin_names, load as load_req
 from mjbench.outputs import read_json
 
-EXAMPLES = ("press", "rocker", "function", "motion", "seed000", "seed000-law")  # the last: a motion law per
-# cycle (tests/test_design_law.py runs it end to end)
+EXAMPLES = ("press", "rocker", "function", "motion", "seed000", "seed000-law", "cam")  # seed000-law: a motion
+# law per cycle (tests/test_design_law.py runs it end to end); cam: tests/test_design_cam.py
 
 
 def _checks_ok(res):
@@ -51,7 +51,7 @@ def test_shipped_requirement_files():
     assert set(builtin_names()) == set(EXAMPLES)
     kinds = {n: load_req(n).mechanism.type for n in EXAMPLES}
     assert kinds == {"press": "slider-crank", "rocker": "crank-rocker", "function": "function-generator",
-                     "motion": "motion-generator", "seed000": "given", "seed000-law": "given"}
+                     "motion": "motion-generator", "seed000": "given", "seed000-law": "given", "cam": "cam"}
     assert load_req("seed000-law").duty.law is not None and load_req("seed000").duty.law is None
 
 

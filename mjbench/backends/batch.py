@@ -74,8 +74,10 @@ def build_models(machines, options=None):
     """One compiled model per distinct (mechanism, J_eq, damping); list indexed by simulation."""
     o = {**DEFAULT_OPTIONS, **(options or {})}
     cache, models = {}, []
-    for mc in machines:
+    for i, mc in enumerate(machines):
         k = _model_key(mc, o)
+        if mc.mechanism.edits_model:  # per-step model edits (a cam): a model per run
+            k = k + (i,)
         if k not in cache:
             cache[k] = build_model(mc, o)[1]
         models.append(cache[k])

@@ -109,9 +109,15 @@ def _sample(mech, model, joints, q):
 
 def reduced_table(mech, model, q0: float):
     """The reduced backend's joint table from the mechanism's kinematics (module doc) →
-    (JointsP, names, info) or (None, (), why-not)."""
+    (JointsP, names, info) or (None, (), why-not); a mechanism with its own joint law
+    (``joint_write_form(model)`` → a Form whose law ``write(out, b, P, S)`` reads the plant's state
+    S = (q, q̇) and its parameters as ``P.joints``) gives that Form instead of a table."""
     if mech.internal:
         return None, (), f"{type(mech).__name__} has internal coordinates: its joints depend on more than q"
+    form = mech.joint_write_form(model)
+    if form is not None:  # the mechanism's own law for its joints (exact: e.g. a cam's program)
+        return form, column_names(joint_list(model)), {
+            "source": f"{type(mech).__name__}'s own kinematics at every sample (its law {form.law.__name__})"}
     period = getattr(mech, "reduced_period", None)
     if period is None or abs(float(period) - TWO_PI) > 1e-12:
         return None, (), f"{type(mech).__name__}: its input is not periodic over one turn"

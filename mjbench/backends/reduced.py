@@ -126,10 +126,12 @@ class ReducedPlant:
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
-            P = RigidP(self.h, self._Ja, self._c, model.P, C.NO_PARAMS if self._joints is None else self._joints)
+            own = isinstance(self._joints, C.Form)  # the mechanism's own joint law (joints.reduced_table)
+            jP = C.NO_PARAMS if self._joints is None else (self._joints.P if own else self._joints)
+            P = RigidP(self.h, self._Ja, self._c, model.P, jP)
             laws = {"read": reduced_read}
             if self._joints is not None:
-                laws["write"] = rigid_joints_write
+                laws["write"] = self._joints.law if own else rigid_joints_write
             return C.Form(rk4_rigid, P, np.array(self._state0()), laws=laws, flags=flags, fn_args=(model,))
         acc = mech.accel_form()
         self._meta_from(acc)
@@ -184,7 +186,10 @@ class ReducedPlant:
             for i in range(n):
                 out[b + i] = plant.x[i]
                 out[b + n + i] = plant.xd[i]
-            if plant._joints is not None:
+            if isinstance(plant._joints, C.Form):
+                plant._joints.law(out, b + 2 * n, RigidP(0.0, 0.0, 0.0, None, C.python_view(plant._joints.P)),
+                                  [plant.q, plant.qd])
+            elif plant._joints is not None:
                 table_joints(out, b + 2 * n, plant.q, plant.qd, C.python_view(plant._joints))
 
         return C.python_form(step, "reduced.method = 'solve_ivp' (scipy, in Python)",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 
+from . import cam
 from . import report as RP
 from . import thermal as TH
 from .. import analyze as A
@@ -58,6 +59,8 @@ def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
 
     an = A.analyze(scn, speeds=[req.duty.omega], n=720)
     rows = _kinematic_rows(req, syn, an, syn_json)
+    if req.mechanism.type == "cam":  # a cam's pressure angle, curvature, spring, jump speed
+        rows += cam.requirement_rows(req, an, ach, _row)
     if ach is not None:
         rows += _drive_rows(req, cand, ach)
     return rows
@@ -104,7 +107,7 @@ def _kinematic_rows(req, syn, an, syn_json) -> list:
                          "mjbench position solver"))
         rows.append(_row("poses met, angle (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
                          "mjbench position solver"))
-    if m.type != "given":
+    if m.type not in ("given", "cam"):  # (a cam's pressure angle: design/cam.py requirement_rows)
         trans = an["transmission_angles_deg"]
         if trans:
             mu = min(v["min"] for v in trans.values())

@@ -501,13 +501,15 @@ def figure(res, path):
             m = MR.from_dict(mech)
             qq = np.linspace(0, 2 * np.pi, 361)
             tp = m.trace_point(qq)
+            m.draw_profile(a)  # outlines beyond the points (a cam: its profile and pitch curve)
             if tp is not None:
                 a.plot(tp[0], tp[1], color="C3", label="traced point")
                 a.legend(loc="best", fontsize=7)
         a.set_aspect("equal", adjustable="datalim")
         a.set_xlabel(ps.label("x", "m"))
         a.set_ylabel(ps.label("y", "m"))
-        a.set_title("linkage (crank at 0°, 45°, … ; bold: 0°)", fontsize=9)
+        a.set_title("cam at θ = 0 and the follower's path" if mech.get("type") == "cam"
+                    else "linkage (crank at 0°, 45°, … ; bold: 0°)", fontsize=9)
         if sz is not None and ch is not None and ch.ss is not None:
             ss = ch.ss
             qdeg = np.degrees(sz.q) % 360

@@ -35,6 +35,7 @@ from ..schema import Bool, OptQ, Q, Strict, format_errors
 from ..motionlaws import BezierLaw, PseudoPolynomialLaw
 from ..linear import parse_margin
 from ..errors import ParameterError
+from .cam import CamReq
 
 Length = Q("length", plausible=False)
 Angle = Q("angle")
@@ -264,7 +265,7 @@ class GivenReq(Strict):
 
 
 MECHANISMS = {c.model_fields["type"].default: c for c in (SliderCrankReq, CrankRockerReq, FunctionReq, MotionReq,
-                                                          GivenReq)}
+                                                          GivenReq, CamReq)}
 
 
 class LoadReq(Strict):
@@ -531,6 +532,8 @@ def validate(raw: dict, source: str = "") -> Requirements:
                 problems.append(f"loads[{k}].point: {pt!r} is not a point of the {typ} ({', '.join(pts)})")
         if typ == "given" and loads:
             problems.append("loads: a given mechanism keeps the loads of its scenario ([[mechanism.loads]] there)")
+        if typ == "cam" and loads:
+            problems.append("loads: a cam's process load is its follower_load ([mechanism] follower_load)")
     if problems:
         name = (raw.get("design") or {}).get("name", "?") if isinstance(raw.get("design"), dict) else "?"
         where = f" ({source})" if source else ""

@@ -20,7 +20,8 @@ from .base import Mechanism
 #: built-in type names → module (imported lazily)
 BUILTIN = {"fourbar": "mjbench.mechanisms.fourbar", "quickreturn": "mjbench.mechanisms.quickreturn",
            "platform": "mjbench.mechanisms.platform", "linkage": "mjbench.mechanisms.linkage",
-           "mjcf": "mjbench.mechanisms.mjcf", "rotor": "mjbench.mechanisms.rotor"}
+           "mjcf": "mjbench.mechanisms.mjcf", "rotor": "mjbench.mechanisms.rotor",
+           "cam": "mjbench.mechanisms.cam"}
 
 #: the mechanism registry (built-ins, plugins of entry-point group ``mjbench.mechanisms``, registered classes)
 REGISTRY = Registry("mechanism", Mechanism, BUILTIN, GROUPS[0], prefix=("mechanism",),

@@ -83,16 +83,20 @@ class PlanarSystem:
     joints: list
     input_body: int  #: link driven by the input (its angle is q)
     L: float = 1.0  #: characteristic length [m] for scaling position rows/columns
+    #: higher pairs (gear pairs, belts, racks; :class:`mjbench.mechanisms.linkage.gears.KGear`): one
+    #: row each after the joints' rows, before the driving row
+    gears: list = field(default_factory=list)
     _m: int = field(init=False)
 
     def __post_init__(self):
-        self._m = 2 * len(self.joints) + 1
+        self._m = 2 * len(self.joints) + len(self.gears) + 1
         n = self.nbody
         self.nz = 3 * n
         # row scale: length rows 1/L, angle rows 1;   column scale: positions 1/L, angles 1
         rs = []
         for jt in self.joints:
             rs += [1.0 / self.L, 1.0 / self.L] if jt.kind == "R" else [1.0 / self.L, 1.0]
+        rs += [1.0 / self.L] * len(self.gears)  # gear rows are slips at the pitch point [m]
         rs.append(1.0)
         self.row_scale = np.array(rs)
         self.col_scale = np.tile([1.0 / self.L, 1.0 / self.L, 1.0], n)
@@ -152,6 +156,9 @@ class PlanarSystem:
                 n = _apply(ci, si_, np.array([-jt.u[1], jt.u[0]]))
                 out[:, 2 * k] = np.einsum("bk,bk->b", n, Pj - Pi)
                 out[:, 2 * k + 1] = thj - thi - jt.phi0
+        r0 = 2 * len(self.joints)
+        for g, gr in enumerate(self.gears):
+            out[:, r0 + g] = gr.phi(self, z)
         out[:, -1] = z[:, 3 * self.input_body + 2] - q
         return out
 
@@ -190,6 +197,9 @@ class PlanarSystem:
                     Jm[:, r0, 3 * i + 2] = (-np.einsum("bk,bk->b", Au, d)
                                             - np.einsum("bk,bk->b", n, _apply(ci, si_, np.array([-jt.si[1], jt.si[0]]))))
                     Jm[:, r0 + 1, 3 * i + 2] = -1.0
+        r0 = 2 * len(self.joints)
+        for g, gr in enumerate(self.gears):
+            gr.jac(self, z, Jm[:, r0 + g])
         Jm[:, -1, 3 * self.input_body + 2] = 1.0
         return Jm
 
@@ -217,6 +227,9 @@ class PlanarSystem:
                 out[:, 2 * k] = (np.einsum("bk,bk->b", n, d) * wi * wi
                                  + 2.0 * wi * np.einsum("bk,bk->b", Au, dd)
                                  - np.einsum("bk,bk->b", n, term))
+        r0 = 2 * len(self.joints)
+        for g, gr in enumerate(self.gears):
+            out[:, r0 + g] = gr.gamma(self, z, v)
         return out
 
     # -------------------------------------------------------------- linear algebra
@@ -228,8 +241,11 @@ class PlanarSystem:
         if Jm.shape[0] == 1:
             sol = np.linalg.lstsq(Jm[0] * R[:, None] / C[None, :], rhs[0] * R, rcond=None)[0]
             return (sol / C)[None]
-        P = np.linalg.pinv(Jm * R[None, :, None] / C[None, None, :])
-        return np.einsum("bij,bj->bi", P, rhs * R[None, :]) / C[None, :]
+        # redundant rows (a ternary joint's cycle, the planets of an epicyclic stage): least squares by
+        # batched QR (full column rank: the driving row takes the one freedom); 3-4x faster than pinv
+        Q, Rr = np.linalg.qr(Jm * R[None, :, None] / C[None, None, :])
+        y = np.einsum("bji,bj->bi", Q, rhs * R[None, :])
+        return np.linalg.solve(Rr, y[..., None])[..., 0] / C[None, :]
 
     def velocity(self, z):
         """Velocity coefficients v = dz/dq, (B, 3n)."""

@@ -34,6 +34,8 @@ CASES = [
          title="The seed-000 four-bar re-sized for 30 rad/s with χ ≤ 3 %"),
     Case(name="design-seed000-law", scenario="seed000-law", kind="design", modes=["servo"], video=True,
          video_t_end=3.0, title="The seed-000 four-bar on a 3-4-5 law once round per cycle, 60 /min, tracking error ≤ 1°"),
+    Case(name="design-cam", scenario="cam", kind="design", modes=["pi"], video=True, video_t_end=1.0,
+         title="Disc cam with a translating roller follower: 25 mm lift, 400 rpm, pressure angle ≤ 30°"),
 ]
 
 

@@ -5,6 +5,7 @@ import time
 
 import numpy as np
 
+from ..backends.joints import joint_list
 from ..errors import ParameterError
 from .gl import gl_setup
 from .platform import _render_platform_run
@@ -24,7 +25,10 @@ def simulate_for_video(scn, mode: str | None = None, t_end: float | None = None)
     machine = scenario_mod.make_machine(scn, mode)
     t_end = float(t_end if t_end is not None else scn.simulation.t_end)
     h = scn.simulation.dt
-    traj = multibody.simulate(machine, t_end, record_dt=h, options=scn.multibody_options())
+    o = scn.multibody_options()
+    if machine.mechanism.frames_from_joints:  # its pose is more than q (a cam's follower)
+        o = {**o, "record_joints": True}
+    traj = multibody.simulate(machine, t_end, record_dt=h, options=o)
     return machine, traj
 
 
@@ -73,6 +77,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
     view = MechanismView(mech, width, height, bounds_q=q[idx], armature=float(drive.J_eq), options=options,
                          overlay_lines=(1 if title else 0) + 2 + max(len(x) for x in text))
     k_poster = poster_frame(traj, idx, poster_at)
+    poses = _recorded_poses(view.model, traj) if mech.frames_from_joints else None
     # trail: the last 0.6 crank turn, 40-80 points decimated from the recorded steps
     n_render = 0.0
     try:
@@ -88,7 +93,7 @@ def render_trajectory(machine, traj, out, fps=30.0, width=960, height=540, title
                 lines = ([title] if title else []) + [
                     f"t = {t[i]:6.3f} s  ({fps:g} fps)  grid {view.grid_step * 1000:g} mm"] + text[k]
                 r0 = time.perf_counter()
-                img = view.frame(q[i], lines, trail_q=trail, out=buf)
+                img = view.frame(q[i], lines, trail_q=trail, out=buf, qpos=None if poses is None else poses(i))
                 n_render += time.perf_counter() - r0
                 writer.write(img)
                 if poster is not None and k == k_poster:
@@ -158,6 +163,26 @@ def _render_multi_axis(machine, traj, out, fps, width, height, title, progress, 
     finally:
         view.close()
     return _video_info(len(idx), fps, width, height, t0, out, render_s=n_render)
+
+
+def _recorded_poses(model, traj):
+    """pose(i) → the recorded qpos of row i from the joint columns (``record_joints``), or None when
+    the run did not record every joint of the model."""
+    joints = joint_list(model)
+    cols = []
+    for stem, kind, qa, _ in joints:
+        name = f"{stem}_rad" if kind == "hinge" else f"{stem}_m"
+        if name not in traj.columns:
+            return None
+        cols.append((qa, traj.columns.index(name)))
+    data = traj.data
+
+    def pose(i):
+        qpos = np.array(model.qpos0, float)
+        for qa, c in cols:
+            qpos[qa] = data[i, c]
+        return qpos
+    return pose
 
 
 def render_scenario(scn: dict, out, mode=None, fps=30.0, width=960, height=540, t_end=None, progress=True,

@@ -64,8 +64,8 @@ def build_render_model(mechanism, armature: float, options: dict | None, bounds,
     # thicker links / pins than the simulation model's (display only; inertias are explicit)
     for geom in spec.geoms:
         if geom.type in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER,
-                         mujoco.mjtGeom.mjGEOM_SPHERE):
-            geom.size[0] *= LINK_SCALE
+                         mujoco.mjtGeom.mjGEOM_SPHERE) and not geom.name.startswith("shape_"):
+            geom.size[0] *= LINK_SCALE  # ("shape_…": drawn to size — a cam's roller, a gear's pitch circle)
     for site in spec.sites:
         site.size[0] *= LINK_SCALE
     _coupler_plate(spec)

@@ -148,13 +148,15 @@ class MechanismView:
             g.emission = 1.0  # unlit: the line shows its own colour
         scn.ngeom = n0 + k
 
-    def frame(self, q, lines=(), trail_q=None, out=None):
+    def frame(self, q, lines=(), trail_q=None, out=None, qpos=None):
         """RGB frame (height, width, 3) uint8 at input angle q [rad]; ``trail_q``: input angles
-        whose trace points form the highlighted trail."""
+        whose trace points form the highlighted trail; ``qpos``: the recorded pose (a mechanism whose
+        pose is more than q: a cam's follower off the cam), else the assembled pose at q."""
         import mujoco
 
         m, d = self.model, self.data
-        d.qpos[:] = self.mech.initial_qpos(m, float(q) if np.ndim(q) == 0 else np.asarray(q, float))
+        d.qpos[:] = qpos if qpos is not None else self.mech.initial_qpos(
+            m, float(q) if np.ndim(q) == 0 else np.asarray(q, float))
         mujoco.mj_kinematics(m, d)
         if m.ntendon:  # springs drawn as spatial tendons: their paths come from mj_tendon
             mujoco.mj_tendon(m, d)

@@ -1,4 +1,5 @@
-"""Design analysis (``mjbench analyze``): the kinematics over input positions, through a linkage view."""
+"""Design analysis (``mjbench analyze``): the kinematics over input positions, through a linkage view;
+a mechanism family's own analysis rows and run metrics."""
 from __future__ import annotations
 
 import abc
@@ -40,3 +41,14 @@ class DesignAnalysis(abc.ABC):
         out.setdefault("unavailable", {})
         return out
 
+
+    def analysis_rows(self, speeds, n: int) -> dict | None:
+        """What ``mjbench analyze`` adds for this mechanism family beyond the linkage rows (a cam: the
+        jump speed, pressure angle, curvature, contact force): a JSON-ready dict stored under
+        ``analysis.json[type_name]`` (its ``"top"`` entries also at the top level); default none."""
+        return None
+
+    def metrics(self, trajectory, machine, config) -> dict | None:
+        """Metric families the mechanism adds to every run's metrics (a cam's follower separation);
+        default none."""
+        return None

@@ -30,6 +30,9 @@ class Drawing(abc.ABC):
 
     #: how a video shows it: "side" (linkage in its plane x-y) or "top" (rotary table from above)
     view: ClassVar[str] = "side"
+    #: whether a video's frames take their pose from the recorded joints (``record_joints``) rather
+    #: than from the input angle: a mechanism whose pose is more than q (a cam's follower off the cam)
+    frames_from_joints: ClassVar[bool] = False
 
     @abc.abstractmethod
     def points(self, q) -> dict:
@@ -38,6 +41,10 @@ class Drawing(abc.ABC):
     def trace_point(self, q):
         """(x, y) [m] of the point whose path a video traces (coupler point, slider ...)."""
         return None
+
+    def draw_profile(self, ax) -> None:
+        """Draw outlines the points do not give on a matplotlib axis (a cam's profile and pitch
+        curve) in the design report's figure; default nothing."""
 
     def render_view(self) -> RenderView:
         """How a video shows this mechanism (default: the side view of a planar linkage)."""

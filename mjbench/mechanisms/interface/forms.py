@@ -120,6 +120,13 @@ class CompiledForms(abc.ABC):
             return err(model, data)
         return C.python_form(adapter, f"{type(self).__name__}.closure_error has no law")
 
+    def joint_write_form(self, model):
+        """The reduced backend's joint columns as the mechanism's own law (a Form whose law
+        ``write(out, b, P, S)`` reads the plant's state S = (q, q̇) and its parameters as ``P.joints``),
+        or None (default): the joints are then tabulated from the kinematics
+        (:func:`mjbench.backends.joints.reduced_table`)."""
+        return None
+
     def motor_index(self, model):
         """(qpos, dof) of the motor's own hinge when the drive acts through a compliant gear, else None."""
         return None

@@ -20,6 +20,9 @@ class MultibodyModel(abc.ABC):
 
     #: name of the driven joint in the MJCF model
     input_joint: ClassVar[str] = INPUT_JOINT
+    #: whether a run edits its compiled model every step (a cam's per-step equality,
+    #: :mod:`mjbench.mechanisms.cam`): such a model is never shared between runs of a batch
+    edits_model: ClassVar[bool] = False
 
     @property
     def input_joints(self) -> tuple:
@@ -65,6 +68,11 @@ class MultibodyModel(abc.ABC):
         if type(self).closure_error is not MultibodyModel.closure_error or len(pairs) != model.neq:
             return None
         return tuple((3 * a + j, 3 * c + j) for a, c in pairs for j in range(3))
+
+    def model_at_pose(self, model, data) -> None:
+        """Bring a model whose constraints are updated every step (:attr:`edits_model`: a cam's
+        per-step equality) to the pose in ``data.qpos`` before it is evaluated outside a run
+        (``mjbench.plausibility``); default nothing."""
 
     def multibody_load(self, model, data, t: float) -> None:
         """Write external loads of the mechanism into ``data.qfrc_applied`` (default none).

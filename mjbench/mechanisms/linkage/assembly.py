@@ -14,6 +14,7 @@ import numpy as np
 
 from ...errors import GeometryError
 from ..linkage_kin import TWO_PI, SolveError, _angle_ranges
+from .gears import check_racks, set_constants, symmetric_gears
 from .kinematics import _deg
 
 COARSE_STEPS = 90  #: continuation steps over one turn (subdivided automatically where needed)
@@ -29,6 +30,8 @@ class AssemblyMixin:
         p, sysm = self.p, self.sys
         q0 = float(p.input_angle)
         self.q0 = q0
+        if self.gears:  # gear rows hold at the stated pose (gears.py)
+            set_constants(self, self.gears, self.guess(q0))
         z_free, res_free = sysm.assemble(self.guess(q0), q0, free=True)
         if res_free < 1e-9:  # the loops close near the stated pose (input free): count the freedom there
             self._mobility(z_free)
@@ -37,14 +40,23 @@ class AssemblyMixin:
             self._no_assembly(q0, z_ref)
         if not res_free < 1e-9:
             self._mobility(z_ref)
+        check_racks(self, self.gears, z_ref)
         try:
             qs, Z, V, A = sysm.continuation(z_ref, q0, TWO_PI, COARSE_STEPS, cond_tol=COND_TOL)
         except SolveError as e:
             self._branch_failure(e, z_ref, q0)
         dz = Z[-1] - Z[0]
-        w = np.round(dz[2::3] / TWO_PI)
+        turns = dz[2::3] / TWO_PI
+        w = np.round(turns)
+        if self.gears:  # a symmetric gear may turn N1/N2 times per input turn (gears.py)
+            w = np.where(symmetric_gears(self) & (np.abs(turns - w) > 1e-9), turns, w)
         pos_err = np.max(np.abs(np.delete(dz, np.s_[2::3]))) / self.L if self.n else 0.0
         ang_err = np.max(np.abs(dz[2::3] - TWO_PI * w))
+        if (pos_err > 1e-7 or ang_err > 1e-7) and any(g.type == "rack" for g in p.gears):
+            raise GeometryError(
+                f"linkage {p.name!r}: after one input turn from the stated pose the linkage does not come back "
+                f"(position gap {pos_err * self.L:.3g} m): a rack turned by a pinion that turns with the input moves on "
+                f"for ever; drive the rack to and fro (a crank and rod) so that the machine repeats every turn")
         if pos_err > 1e-7 or ang_err > 1e-7:
             raise GeometryError(
                 f"linkage {p.name!r}: after one input turn from the stated pose the linkage arrives in a different "
@@ -63,7 +75,7 @@ class AssemblyMixin:
         rank = int(np.sum(sv > 1e-9 * max(sv[0], 1e-300)))
         nz = sysm.nz
         dof = nz - rank
-        grubler = 3 * self.n - 2 * len(p.joints)
+        grubler = 3 * self.n - 2 * len(p.joints) - len(p.gears)
         head = (f"linkage {p.name!r} has {dof} degree{'s' if dof != 1 else ''} of freedom at the stated pose "
                 f"(3·{self.n} link coordinates − rank {rank} of the joint constraints; Grübler count {grubler})")
         if dof == 0:

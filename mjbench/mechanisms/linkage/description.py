@@ -22,6 +22,7 @@ from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from ...fields import OptQ, Q, Strict
+from .gears import GearSpec, gear_edges, gear_problems
 from .topology import GROUND, topology_problems
 
 Length = Q("length", plausible=False)
@@ -237,6 +238,7 @@ class LinkageParams(Strict):
         (0.0, -9.81), description="gravity in the plane [m/s²] ((0, 0): plane horizontal)")
     springs: list[SpringSpec] = Field(default_factory=list)
     loads: list[LoadSpec] = Field(default_factory=list)
+    gears: list[GearSpec] = Field(default_factory=list, description="gear pairs, belts, racks (docs/higher_pairs.md §1)")
     trace: str | None = Field(None, description='"link.point" traced in videos (default: the first load point)')
     table_nodes: int | None = Field(None, ge=64, le=65536, description="grid of the reduced-model table (default: automatic)")
 
@@ -278,7 +280,8 @@ class LinkageParams(Strict):
 
     @model_validator(mode="after")
     def _topology(self):
-        problems = topology_problems(self)
+        problems = gear_problems(self)
+        problems = problems or topology_problems(self, gear_edges(self))
         if problems:
             raise PydanticCustomError("mjbench_value", "{m}", {"m": "; ".join(problems)})
         return self

@@ -13,6 +13,7 @@ from ... import compiled as C
 from .. import register
 from ..base import Mechanism, table_form
 from .description import LinkageParams
+from .gears import GearsMixin
 from .loads import (LinkageExtP, LinkageModelP, _force_law, _loads_params, linkage_model, linkage_torque, load_abscissa,
                     stroke_table)
 from .mjspec import MjSpecMixin, _first_load_point
@@ -23,7 +24,7 @@ from .view import AnalysisViewMixin
 
 
 @register
-class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, Mechanism):
+class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, GearsMixin, Mechanism):
     """A single-DOF planar linkage from its description (see the module docstring)."""
 
     type_name = "linkage"

@@ -15,6 +15,7 @@ import numpy as np
 from ...errors import GeometryError
 from ..base import HINGE_AXIS, closure_solref, new_spec
 from ..linkage_kin import TWO_PI
+from .gears import add_gear_equalities, add_gear_geoms
 from .topology import GROUND, _ref, _rot2
 
 PALETTE = ([0.85, 0.25, 0.2, 1], [0.2, 0.55, 0.85, 1], [0.3, 0.7, 0.3, 1], [0.95, 0.6, 0.1, 1],
@@ -74,6 +75,9 @@ class MjSpecMixin:
         bodies = self._bodies(mujoco, world, armature, rad)
         self._sites(bodies, rad)
         self._closures(mujoco, spec, o, h)
+        if c.gears:  # higher pairs: tendon equalities and pitch circles (gears.py)
+            add_gear_equalities(self, spec, o, h)
+            add_gear_geoms(self, bodies, rad)
         self._keyframe(spec)
         self._springs(spec, rad)
         return spec

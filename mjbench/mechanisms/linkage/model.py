@@ -18,6 +18,7 @@ from ...compiled import cache
 from ..linkage_kin import KJoint, PlanarSystem
 from .assembly import AssemblyMixin
 from .description import LinkageParams
+from .gears import compile_gears
 from .kinematics import KinematicsMixin
 from .reduced import ReducedMixin
 from .topology import GROUND, TreeMixin, _ref
@@ -71,7 +72,8 @@ class _Compiled(TreeMixin, KinematicsMixin, AssemblyMixin, ReducedMixin):
         kin = p.joints[self.jindex[p.input_list[0]]]
         la, lb = _ref(kin.at[0])[0], _ref(kin.at[1])[0]
         self.input_link = lb if la == GROUND else la
-        self.sys = PlanarSystem(n, self.kjoints, self.index[self.input_link], self.L)
+        self.gears = compile_gears(self)  # higher pairs: one solver row each (gears.py)
+        self.sys = PlanarSystem(n, self.kjoints, self.index[self.input_link], self.L, self.gears)
         self._tree()
         # springs, loads (points relative to G)
         self.springs = []

@@ -36,9 +36,10 @@ def _rot2(th):
 
 
 # ============================================================================ structural checks
-def topology_problems(p: LinkageParams) -> list:
+def topology_problems(p: LinkageParams, extra_edges=()) -> list:
     """Structural problems of a description (unknown links/points, duplicates, zero-length links,
-    input joint, connectivity, input not in a loop), each naming the element."""
+    input joint, connectivity, input not in a loop), each naming the element.  ``extra_edges``:
+    further (name, link 1, link 2, kind) edges of the graph (gear pairs couple their links)."""
     out = []
     edges = _reference_problems(p, out)
     out += _zero_length_links(p)
@@ -58,7 +59,7 @@ def topology_problems(p: LinkageParams) -> list:
     out += _input_joint_problems(p, jin)
     if out:
         return out
-    adj = _joint_graph(p, edges)
+    adj = _joint_graph(p, edges + list(extra_edges))
     lost = sorted(set(p.links) - _reachable(adj, GROUND))
     if lost:
         return [f"links {', '.join(lost)}: not connected to the ground through joints"]
