@@ -2,7 +2,8 @@
 the smallest that meets the pressure-angle limit (checked against the closed form of an offset
 translating roller follower, tan φ = (s' − e)/(d₀ + s)), the spring holds the follower exactly up to
 jump_margin × the speed and is the least peak force doing so, and the machine — catalogue drive, speed
-PI with design-rule gains — is verified on MuJoCo: the predictions within 2 %, the follower on the cam."""
+PI with design-rule gains — is verified on MuJoCo: every prediction within its check's tolerance (2 % for
+the sizing model's currents, torques, voltage and χ; measured ≤ 0.3 %), the follower on the cam."""
 import math
 
 import numpy as np

@@ -116,6 +116,13 @@ def synthesize(req: Requirements):
 
 
 # ============================================================================ scenario
+def _pose_beyond_q(table) -> bool:
+    """Whether the mechanism's pose is more than its input angle (its class's ``frames_from_joints``:
+    a cam's follower may leave the cam): its runs record the joints its metrics read."""
+    cls = MR.get(table.get("type"))
+    return bool(cls is not None and cls.frames_from_joints)
+
+
 def machine_scenario(req, table, cand, gains: P.Gains, init: dict, speed: float, t_end: float, title="") -> dict:
     """The machine's scenario tables (machine.toml)."""
     dm = cand.drive
@@ -133,7 +140,7 @@ def machine_scenario(req, table, cand, gains: P.Gains, init: dict, speed: float,
         "initial": {"q0": 0.0, "qd0": 0.0, "I0": 0.0},
         "simulation": {"t_end": float(t_end), "dt": float(req.verify.dt), "record_dt": _record_dt(req.verify.dt, T),
                        "mode": "pi", "backend": "both",
-                       **({"record_joints": True} if table.get("type") == "cam" else {})},  # a cam's follower gap
+                       **({"record_joints": True} if _pose_beyond_q(table) else {})},  # a cam's follower gap
         "modes": {"pi": {"type": "pid", "kp": float(gains.kp), "ki": float(gains.ki), "kd": float(gains.kd),
                          "omega0": float(dm.z * speed), "v_limit": float(req.drive.supply_voltage)},
                   "open": {"type": "open", "voltage": float(min(req.drive.supply_voltage,
