@@ -128,6 +128,8 @@ NOT_RUN = [
                                                               "the same command at other points, ~15 s each with their "
                                                               "figures (tests/test_linear.py checks the numbers)"),
     (r"^mjbench (run|analyze) out/", "runs what an earlier line (a design) writes"),
+    (r"^mjbench analyze fivebar --out out/fivebar-an$", "the same analysis as README's `mjbench analyze fivebar` line, "
+                                                        "which runs"),
 ]
 #: exit status of a documented line that is not 0 (and why: the docs say so)
 STATUS = {r"^mjbench paper hulako2025 demand ": (1, "V_C = 0.4 m/s saturates the 12 V supply: a check, stated")}
