@@ -42,6 +42,10 @@ VELOCITY_CONTINUITY = 1e-4
 CHANGE_KAPPA = 1e-6
 #: the singular configuration is a V of κ: κ(q* ± V_PROBE) at least 20× its minimum (rad)
 V_PROBE = 1e-4
+#: square systems of at least this many coordinates (30 links) are solved as sparse matrices, one
+#: configuration at a time (a joint's rows touch two links: ≤ 6 non-zeros a row); smaller ones dense,
+#: all configurations at once
+SPARSE_MIN = 90
 
 _Pt = namedtuple("_Pt", "q z v a kappa")  # a point of a branch: input angle, z, v = dz/dq, a = dv/dq, κ
 
@@ -245,6 +249,8 @@ class PlanarSystem:
     def _solve(self, Jm, rhs):
         """Solve Jm x = rhs for a batch (least squares if Jm has more rows than columns)."""
         if Jm.shape[1] == Jm.shape[2]:
+            if Jm.shape[1] >= SPARSE_MIN:
+                return _sparse_solve(Jm, rhs)
             return np.linalg.solve(Jm, rhs[..., None])[..., 0]
         R, C = self.row_scale, self.col_scale
         if Jm.shape[0] == 1:
@@ -266,6 +272,10 @@ class PlanarSystem:
         Jm = self.jac(z)
         rhs = np.zeros((z.shape[0], self.m))
         rhs[:, -1] = 1.0
+        if Jm.shape[1] == Jm.shape[2] and Jm.shape[1] >= SPARSE_MIN:  # one factorisation for both
+            lu = _sparse_factors(Jm)
+            v = _sparse_apply(lu, rhs)
+            return v, _sparse_apply(lu, self.gamma(z, v))
         v = self._solve(Jm, rhs)
         a = self._solve(Jm, self.gamma(z, v))
         return v, a
@@ -418,10 +428,14 @@ class PlanarSystem:
                     vv, aa = self.kinematics(z[None])
                     vz, az = vv[0], aa[0]
                 else:
+                    kn = self._kappa(zn)
+                    if kn < CHANGE_KAPPA:  # landed on (next to) a singular configuration: its velocity
+                        landing = self._cross(hist, q + h, span)  # is not to be trusted; cross it from here
+                        break
                     z, q = zn, q + h
                     vv, aa = self.kinematics(z[None])
                     vz, az = vv[0], aa[0]
-                    hist.append(_Pt(q, z, vz, az, self._kappa(z)))
+                    hist.append(_Pt(q, z, vz, az, kn))
                     landing = self._dip(hist, span)
                     if landing is not None:
                         break
@@ -542,6 +556,41 @@ class PlanarSystem:
 
     def _det_sign(self, z):
         return float(np.linalg.slogdet(self.jac(z[None])[0])[0])
+
+
+def _sparse_solve(Jm, rhs):
+    """Jm x = rhs for a batch of large square Jacobians, each factorised sparse (SuperLU): a chain of
+    81 bars is 243 coordinates with ≤ 6 non-zeros a row, where a dense batch costs 243³ a configuration.
+    A singular matrix raises LinAlgError, as the dense solve does."""
+    return _sparse_apply(_sparse_factors(Jm), rhs)
+
+
+def _sparse_factors(Jm):
+    """SuperLU factors of each matrix of a batch (B, n, n) (:func:`_sparse_solve`)."""
+    from scipy.sparse import csc_matrix  # heavy: loaded by large linkages only (as assemble's scipy.optimize)
+    from scipy.sparse.linalg import splu  # heavy: loaded by large linkages only
+
+    mask = np.any(Jm != 0, axis=0)  # the batch's common pattern: one matrix, its values replaced
+    cols, rows = np.nonzero(mask.T)  # column by column, rows ascending (CSC order)
+    indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=0))])
+    vals = Jm[:, rows, cols]
+    A = csc_matrix((vals[0].copy(), rows, indptr), shape=mask.shape)
+    out = []
+    for b in range(Jm.shape[0]):
+        A.data[:] = vals[b]
+        try:
+            out.append(splu(A))
+        except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
+            raise np.linalg.LinAlgError(str(e)) from None
+    return out
+
+
+def _sparse_apply(lu, rhs):
+    """x (B, n) from the factors of :func:`_sparse_factors` and right-hand sides (B, n)."""
+    out = np.empty(np.shape(rhs))
+    for b, f in enumerate(lu):
+        out[b] = f.solve(np.ascontiguousarray(rhs[b], dtype=float))
+    return out
 
 
 # ============================================================================ tables

@@ -19,6 +19,9 @@ from .topology import GROUND, _rot2
 
 BRIDGE_HALF = 0.02  #: configurations within this of a change point come from its bridge [rad]
 BRIDGE_POINTS = 6  #: exact solves on each side of a change point (the bridge's nodes)
+#: configurations solved together are chunked so that their dense Jacobians hold at most this many
+#: numbers (64 MB): a chain of 81 bars (243 coordinates) solves 142 at a time, a four-bar all at once
+EXACT_CHUNK = 1 << 23
 
 
 def _deg(q):
@@ -125,6 +128,10 @@ class KinematicsMixin:
                 z[sel], v[sel], a[sel] = self._bridge_eval(b, q[sel])
             return z, v, a
         z0 = self.z_guess(q) if guess is None else np.atleast_2d(guess)
+        chunk = max(1, EXACT_CHUNK // (3 * self.n) ** 2)
+        if len(q) > chunk:  # a large linkage: bounded memory (the same result, configuration by configuration)
+            parts = [self.exact(q[i:i + chunk], z0[i:i + chunk]) for i in range(0, len(q), chunk)]
+            return tuple(np.concatenate(x) for x in zip(*parts))
         z, ok = self.sys.newton(z0, q)
         if not ok.all():
             bad = q[~ok][0]
