@@ -594,6 +594,32 @@ def loads(mech, traj) -> dict:
     return out
 
 
+def change_points(mech, traj) -> list:
+    """Each change point of the mechanism (:meth:`~mjbench.mechanisms.base.Mechanism.change_points`:
+    input angles over one period where branches of the assembly meet) that the recorded motion
+    passed, in time order: ``time_s`` (cubic Hermite interpolation of the recorded angle and
+    speed), ``input_angle_rad`` (the recorded input angle there: the change point plus whole
+    periods) and ``angle_deg`` (that angle reduced into [0°, 360°)); [] for a mechanism without.
+    A passage is seen between two recorded samples (a run that diverged: up to its last finite one)."""
+    qc = mech.change_points()
+    if not qc:
+        return []
+    P = float(mech.reduced_period)
+    t, q, qd = np.asarray(traj.t, dtype=float), np.asarray(traj.q, dtype=float), np.asarray(traj.qd, dtype=float)
+    bad = np.flatnonzero(~(np.isfinite(t) & np.isfinite(q) & np.isfinite(qd)))
+    if bad.size:
+        t, q, qd = t[:bad[0]], q[:bad[0]], qd[:bad[0]]
+    out = []
+    for c in qc:
+        k = np.floor((q - c) / P)
+        for i in np.flatnonzero(k[1:] != k[:-1]):
+            for j in range(int(min(k[i], k[i + 1])) + 1, int(max(k[i], k[i + 1])) + 1):
+                level = c + j * P
+                out.append({"time_s": _hermite_cross(t, q, qd, int(i), level), "input_angle_rad": float(level),
+                            "angle_deg": float(math.degrees(level) % 360.0)})
+    return sorted(out, key=lambda e: e["time_s"])
+
+
 def load_warnings(backend_metrics: dict) -> list:
     """A load that never acts along the motion (zero at every recorded sample of every backend that
     ran): one warning naming it, where its table is and where its point went."""

@@ -118,6 +118,7 @@ def run_metrics(machine, trajs: dict, config=None, multibody_options=None, reduc
     res.setdefault("plausibility", {})["step"] = {
         b: plausibility.step_check(tr, float(tr.meta.get("dt", 1e-4))) for b, tr in trajs.items()}
     add_loads(res, machine.mechanism, trajs)
+    add_change_points(res, machine.mechanism, trajs)
     res["warnings"] = M.duty_warnings(res["backends"]) + M.load_warnings(res["backends"])
     return res
 
@@ -178,6 +179,15 @@ def add_loads(res: dict, mech, trajs: dict) -> None:
         ld = M.loads(mech, tr)
         if ld:
             res["backends"][b]["loads"] = ld
+
+
+def add_change_points(res: dict, mech, trajs: dict) -> None:
+    """Each backend's change points passed along its motion (:func:`mjbench.metrics.change_points`),
+    when the mechanism has any: ``change_points`` per backend."""
+    if not mech.change_points():
+        return
+    for b, tr in trajs.items():
+        res["backends"][b]["change_points"] = M.change_points(mech, tr)
 
 
 def duty_limits(drive, controller) -> tuple:
@@ -369,6 +379,19 @@ def duty_text(res: dict) -> list:
     return lines
 
 
+def change_points_text(res: dict, shown: int = 4) -> list:
+    """The summary's change-point line: per backend, how many it passed and the first ``shown``
+    (input angle @ time)."""
+    bs = {b: m["change_points"] for b, m in res["backends"].items() if m and "change_points" in m}
+    if not bs:
+        return []
+    vals = []
+    for b, cps in bs.items():
+        first = ", ".join(f"{round(e['angle_deg'], 1) % 360.0:.1f}° @ {e['time_s']:.4g} s" for e in cps[:shown])
+        vals.append(f"{b}: {len(cps)}" + (f" ({first}{', …' if len(cps) > shown else ''})" if cps else ""))
+    return [f"  {'change points passed (angle @ time)':<40s} " + "   ".join(vals)]
+
+
 def summary_text(res: dict) -> str:
     """The summary ``mjbench run`` prints from a mode's metrics dict (:func:`simulate_mode`)."""
     if "axes" in res:
@@ -412,6 +435,7 @@ def summary_text(res: dict) -> str:
                 for b, m in res["backends"].items() if name in ((m or {}).get("loads") or {})]
         unit = next(m["loads"][name]["unit"] for m in res["backends"].values() if name in ((m or {}).get("loads") or {}))
         lines.append(f"  {f'load {name!r}: peak [{unit}] / acting [% of time]':<40s} " + "   ".join(vals))
+    lines += change_points_text(res)
     if "multibody_vs_reduced" in res:
         c = res["multibody_vs_reduced"]
         lines.append(f"  {'multibody vs reduced crank speed':<40s} max {c['max_rel_diff']:.2e}   RMS {c['rms_rel_diff']:.2e} (of peak)")

@@ -108,12 +108,15 @@ def test_loop_that_cannot_be_assembled_at_all():
 
 
 def test_input_joint_not_in_a_loop():
+    """An input joint in no loop is an open chain (a pendulum is valid: tests/test_change_points.py);
+    here it leaves the four-bar undriven: 2 degrees of freedom, the undriven joints and the open input named."""
     m = copy.deepcopy(BASE)
     m["ground"]["O"] = [0.5, 0.5]
     m["links"]["wheel"] = {"mass": 1.0, "inertia": 0.01, "points": {"O": [0, 0]}}
     m["joints"].append({"name": "O", "at": ["ground.O", "wheel.O"]})
     m["input"] = "O"
-    with pytest.raises(ScenarioError, match=r"input = 'O': the input joint is not in a closed loop"):
+    with pytest.raises(GeometryError, match=r"has 2 degrees of freedom .*joints A, B, C, D can still move \(the input "
+                                            r"joint 'O' is in no closed loop"):
         build(m)
 
 
@@ -171,11 +174,22 @@ def test_cli_accepts_the_good_file(tmp_path):
     assert math.isfinite(float((tmp_path / "o" / "trajectory_reduced.csv").read_text().splitlines()[-1].split(",")[2]))
 
 
-def test_dead_centre_on_the_turn_gives_the_input_angle():
-    """A parallelogram (crank = rocker = 0.1 m, coupler = frame = 0.3 m) passes its change point
-    with all links collinear at q = 180°: the error gives that angle (located by the sign change of
-    the constraint Jacobian's determinant)."""
-    m = variant(ground__D=[0.30, 0.0], links__rocker__points={"D": [0.0, 0.0], "C": [0.10, 0.0]},
-                links__coupler__angle=0.0, links__rocker__angle=1.0, input_angle=1.0)
-    with pytest.raises(GeometryError, match=r"dead centre or branch point at input angle 180\.0°.*joints B, C, D"):
+def test_an_input_that_locks_gives_the_angle():
+    """The seed-000 crank-rocker driven at its rocker (joint D): the rocker cannot turn past its limit
+    positions, where the crank and the coupler are collinear (a lock-up: no branch continues): one
+    line naming where the input locks, before simulating.  Checked against the limit positions by
+    the cosine rule: |DB| = coupler ± crank."""
+    m = variant(input="D", input_angle="-96 deg")
+    with pytest.raises(GeometryError) as ei:
         build(m)
+    msg = str(ei.value)
+    assert "cannot close for input angles" in msg and "the input locks at" in msg, msg
+    lo, hi = (float(x) for x in msg.split("input angles ")[1].split(" ")[0].rstrip("°").split("°.."))
+    d = math.hypot(0.30, 0.05)
+    phi_d = math.atan2(-0.05, -0.30)  # direction D → A
+    limits = []
+    for r in (0.3 + 0.1, 0.3 - 0.1):  # |DB| at the two limit positions
+        beta = math.acos((0.3 ** 2 + d * d - r * r) / (2 * 0.3 * d))  # angle at D between DA and DC
+        limits += [math.degrees(phi_d + beta) % 360, math.degrees(phi_d - beta) % 360]
+    assert min(abs((lo - x + 180) % 360 - 180) for x in limits) < 0.5, (lo, limits)
+    assert min(abs((hi - x + 180) % 360 - 180) for x in limits) < 0.5, (hi, limits)

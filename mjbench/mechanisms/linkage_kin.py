@@ -34,6 +34,32 @@ from ..compiled import law
 from ..spline import periodic_cubic
 
 TWO_PI = 2.0 * math.pi
+#: a change point is crossed from δ before it to δ after it (rad; halved where needed)
+CROSS_DELTA = 0.02
+#: largest relative jump of the velocity coefficients accepted as continuity across a change point
+VELOCITY_CONTINUITY = 1e-4
+#: conditioning κ = σ_min/σ_max below which a local minimum of κ may be a singular configuration
+CHANGE_KAPPA = 1e-6
+#: the singular configuration is a V of κ: κ(q* ± V_PROBE) at least 20× its minimum (rad)
+V_PROBE = 1e-4
+#: square systems of at least this many coordinates (30 links) are solved as sparse matrices, one
+#: configuration at a time (a joint's rows touch two links: ≤ 6 non-zeros a row); smaller ones dense,
+#: all configurations at once
+SPARSE_MIN = 90
+
+_Pt = namedtuple("_Pt", "q z v a kappa")  # a point of a branch: input angle, z, v = dz/dq, a = dv/dq, κ
+
+
+def _hermite(pa, pb, q):
+    """(z, v, a) at q between two branch points by cubic Hermite interpolation of z (v its
+    derivative, a linear): guesses for later exact solves."""
+    H = pb.q - pa.q
+    t = (q - pa.q) / H
+    h00, h10, h01, h11 = 2 * t ** 3 - 3 * t ** 2 + 1, t ** 3 - 2 * t ** 2 + t, -2 * t ** 3 + 3 * t ** 2, t ** 3 - t ** 2
+    d00, d10, d01, d11 = 6 * t * t - 6 * t, 3 * t * t - 4 * t + 1, -6 * t * t + 6 * t, 3 * t * t - 2 * t
+    z = h00 * pa.z + h10 * H * pa.v + h01 * pb.z + h11 * H * pb.v
+    v = (d00 * pa.z + d01 * pb.z) / H + d10 * pa.v + d11 * pb.v
+    return z, v, (1 - t) * pa.a + t * pb.a
 
 
 @dataclass
@@ -236,6 +262,8 @@ class PlanarSystem:
     def _solve(self, Jm, rhs):
         """Solve Jm x = rhs for a batch (least squares if Jm has more rows than columns)."""
         if Jm.shape[1] == Jm.shape[2]:
+            if Jm.shape[1] >= SPARSE_MIN:
+                return _sparse_solve(Jm, rhs)
             return np.linalg.solve(Jm, rhs[..., None])[..., 0]
         R, C = self.row_scale, self.col_scale
         if Jm.shape[0] == 1:
@@ -260,6 +288,10 @@ class PlanarSystem:
         Jm = self.jac(z)
         rhs = np.zeros((z.shape[0], self.m))
         rhs[:, -1] = 1.0
+        if Jm.shape[1] == Jm.shape[2] and Jm.shape[1] >= SPARSE_MIN:  # one factorisation for both
+            lu = _sparse_factors(Jm)
+            v = _sparse_apply(lu, rhs)
+            return v, _sparse_apply(lu, self.gamma(z, v))
         v = self._solve(Jm, rhs)
         a = self._solve(Jm, self.gamma(z, v))
         return v, a
@@ -356,12 +388,18 @@ class PlanarSystem:
             return None  # the corrector went far from the predicted point: maybe another branch
         return zn[0]
 
-    def continuation(self, z0, q0, span=TWO_PI, n=120, min_step=1e-9, cond_tol=1e-9):
+    def continuation(self, z0, q0, span=TWO_PI, n=120, min_step=1e-9, cond_tol=1e-9, cross=False):
         """Follow the branch of ``z0`` (assembled at q0) over q0 → q0 + span in n equal steps
-        (subdivided where needed).  Returns (q (n+1,), z (n+1, 3n), v, a).  Raises SolveError
-        with the input angle where the branch ends (dead centre, no assembly) or crosses a
-        singular configuration (the determinant of the augmented Jacobian changes sign, or its
-        scaled condition falls below ``cond_tol``)."""
+        (subdivided where needed).  Returns (q (n+1,), z (n+1, 3n), v, a, change points).
+
+        ``cross=False``: raises SolveError with the input angle where the branch ends (dead
+        centre, no assembly) or crosses a singular configuration (the determinant of the augmented
+        Jacobian changes sign); no change points.
+
+        ``cross=True``: a singular configuration where branches meet (a change point: a
+        parallelogram's flat positions) is located and crossed by continuity of velocity
+        (:meth:`_cross`); its input angle is listed in the change points.  Raises SolveError where
+        the branch ends (the input locks) or where no branch continues the velocity."""
         qs = q0 + span * np.arange(n + 1) / n
         Z = np.empty((n + 1, self.nz))
         V = np.empty_like(Z)
@@ -370,53 +408,223 @@ class PlanarSystem:
         v, a = self.kinematics(z[None])
         Z[0], V[0], A[0] = z, v[0], a[0]
         square = self.m == self.nz
-        sign0 = self._det_sign(z) if square else 0.0
+        sign0 = self._det_sign(z) if square and not cross else 0.0
         fwd = span > 0
-        for k in range(n):
+        changes = []
+        hist = [_Pt(q0, z, v[0], a[0], self._kappa(z))] if cross else None
+        vz, az = V[0], A[0]
+        k, q, resume = 0, q0, False
+        while k < n:
             qa, qb = qs[k], qs[k + 1]
-            q = qa
+            if not resume:
+                q = qa
+            resume = False
             h = qb - qa
-            vz, az = V[k], A[k]
             while (q < qb - 1e-15 * span) if fwd else (q > qb - 1e-15 * span):
                 h = min(h, qb - q) if fwd else max(h, qb - q)
                 zn = self.step(z, q, q + h, vz, az)
                 if zn is None:
                     h *= 0.5
                     if abs(h) < min_step:
-                        raise SolveError("continuation failed", q=q, kind="end", z=z)
+                        if not cross:
+                            raise SolveError("continuation failed", q=q, kind="end", z=z)
+                        # the solve fails near q + 2h: a singular point there, or the branch ends
+                        landing = self._cross(hist, q + 2.0 * h, span)
+                        break
                     continue
-                if square:
-                    sg = self._det_sign(zn)
-                    if sg != sign0:  # crossed a singular configuration: locate it by the signed σ_min
-                        s1 = sign0 * self.singular_values(z[None])[0, -1]
-                        s2 = sg * self.singular_values(zn[None])[0, -1]
-                        qs_ = q + h * s1 / (s1 - s2) if s1 != s2 else q + h
-                        raise SolveError("singular", q=qs_, kind="singular", z=z)
-                z, q = zn, q + h
-                vv, aa = self.kinematics(z[None])
-                vz, az = vv[0], aa[0]
+                if not cross:
+                    if square:
+                        sg = self._det_sign(zn)
+                        if sg != sign0:  # crossed a singular configuration: locate it by the signed σ_min
+                            s1 = sign0 * self.singular_values(z[None])[0, -1]
+                            s2 = sg * self.singular_values(zn[None])[0, -1]
+                            qs_ = q + h * s1 / (s1 - s2) if s1 != s2 else q + h
+                            raise SolveError("singular", q=qs_, kind="singular", z=z)
+                    z, q = zn, q + h
+                    vv, aa = self.kinematics(z[None])
+                    vz, az = vv[0], aa[0]
+                else:
+                    kn = self._kappa(zn)
+                    if kn < CHANGE_KAPPA:  # landed on (next to) a singular configuration: its velocity
+                        landing = self._cross(hist, q + h, span)  # is not to be trusted; cross it from here
+                        break
+                    z, q = zn, q + h
+                    vv, aa = self.kinematics(z[None])
+                    vz, az = vv[0], aa[0]
+                    hist.append(_Pt(q, z, vz, az, kn))
+                    landing = self._dip(hist, span)
+                    if landing is not None:
+                        break
                 h = min(2.0 * h, qb - qa) if fwd else max(2.0 * h, qb - qa)
-            Z[k + 1], V[k + 1], A[k + 1] = z, vz, az
-        return qs, Z, V, A
+            else:
+                Z[k + 1], V[k + 1], A[k + 1] = z, vz, az
+                k += 1
+                continue
+            # crossed a change point: from the launch point A (before it) to the landing point L
+            qc, pa, pl = landing
+            changes.append(qc)
+            j = int(np.searchsorted(qs, pa.q, side="right")) if fwd else \
+                int(np.searchsorted(-qs, -pa.q, side="right"))
+            while j <= n and ((qs[j] <= pl.q) if fwd else (qs[j] >= pl.q)):
+                Z[j], V[j], A[j] = _hermite(pa, pl, qs[j])
+                j += 1
+            k = j - 1
+            z, q, vz, az = pl.z, pl.q, pl.v, pl.a
+            hist = [pl]
+            resume = True
+        return qs, Z, V, A, changes
+
+    # -------------------------------------------------------------- change points
+    def _kappa(self, z):
+        """Scaled σ_min/σ_max of the augmented Jacobian at one configuration (0: singular)."""
+        s = self.singular_values(z[None])[0]
+        return float(s[-1] / s[0]) if s[0] > 0 else 0.0
+
+    def _solve_near(self, hist, q, maxit=40):
+        """Configuration at input angle q on the branch of the points ``hist``: Newton from the
+        second-order Taylor guess of the nearest point (z, converged)."""
+        p = min(hist, key=lambda t: abs(t.q - q))
+        t = q - p.q
+        z, ok = self.newton((p.z + p.v * t + 0.5 * p.a * t * t)[None], q, tol=1e-12, maxit=maxit)
+        return z[0], bool(ok[0])
+
+    def _dip(self, hist, span):
+        """After each accepted step: whether the last points bracket a singular configuration (a
+        local minimum of the conditioning κ, or a sign change of det Φ_z); if so cross it
+        (:meth:`_cross`) and return (q*, launch, landing), else None."""
+        if len(hist) < 2:
+            return None
+        lo = None
+        if self.m == self.nz and self._det_sign(hist[-1].z) != self._det_sign(hist[-2].z):
+            lo, hi = hist[-2].q, hist[-1].q
+        elif len(hist) >= 3 and hist[-2].kappa < hist[-3].kappa and hist[-2].kappa <= hist[-1].kappa:
+            lo, hi = hist[-3].q, hist[-1].q
+        if lo is None:
+            return None
+        qm, km, singular = self._locate(hist, lo, hi)
+        if not singular:
+            return None
+        return self._cross(hist, qm, span, located=True)
+
+    def _locate(self, hist, lo, hi):
+        """Golden-section minimum of κ(q) on the branch over [lo, hi]: (q_min, κ_min, singular).
+        Singular: κ_min is below CHANGE_KAPPA and the minimum is a V (κ at ±δ_V at least 20× larger)."""
+        if hi < lo:
+            lo, hi = hi, lo
+
+        def kappa(q):
+            return self._kappa(self._solve_near(hist, q)[0])
+
+        g = 0.5 * (math.sqrt(5.0) - 1.0)
+        a, b = lo, hi
+        c, d = b - g * (b - a), a + g * (b - a)
+        fc, fd = kappa(c), kappa(d)
+        while b - a > 1e-10 * max(1.0, abs(hi - lo)):
+            if fc < fd:
+                b, d, fd = d, c, fc
+                c = b - g * (b - a)
+                fc = kappa(c)
+            else:
+                a, c, fc = c, d, fd
+                d = a + g * (b - a)
+                fd = kappa(d)
+        qm, km = (c, fc) if fc < fd else (d, fd)
+        if not km < CHANGE_KAPPA:
+            return qm, km, False
+        side = min(kappa(qm - V_PROBE), kappa(qm + V_PROBE))
+        return qm, km, km < 0.05 * side
+
+    def _cross(self, hist, qs_, span, located=False):
+        """Cross the singular configuration near input angle qs_ by continuity of velocity: from
+        the launch point A = qs_ − δ (on the incoming branch) to the landing point L = qs_ + δ,
+        predicted z_A + v_A·2δ + ½a_A(2δ)², corrected by Newton; L is accepted when its velocity
+        continues A's to second order, |v_L − v_A − ½(a_A + a_L)·2δ| ≤ VELOCITY_CONTINUITY·max|v|
+        (a jump to another branch there changes v by O(1)).  δ = CROSS_DELTA, halved up to 6
+        times.  Returns (q*, A, L), q* located by :meth:`_locate` between A and L; SolveError
+        (kind "end": no configuration beyond — the branch ends, the input locks; kind
+        "singular": only branches whose velocity jumps) otherwise."""
+        sgn = 1.0 if span > 0 else -1.0
+        C = self.col_scale
+        reached = False
+        for i in range(7):
+            dl = CROSS_DELTA * 0.5 ** i
+            qa, qb = qs_ - sgn * dl, qs_ + sgn * dl
+            za, ok = self._solve_near([p for p in hist if sgn * (p.q - qs_) < 0] or hist[:1], qa)
+            if not ok:
+                continue
+            va, aa = (x[0] for x in self.kinematics(za[None]))
+            H = qb - qa
+            zb, okb = self.newton((za + va * H + 0.5 * aa * H * H)[None], qb, tol=1e-13, maxit=30)
+            if not okb[0]:
+                continue
+            reached = True
+            zb = zb[0]
+            vb, ab = (x[0] for x in self.kinematics(zb[None]))
+            scale = max(np.max(np.abs(va * C)), np.max(np.abs(vb * C)), 1e-300)
+            mismatch = np.max(np.abs((vb - va - 0.5 * (aa + ab) * H) * C)) / scale
+            if mismatch <= VELOCITY_CONTINUITY:
+                pa = _Pt(qa, za, va, aa, self._kappa(za))
+                pl = _Pt(qb, zb, vb, ab, self._kappa(zb))
+                qc = qs_ if located else self._locate([pa, pl], qa, qb)[0]
+                return qc, pa, pl
+        raise SolveError("singular" if reached else "end", q=qs_, kind="singular" if reached else "end",
+                         z=hist[-1].z)
 
     def _det_sign(self, z):
         return float(np.linalg.slogdet(self.jac(z[None])[0])[0])
 
 
+def _sparse_solve(Jm, rhs):
+    """Jm x = rhs for a batch of large square Jacobians, each factorised sparse (SuperLU): a chain of
+    81 bars is 243 coordinates with ≤ 6 non-zeros a row, where a dense batch costs 243³ a configuration.
+    A singular matrix raises LinAlgError, as the dense solve does."""
+    return _sparse_apply(_sparse_factors(Jm), rhs)
+
+
+def _sparse_factors(Jm):
+    """SuperLU factors of each matrix of a batch (B, n, n) (:func:`_sparse_solve`)."""
+    from scipy.sparse import csc_matrix  # heavy: loaded by large linkages only (as assemble's scipy.optimize)
+    from scipy.sparse.linalg import splu  # heavy: loaded by large linkages only
+
+    mask = np.any(Jm != 0, axis=0)  # the batch's common pattern: one matrix, its values replaced
+    cols, rows = np.nonzero(mask.T)  # column by column, rows ascending (CSC order)
+    indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=0))])
+    vals = Jm[:, rows, cols]
+    A = csc_matrix((vals[0].copy(), rows, indptr), shape=mask.shape)
+    out = []
+    for b in range(Jm.shape[0]):
+        A.data[:] = vals[b]
+        try:
+            out.append(splu(A))
+        except RuntimeError as e:  # SuperLU: "Factor is exactly singular"
+            raise np.linalg.LinAlgError(str(e)) from None
+    return out
+
+
+def _sparse_apply(lu, rhs):
+    """x (B, n) from the factors of :func:`_sparse_factors` and right-hand sides (B, n)."""
+    out = np.empty(np.shape(rhs))
+    for b, f in enumerate(lu):
+        out[b] = f.solve(np.ascontiguousarray(rhs[b], dtype=float))
+    return out
+
+
 # ============================================================================ tables
 class PeriodicTable:
-    """Periodic cubic splines of k channels over one input turn, u = q − q0 ∈ [0, 2π).
+    """Periodic cubic splines of k channels over one period of the input, u = q − q0 ∈ [0, P)
+    (P = ``period``: one turn, 2π, or the turns after which a path through change points repeats).
 
-    ``values`` (N, k) at the nodes u_i = 2π·i/N.  Channel values at any q (scalar or array),
-    ``q`` taken modulo 2π; a scalar path in plain Python floats (no NumPy call) for the hot loop.
+    ``values`` (N, k) at the nodes u_i = P·i/N.  Channel values at any q (scalar or array),
+    ``q`` taken modulo P; a scalar path in plain Python floats (no NumPy call) for the hot loop.
     """
 
-    def __init__(self, q0, values):
+    def __init__(self, q0, values, period=TWO_PI):
 
         values = np.asarray(values, dtype=float)
         N, k = values.shape
         self.q0, self.N, self.k = float(q0), N, k
-        self.h = TWO_PI / N
+        self.period = float(period)
+        self.h = self.period / N
         h = self.h
         # coefficients in the normalised coordinate t ∈ [0, 1): c3 t³ + c2 t² + c1 t + c0
         c = periodic_cubic(values)  # (4, N, k): t^0 … t^3
@@ -451,14 +659,14 @@ class PeriodicTable:
 
 
 #: a periodic table's parameters for :func:`ptable_channel`: rows (k, 4N) — channel c's Horner
-#: coefficients (t³, t², t, 1) of cell 0, then cell 1, … —, q0, N/2π, N, and M = N − 1 when N is a
+#: coefficients (t³, t², t, 1) of cell 0, then cell 1, … —, q0, N/P (P the period), N, and M = N − 1 when N is a
 #: power of two (the cell i mod N is then i & M, without an integer division), else −1
 PTableP = namedtuple("PTableP", "rows q0 inv_h N M")
 
 
 @law
 def ptable_channel(q, ch, T):
-    """Channel ``ch`` of a :class:`PeriodicTable` at input angle q: cell ⌊(q − q0)·N/2π⌋ mod N,
+    """Channel ``ch`` of a :class:`PeriodicTable` at input angle q: cell ⌊(q − q0)·N/P⌋ mod N,
     one Horner evaluation in its local coordinate t ∈ [0, 1); NaN at a non-finite angle."""
     u = (q - T.q0) * T.inv_h
     if not abs(u) < 1e15:

@@ -14,8 +14,9 @@ four-bar evaluation in Python).  They depend on the input coordinate only and ar
   perform the same IEEE operations in the same order and give the same bits;
 * accuracy measured, not assumed: n starts at ``N0`` and doubles until the largest error against
   the closed forms at 3 interior points of every cell (f = ¼, ½, ¾, where a cubic spline's error
-  peaks), relative to the quantity's largest magnitude over the period, is ≤ ``tol`` (default
-  1e-9); the table records that error (``max_rel_error``) and its node count.  A spline's error
+  peaks), relative to the quantity's largest magnitude over the period (½J': not below
+  ½``DJ_FLOOR``·J), is ≤ ``tol`` (default 1e-9); the table records that error (``max_rel_error``)
+  and its node count.  A spline's error
   falls as h⁴ (×16 per doubling): the seed-000 four-bar needs 2048 nodes (7e-11; docs/performance.md).
 * the mechanism's viscous external torque −D(q)·q̇ (``Mechanism.reduced_viscous``, e.g. the
   four-bar's hinge friction) is tabulated as a fourth quantity; any other external torque
@@ -47,6 +48,11 @@ from ..errors import ParameterError
 N0 = 1024         #: first grid size tried (doubled until the tolerance is met)
 NMAX = 1 << 16    #: largest grid tried
 TOL = 1e-9        #: default relative interpolation tolerance
+#: J' errors are measured against max(|J'|, DJ_FLOOR·J) [per rad] (½J': half of both): a J that hardly
+#: varies (a parallelogram's J' ≡ 0 but for the solve's rounding near its change points) is judged by
+#: the torque ½J'q̇² it could make next to J·q̈, not by its own rounding.  The shipped mechanisms have
+#: |J'|max ≥ 0.47·J_max: the floor is never reached for them.
+DJ_FLOOR = 0.2
 _CACHE: OrderedDict = OrderedDict()
 _CACHE_MAX = 256  #: tables kept (≈ 0.2 MB each, ≈ 1 MB once used by a single run)
 
@@ -85,6 +91,7 @@ class ReducedTable:
             f = fq[None, :, None]
             approx = (((c[3][:, None] * f + c[2][:, None]) * f + c[1][:, None]) * f + c[0][:, None]).reshape(-1, self.m)
             scale = np.maximum(np.max(np.abs(y), axis=0), 1e-300)
+            scale[1] = max(scale[1], 0.5 * DJ_FLOOR * scale[0])  # ½J' of a J that hardly varies: against J
             err = np.max(np.abs(approx - exact), axis=0) / scale
             if np.all(err <= tol) or n >= nmax:
                 break

@@ -24,6 +24,13 @@ class ReducedDynamics(abc.ABC):
     #: model derived from the MJCF itself (``mjcf``) must start with "MuJoCo-derived".
     reduced_source: ClassVar[str] = "independent: hand-derived closed form"
 
+    def change_points(self) -> tuple:
+        """Input angles [rad] over one period where the mechanism passes a change point — branches of
+        its assembly meet (a parallelogram's flat positions) and the reduced model follows the branch
+        by continuity of velocity; a run reports each one it passes (``change_points`` in
+        metrics.json).  Default: none."""
+        return ()
+
     @abc.abstractmethod
     def reduced(self, q):
         """Return ``(J, dJ_dq, dEp_dq)``: equivalent inertia about q [kg·m²] (rigid transmission),

@@ -19,6 +19,7 @@ from .kinematics import _deg
 
 COARSE_STEPS = 90  #: continuation steps over one turn (subdivided automatically where needed)
 COND_TOL = 1e-9  #: σ_min/σ_max of the scaled constraint Jacobian below this = singular (dead centre)
+MAX_TURNS = 4  #: input turns after which the path followed through change points must repeat
 
 
 class AssemblyMixin:
@@ -41,30 +42,39 @@ class AssemblyMixin:
         if not res_free < 1e-9:
             self._mobility(z_ref)
         check_racks(self, self.gears, z_ref)
-        try:
-            qs, Z, V, A = sysm.continuation(z_ref, q0, TWO_PI, COARSE_STEPS, cond_tol=COND_TOL)
-        except SolveError as e:
-            self._branch_failure(e, z_ref, q0)
-        dz = Z[-1] - Z[0]
-        turns = dz[2::3] / TWO_PI
-        w = np.round(turns)
-        if self.gears:  # a symmetric gear may turn N1/N2 times per input turn (gears.py)
-            w = np.where(symmetric_gears(self) & (np.abs(turns - w) > 1e-9), turns, w)
-        pos_err = np.max(np.abs(np.delete(dz, np.s_[2::3]))) / self.L if self.n else 0.0
-        ang_err = np.max(np.abs(dz[2::3] - TWO_PI * w))
-        if (pos_err > 1e-7 or ang_err > 1e-7) and any(g.type == "rack" for g in p.gears):
+        rack = any(g.type == "rack" for g in p.gears)
+        for turns in range(1, MAX_TURNS + 1):  # the path followed by continuity closes after `turns` input turns
+            try:
+                qs, Z, V, A, changes = sysm.continuation(z_ref, q0, TWO_PI * turns, COARSE_STEPS * turns,
+                                                         cond_tol=COND_TOL, cross=True)
+            except SolveError as e:
+                self._branch_failure(e, z_ref, q0)
+            dz = Z[-1] - Z[0]
+            link_turns = dz[2::3] / TWO_PI
+            w = np.round(link_turns)
+            if self.gears:  # a symmetric gear may turn N1/N2 times per input turn (gears.py)
+                w = np.where(symmetric_gears(self) & (np.abs(link_turns - w) > 1e-9), link_turns, w)
+            pos_err = np.max(np.abs(np.delete(dz, np.s_[2::3]))) / self.L if self.n else 0.0
+            ang_err = np.max(np.abs(dz[2::3] - TWO_PI * w))
+            if pos_err <= 1e-7 and ang_err <= 1e-7:
+                break
+            if rack:
+                raise GeometryError(
+                    f"linkage {p.name!r}: after one input turn from the stated pose the linkage does not come back "
+                    f"(position gap {pos_err * self.L:.3g} m): a rack turned by a pinion that turns with the input "
+                    f"moves on for ever; drive the rack to and fro (a crank and rod) so that the machine repeats "
+                    f"every turn")
+        else:
             raise GeometryError(
-                f"linkage {p.name!r}: after one input turn from the stated pose the linkage does not come back "
-                f"(position gap {pos_err * self.L:.3g} m): a rack turned by a pinion that turns with the input moves on "
-                f"for ever; drive the rack to and fro (a crank and rod) so that the machine repeats every turn")
-        if pos_err > 1e-7 or ang_err > 1e-7:
-            raise GeometryError(
-                f"linkage {p.name!r}: after one input turn from the stated pose the linkage arrives in a different "
-                f"assembly (position gap {pos_err * self.L:.3g} m): the branch passes a branch (change) point, where "
-                f"the assembly mode can switch; check link angles and dimensions")
-        self.w = w
+                f"linkage {p.name!r}: after {MAX_TURNS} input turns from the stated pose the linkage has not returned "
+                f"to it (position gap {pos_err * self.L:.3g} m): the path followed by continuity through its change "
+                f"points ({_angles_text(changes)}) is not periodic; check link angles and dimensions")
+        self.period = TWO_PI * turns  #: the input travel after which the followed path repeats [rad]
+        self.w = w  # whole turns of every link over one period
+        self.changes = sorted(changes)  #: input angles of the change points passed over one period [rad]
         self.coarse = (qs, Z, V, A)
         self.z_ref = z_ref
+        self._bridges()
         self._tables()
         return self
 
@@ -88,13 +98,18 @@ class AssemblyMixin:
         if dof >= 2:
             null = Vt[-(dof - 1):] / sysm.col_scale[None, :]
             names = self._moving_joints(z, null)
-            raise GeometryError(f"{head}: with the input joint {p.input!r} held, joints {', '.join(names)} can still "
-                                f"move; a single-input machine needs exactly 1 (add a link or a joint, or lock the "
-                                f"extra freedom)")
+            k_in = self.jindex[p.input]
+            open_ = "" if any(p.input in self.cycle_of(k) for k in self.closures) else (
+                f" (the input joint {p.input!r} is in no closed loop: it drives only the links hanging from it)")
+            raise GeometryError(f"{head}: with the input joint {p.joints[k_in].name!r} held, joints {', '.join(names)} "
+                                f"can still move{open_}; a single-input machine needs exactly 1 (add a link or a "
+                                f"joint, or lock the extra freedom)")
         if S[-1] < COND_TOL * S[0]:
             names = self._moving_joints(z, Vt[-1:] / sysm.col_scale[None, :])
             raise GeometryError(f"linkage {p.name!r}: the stated pose (input angle {_deg(float(p.input_angle))}) is a "
-                                f"dead centre of the input: joints {', '.join(names)} can move with the input held")
+                                f"dead centre or change point of the input: joints {', '.join(names)} can move with "
+                                f"the input held, so the pose does not pick a branch; state the pose at another input "
+                                f"angle (the branch is then followed through the change point by continuity)")
 
     def _moving_joints(self, z, null):
         r = np.abs(self.joint_rates(np.repeat(z[None], len(null), 0), null))
@@ -148,10 +163,13 @@ class AssemblyMixin:
         return loops[0] if loops else [jname]
 
     def _branch_failure(self, e, z_ref, q0):
+        """The GeometryError of a branch that cannot be followed over the turn (``e``: the solver's
+        SolveError): the input angles where a loop cannot close; else where the input locks (the
+        branch ends: a dead centre) or where branches meet and none continues the velocity."""
         p, sysm = self.p, self.sys
         qf, zf = e.q, e.z
         try:
-            sysm.continuation(z_ref, q0, -TWO_PI, COARSE_STEPS, cond_tol=COND_TOL)
+            sysm.continuation(z_ref, q0, -TWO_PI, COARSE_STEPS, cond_tol=COND_TOL, cross=True)
             qb, zb = qf - TWO_PI, zf
         except SolveError as e2:
             qb, zb = e2.q, e2.z
@@ -163,15 +181,25 @@ class AssemblyMixin:
             raise GeometryError(
                 f"linkage {p.name!r}: the loop {', '.join(self._loop_names(name))} cannot close for input angles "
                 f"{_deg(lo)}..{_deg(hi)} (at {_deg(qm)} the closest assembly leaves a {gap:.4g} m gap at joint "
-                f"{name!r}); the input cannot make the full turn — a crank needs a linkage that assembles at every "
-                f"input angle (e.g. Grashof: shortest + longest ≤ sum of the other two, crank the shortest)")
+                f"{name!r}); the input locks at {_deg(lo)} and cannot make the full turn — a crank needs a linkage "
+                f"that assembles at every input angle (e.g. Grashof: shortest + longest ≤ sum of the other two, crank "
+                f"the shortest)")
         Jm = sysm.jac(zf[None])[0] * sysm.row_scale[:, None] / sysm.col_scale[None, :]
         Vt = np.linalg.svd(Jm)[2]
         names = self._moving_joints(zf, Vt[-1:] / sysm.col_scale[None, :])
+        if e.kind == "singular":
+            raise GeometryError(
+                f"linkage {p.name!r}: branches meet at input angle {_deg(qf)} (joints {', '.join(names)} can move "
+                f"with the input held) and none continues the velocity there: continuity cannot choose the branch, "
+                f"the input cannot drive the linkage through it")
         raise GeometryError(
-            f"linkage {p.name!r}: the position solve hits a dead centre or branch point at input angle {_deg(qf)} "
-            f"(the constraint Jacobian becomes singular: joints {', '.join(names)} can move with the input held); "
-            f"the input cannot drive the linkage through it")
+            f"linkage {p.name!r}: the linkage locks at input angle {_deg(qf)}: the branch ends there (a dead centre: "
+            f"joints {', '.join(names)} can move with the input held) and the input cannot drive it further")
+
+
+def _angles_text(qs):
+    """'a, b' (degrees) of input angles; 'none' if empty."""
+    return ", ".join(_deg(q) for q in qs) or "none"
 
 
 def _ranges_text(qs, mask):

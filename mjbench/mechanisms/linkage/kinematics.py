@@ -9,11 +9,19 @@ from the table (:meth:`KinematicsMixin.z_guess`).
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from ...errors import GeometryError
+from ..linkage_kin import TWO_PI
 from .topology import GROUND, _rot2
+
+BRIDGE_HALF = 0.02  #: configurations within this of a change point come from its bridge [rad]
+BRIDGE_POINTS = 6  #: exact solves on each side of a change point (the bridge's nodes)
+#: configurations solved together are chunked so that their dense Jacobians hold at most this many
+#: numbers (64 MB): a chain of 81 bars (243 coordinates) solves 142 at a time, a four-bar all at once
+EXACT_CHUNK = 1 << 23
 
 
 def _deg(q):
@@ -105,16 +113,102 @@ class KinematicsMixin:
         return out
 
     def exact(self, q, guess=None):
-        """(z, v, a) solved at input angles q (array) from guesses (default: the table)."""
+        """(z, v, a) solved at input angles q (array) from guesses (default: the table).  Within
+        BRIDGE_HALF of a change point, where the constraint Jacobian is (nearly) singular and v, a
+        are not defined by it alone, from the change point's bridge (:meth:`_bridge_eval`)."""
         q = np.atleast_1d(np.asarray(q, float))
+        near = self._near_change(q)
+        if near is not None:
+            z, v, a = (np.empty((len(q), 3 * self.n)) for _ in range(3))
+            far = near < 0
+            if far.any():
+                z[far], v[far], a[far] = self.exact(q[far], None if guess is None else np.atleast_2d(guess)[far])
+            for b in np.unique(near[~far]):
+                sel = near == b
+                z[sel], v[sel], a[sel] = self._bridge_eval(b, q[sel])
+            return z, v, a
         z0 = self.z_guess(q) if guess is None else np.atleast_2d(guess)
+        chunk = max(1, EXACT_CHUNK // (3 * self.n) ** 2)
+        if len(q) > chunk:  # a large linkage: bounded memory (the same result, configuration by configuration)
+            parts = [self.exact(q[i:i + chunk], z0[i:i + chunk]) for i in range(0, len(q), chunk)]
+            return tuple(np.concatenate(x) for x in zip(*parts))
         z, ok = self.sys.newton(z0, q)
         if not ok.all():
             bad = q[~ok][0]
             raise GeometryError(f"linkage {self.p.name!r}: the position solve does not converge at input angle "
                                 f"{_deg(bad)} (q = {bad:.6g} rad)")
+        if getattr(self, "changes", None):
+            z = self._polish(z, q)
         v, a = self.sys.kinematics(z)
         return z, v, a
+
+    def _polish(self, z, q):
+        """One more Newton step after convergence: near a change point the Jacobian's conditioning
+        (σ_min ∝ distance) turns the solve's tolerance into a position error; this takes the
+        residual to rounding."""
+        F = self.sys.phi(z, q)
+        return z + self.sys._solve(self.sys.jac(z), -F)
+
+    # ------------------------------------------------------------------ change points
+    def _offset(self, q, qc):
+        """q − qc reduced into [−period/2, period/2), and the whole periods removed."""
+        P = self.period
+        d = q - qc
+        k = np.floor(d / P + 0.5)
+        return d - k * P, k
+
+    def _near_change(self, q, within=None):
+        """Index of the change point whose bridge covers each q (−1: none), or None if no q is near one
+        (``within``: closer than that [rad] instead of the bridge's half-width)."""
+        if not getattr(self, "bridges", None):
+            return None
+        near = np.full(len(q), -1)
+        for b, br in enumerate(self.bridges):
+            near[np.abs(self._offset(q, br.q)[0]) < (br.half if within is None else within)] = b
+        return near if (near >= 0).any() else None
+
+    def _bridges(self):
+        """For every change point q*: exact (z, v, a) at q* ± BRIDGE_HALF·k, k = 1…BRIDGE_POINTS, on the
+        followed branch (Newton from the coarse branch, far enough from q* to be well conditioned);
+        inside ±BRIDGE_HALF, configurations are their Lagrange interpolant (:meth:`_bridge_eval`):
+        the branch is analytic through q*, where the solve alone is singular.  Half-width reduced
+        when change points are closer than 14·BRIDGE_HALF."""
+        self.bridges = []
+        qs = self.changes
+        if not qs:
+            return
+        P = self.period
+        gaps = np.diff(np.append(qs, qs[0] + P))
+        half = min(BRIDGE_HALF, float(np.min(gaps)) / (2 * BRIDGE_POINTS + 2))
+        k = np.arange(1, BRIDGE_POINTS + 1, dtype=float)
+        offs = half * np.concatenate([-k[::-1], k])
+        for qc in qs:
+            qq = qc + offs
+            z, ok = self.sys.newton(self._wrapped_guess(qq), qq)
+            z = self._polish(z, qq)
+            if not ok.all():
+                raise GeometryError(f"linkage {self.p.name!r}: the position solve does not converge next to the change "
+                                    f"point at input angle {_deg(qc)} (q = {qq[~ok][0]:.6g} rad)")
+            v, a = self.sys.kinematics(z)
+            self.bridges.append(_Bridge(float(qc), half, offs, z, v, a, _bary_weights(offs)))
+
+    def _bridge_eval(self, b, q):
+        """(z, v, a) at input angles q (within the half-width of change point b) from its bridge."""
+        br = self.bridges[b]
+        t, k = self._offset(q, br.q)
+        L = _lagrange(br.offs, br.weights, t)  # (B, points)
+        z, v, a = L @ br.z, L @ br.v, L @ br.a
+        z[:, 2::3] += (TWO_PI * self.w)[None, :] * k[:, None]
+        return z, v, a
+
+    def _wrapped_guess(self, q):
+        """Configurations (B, 3n) at any input angles from the coarse branch (whole periods added)."""
+        P = self.period
+        u = q - self.q0
+        k = np.floor(u / P)
+        z = self._coarse_guess(u - k * P)
+        z[:, 2::3] += (TWO_PI * self.w)[None, :] * k[:, None]
+        return z
 
     def _coarse_guess(self, u):
         qs, Z, V, _ = self.coarse
@@ -129,5 +223,29 @@ class KinematicsMixin:
         """Configurations (B, 3n) interpolated from the table (add the windings)."""
         q = np.atleast_1d(np.asarray(q, float))
         zp = self.table(q)[:, self.nch:]
-        zp[:, 2::3] += self.w[None, :] * (q - self.q0)[:, None]
+        zp[:, 2::3] += self.wrate[None, :] * (q - self.q0)[:, None]
         return zp
+
+    @property
+    def wrate(self):
+        """Mean rate of every link angle along the followed path (whole turns per period) [rad/rad]."""
+        return self.w * (TWO_PI / self.period)
+
+
+#: a change point's bridge: q* [rad], half-width [rad], stencil offsets (2k,), (z, v, a) there, weights
+_Bridge = namedtuple("_Bridge", "q half offs z v a weights")
+
+
+def _bary_weights(x):
+    """Barycentric weights of Lagrange interpolation on the nodes x."""
+    d = x[:, None] - x[None, :]
+    np.fill_diagonal(d, 1.0)
+    return 1.0 / np.prod(d, axis=1)
+
+
+def _lagrange(x, w, t):
+    """Lagrange basis (B, nodes) at the points t (none of them a node: the bridge nodes lie outside
+    its half-width)."""
+    d = np.asarray(t, float)[:, None] - x[None, :]
+    c = w[None, :] / d
+    return c / c.sum(axis=1, keepdims=True)

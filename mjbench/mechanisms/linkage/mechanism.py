@@ -37,6 +37,8 @@ class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, GearsMixin, M
         self.name = params.name
         self.input_joint = params.input
         self.c = c = compiled(params)
+        #: the input travel after which the followed path repeats (2π; a multiple through change points)
+        self.reduced_period = c.period
         self.table_info = dict(c.table_info)
         t = c.table
         self._tab3, self._tab1, self._tab = t.scalar3, t.scalar, t
@@ -77,7 +79,7 @@ class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, GearsMixin, M
         return stroke_table(ld, float(s.min()), float(s.max()))
 
     def load_coordinate(self, k: int, n: int = 2048):
-        """The coordinate s = P·d [m] of point load k over one turn (n input angles)."""
+        """The coordinate s = P·d [m] of point load k over one period (n input angles)."""
         return self._tab(self.input_positions(n)[0], [5 + 2 * k])[..., 0]
 
     def load_names(self) -> list[str]:
@@ -177,8 +179,13 @@ class Linkage(AnalysisViewMixin, MjSpecMixin, MultibodyLoadsMixin, GearsMixin, M
         return self
 
     def input_positions(self, n: int):
-        """n input angles over one turn from the stated pose's input angle."""
-        return self.c.q0 + 2.0 * np.pi * np.arange(n) / n, "rad"
+        """n input angles over one period from the stated pose's input angle (one turn; the turns
+        after which a path through change points repeats)."""
+        return self.c.q0 + self.c.period * np.arange(n) / n, "rad"
+
+    def change_points(self) -> tuple:
+        """Input angles [rad] in [q0, q0 + period) where the followed branch passes a change point."""
+        return tuple(self.c.changes)
 
     def _tree_values(self, z, v=None):
         """Joint values (and rates per unit q if v) of the tree joints from body coordinates."""

@@ -221,8 +221,8 @@ class MjSpecMixin:
                           rgba=rgba, contype=0, conaffinity=0, mass=0)
 
     def _drawing_z(self, n: int):
-        """Configurations (B, 3n) spanning the motion, for display sizes: one input turn in n steps."""
-        return self.c.z_guess(self.c.q0 + TWO_PI * np.arange(n) / n)
+        """Configurations (B, 3n) spanning the motion, for display sizes: one period in n steps."""
+        return self.c.z_guess(self.c.q0 + self.c.period * np.arange(n) / n)
 
     def _extent(self):
         """Largest span of the drawing over one turn [m] (display sizes)."""
@@ -232,7 +232,7 @@ class MjSpecMixin:
         return max(float(np.ptp(xs)), float(np.ptp(ys)), 1e-3)
 
     def _slide_ranges(self):
-        """Travel (min, max) of every ground prismatic joint over one turn [m]."""
+        """Travel (min, max) of every ground prismatic joint over one period [m]."""
         d = self.c.slide_positions(self._drawing_z(720))
         return {k: (float(np.nanmin(d[:, k])), float(np.nanmax(d[:, k]))) for k in range(d.shape[1])
                 if not np.isnan(d[0, k])}

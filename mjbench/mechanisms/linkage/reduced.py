@@ -12,12 +12,18 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import GeometryError
-from ..linkage_kin import TWO_PI, PeriodicTable
+from ..linkage_kin import PeriodicTable
+from ..table import DJ_FLOOR
 from .assembly import COND_TOL
-from .kinematics import _deg
+from .kinematics import _bary_weights, _deg, _lagrange
 
 TABLE_NODES = (2048, 4096, 8192, 16384)  #: grid sizes tried until the table is accurate enough
 TABLE_TARGET = 1e-10  #: target relative interpolation error of J, J', E_p' (max over a turn / max |·|)
+NEAR_CHANGE = 0.1  #: midpoints within this of a change point are reported apart from the table's error [rad]
+#: the table's nodes are checked for a dead centre by the SVD of their Jacobians, every node while the
+#: work stays within that of 2048 nodes of 60 coordinates (20 links); a larger linkage every k-th node
+#: (the continuation has already checked the conditioning along the branch, step by step)
+SVD_BUDGET = 2048 * 60 ** 3
 
 
 class ReducedMixin:
@@ -65,35 +71,67 @@ class ReducedMixin:
 
     def _tables(self):
         p, sysm = self.p, self.sys
-        q0 = self.q0
+        q0, P = self.q0, self.period
         nch = 5 + 2 * len(self.loads)
         self.nch = nch
         info = {}
         sizes = [int(p.table_nodes)] if p.table_nodes else list(TABLE_NODES)
         for N in sizes:
-            u = TWO_PI * np.arange(N) / N
+            u = P * np.arange(N) / N
             z, v, a = self.exact(q0 + u, self._coarse_guess(u))
-            sv = sysm.singular_values(z)
+            bridged = self._near_change(q0 + u)
+            solved = np.ones(N, bool) if bridged is None else bridged < 0  # (a bridge's nodes are singular by design)
+            stride = max(1, -(-N * sysm.nz ** 3 // SVD_BUDGET))
+            solved[np.arange(N) % stride != 0] = False
+            sv = sysm.singular_values(z[solved])
             bad = sv[:, -1] < COND_TOL * sv[:, 0]
             if bad.any():
-                qf = q0 + u[np.argmax(bad)]
+                qf = (q0 + u[solved])[np.argmax(bad)]
                 raise GeometryError(f"linkage {p.name!r}: dead centre at input angle {_deg(qf)} (the constraint "
                                     f"Jacobian is singular there); the input cannot drive the linkage through it")
             ch = self.channels(z, v, a)
             zp = z.copy()
-            zp[:, 2::3] -= self.w[None, :] * u[:, None]
-            table = PeriodicTable(q0, np.hstack([ch, zp]))
-            um = u + 0.5 * TWO_PI / N
+            zp[:, 2::3] -= self.wrate[None, :] * u[:, None]
+            table = PeriodicTable(q0, np.hstack([ch, zp]), period=P)
+            um = u + 0.5 * P / N
             zm, vm, am = self.exact(q0 + um, self._coarse_guess(um))
             exact = self.channels(zm, vm, am)
             est = table(q0 + um)[:, :nch]
             scale = np.max(np.abs(exact), axis=0)
-            scale[1:3] = np.maximum(scale[1:3], 1e-9 * max(scale[0], 1e-300))
-            rel = np.max(np.abs(est - exact), axis=0) / np.where(scale > 0, scale, 1.0)
+            # J' against J per radian where J hardly varies (a parallelogram: J' ≡ 0 but for rounding;
+            # the backend's table judges it the same way, mechanisms/table.py)
+            scale[1] = max(scale[1], DJ_FLOOR * scale[0], 1e-300)
+            scale[2] = max(scale[2], 1e-9 * max(scale[0], 1e-300))
+            err = np.abs(est - exact) / np.where(scale > 0, scale, 1.0)[None, :]
+            # the solve's conditioning near a change point (σ_min ∝ distance) limits the exact values
+            # there, not the table: those midpoints are reported apart (rel_error_near_change_points)
+            nearby = self._near_change(q0 + um, NEAR_CHANGE)
+            away = slice(None) if nearby is None else nearby < 0
+            rel = np.max(err[away], axis=0)
             info = {"nodes": N, "rel_error_J": float(rel[0]), "rel_error_dJ": float(rel[1]),
                     "rel_error_dEp": float(rel[2]), "rel_error_Ep": float(rel[3]),
                     "min_sigma_ratio": float(np.min(sv[:, -1] / sv[:, 0]))}
+            if self.changes:
+                info.update(period_rad=float(P), change_points_rad=[float(x) for x in self.changes],
+                            rel_error_near_change_points=float(np.max(err[~away][:, :3])),
+                            bridge_rel_error=self._bridge_error(scale))
             self.table = table
             if max(rel[:3]) <= TABLE_TARGET:
                 break
         self.table_info = info
+
+    def _bridge_error(self, scale):
+        """Estimated error of the change points' bridges: the channels J, J', E_p' at q* and q* ± half/2
+        from the whole stencil against the stencil without its outermost nodes, relative to their
+        largest value over the period (the larger of the two interpolants' difference)."""
+        worst = 0.0
+        for br in self.bridges:
+            q = br.q + br.half * np.array([-0.5, 0.0, 0.5])
+            t = self._offset(q, br.q)[0]
+            L = _lagrange(br.offs, br.weights, t)
+            full = self.channels(L @ br.z, L @ br.v, L @ br.a)
+            inner = br.offs[1:-1]
+            L2 = _lagrange(inner, _bary_weights(inner), t)
+            short = self.channels(*(L2 @ x[1:-1] for x in (br.z, br.v, br.a)))
+            worst = max(worst, float(np.max(np.abs(full - short)[:, :3] / np.where(scale[:3] > 0, scale[:3], 1.0))))
+        return worst

@@ -2,7 +2,8 @@
 
 :func:`topology_problems` lists what is wrong with a description before anything is solved
 (unknown links and points, duplicate or self joints, zero-length links, the input joint, links
-not connected to the frame, an input joint in no loop), each message naming the element.
+not connected to the frame), each message naming the element.  An input joint in no loop (a
+pendulum) is an open chain; its mobility is counted at assembly (:mod:`.assembly`).
 
 :class:`TreeMixin` (part of the compiled description, :mod:`.model`) chooses the kinematic tree of
 the MJCF — Kruskal over the joints: the input joint, then prismatic joints, then revolute joints
@@ -38,8 +39,8 @@ def _rot2(th):
 # ============================================================================ structural checks
 def topology_problems(p: LinkageParams, extra_edges=()) -> list:
     """Structural problems of a description (unknown links/points, duplicates, zero-length links,
-    input joint, connectivity, input not in a loop), each naming the element.  ``extra_edges``:
-    further (name, link 1, link 2, kind) edges of the graph (gear pairs couple their links)."""
+    input joint, connectivity), each naming the element.  ``extra_edges``: further (name, link 1,
+    link 2, kind) edges of the graph (gear pairs couple their links)."""
     out = []
     edges = _reference_problems(p, out)
     out += _zero_length_links(p)
@@ -63,11 +64,8 @@ def topology_problems(p: LinkageParams, extra_edges=()) -> list:
     lost = sorted(set(p.links) - _reachable(adj, GROUND))
     if lost:
         return [f"links {', '.join(lost)}: not connected to the ground through joints"]
-    # the input joint must be in a closed loop (not a bridge of the joint graph)
-    a, b = _ref(jin.at[0])[0], _ref(jin.at[1])[0]
-    if b not in _reachable(adj, a, skip=jin.name):
-        out.append(f"input = {p.input!r}: the input joint is not in a closed loop (nothing but this joint "
-                   f"connects {b if a == GROUND else a!r} to the ground), so it drives no linkage")
+    # an input joint in no closed loop (a pendulum: one link on a ground pivot) is an open chain: it
+    # is valid when the mobility is 1 (counted at assembly, where extra freedoms are named)
     return out
 
 
