@@ -126,6 +126,14 @@ class PlanarSystem:
         rs.append(1.0)
         self.row_scale = np.array(rs)
         self.col_scale = np.tile([1.0 / self.L, 1.0 / self.L, 1.0], n)
+        # the revolute joints, for Φ and Φ_z of all of them at once (body −1, the ground, is the
+        # last column of :meth:`_frames`): joint rows, bodies, points, points turned by 90°
+        rev = [(k, jt) for k, jt in enumerate(self.joints) if jt.kind == "R"]
+        self._rk = np.array([k for k, _ in rev], dtype=int)
+        self._ri = np.array([jt.i for _, jt in rev], dtype=int)
+        self._rj = np.array([jt.j for _, jt in rev], dtype=int)
+        self._rsi = np.array([jt.si for _, jt in rev], dtype=float).reshape(-1, 2)
+        self._rsj = np.array([jt.sj for _, jt in rev], dtype=float).reshape(-1, 2)
 
     @property
     def m(self):
@@ -166,17 +174,35 @@ class PlanarSystem:
         return a[:, 3 * b:3 * b + 2] + _apply(c, s, Sp) * al[:, None] - _apply(c, s, p) * (w * w)[:, None]
 
     # -------------------------------------------------------------- equations
+    def _frames(self, z):
+        """(x, y, cos θ, sin θ) of every body, (B, nbody + 1) each, the ground last (0, 0, 1, 0):
+        the same operations as :meth:`_body`, body by body."""
+        B = z.shape[0]
+        x, y, c, s = (np.empty((B, self.nbody + 1)) for _ in range(4))
+        for b in range(self.nbody):
+            c[:, b], s[:, b] = _rot(z[:, 3 * b + 2])
+        x[:, :-1], y[:, :-1] = z[:, 0::3], z[:, 1::3]
+        x[:, -1], y[:, -1], c[:, -1], s[:, -1] = 0.0, 0.0, 1.0, 0.0
+        return x, y, c, s
+
     def phi(self, z, q):
         """Φ(z, q), (B, m)."""
         z = np.atleast_2d(z)
         B = z.shape[0]
         out = np.empty((B, self.m))
+        if len(self._rk):  # revolute joints: P_i − P_j, all at once (as :meth:`point` computes them)
+            x, y, c, s = self._frames(z)
+            i, j, si, sj = self._ri, self._rj, self._rsi, self._rsj
+            out[:, 2 * self._rk] = ((x[:, i] + (c[:, i] * si[:, 0] - s[:, i] * si[:, 1]))
+                                    - (x[:, j] + (c[:, j] * sj[:, 0] - s[:, j] * sj[:, 1])))
+            out[:, 2 * self._rk + 1] = ((y[:, i] + (s[:, i] * si[:, 0] + c[:, i] * si[:, 1]))
+                                        - (y[:, j] + (s[:, j] * sj[:, 0] + c[:, j] * sj[:, 1])))
         for k, jt in enumerate(self.joints):
-            Pi = self.point(z, jt.i, jt.si)
-            Pj = self.point(z, jt.j, jt.sj)
             if jt.kind == "R":
-                out[:, 2 * k:2 * k + 2] = Pi - Pj
+                continue
             else:
+                Pi = self.point(z, jt.i, jt.si)
+                Pj = self.point(z, jt.j, jt.sj)
                 _, thi, ci, si_ = self._body(z, jt.i)
                 _, thj, _, _ = self._body(z, jt.j)
                 n = _apply(ci, si_, np.array([-jt.u[1], jt.u[0]]))
@@ -193,19 +219,21 @@ class PlanarSystem:
         z = np.atleast_2d(z)
         B = z.shape[0]
         Jm = np.zeros((B, self.m, self.nz))
-        eye = np.eye(2)
+        if len(self._rk):  # revolute joints, all at once: ±I on the positions, ±A(θ)·S·s on the angle
+            _, _, c, s = self._frames(z)
+            for bod, pt, sign in ((self._ri, self._rsi, 1.0), (self._rj, self._rsj, -1.0)):
+                on = bod >= 0
+                b, r0, p0, p1 = bod[on], 2 * self._rk[on], -pt[on, 1], pt[on, 0]  # S·s = (−s_y, s_x)
+                Jm[:, r0, 3 * b] = sign
+                Jm[:, r0 + 1, 3 * b + 1] = sign
+                ax, ay = c[:, b] * p0 - s[:, b] * p1, s[:, b] * p0 + c[:, b] * p1
+                Jm[:, r0, 3 * b + 2] = ax if sign > 0 else -ax
+                Jm[:, r0 + 1, 3 * b + 2] = ay if sign > 0 else -ay
         for k, jt in enumerate(self.joints):
             r0 = 2 * k
             i, j = jt.i, jt.j
             if jt.kind == "R":
-                if i >= 0:
-                    _, _, c, s = self._body(z, i)
-                    Jm[:, r0:r0 + 2, 3 * i:3 * i + 2] = eye
-                    Jm[:, r0:r0 + 2, 3 * i + 2] = _apply(c, s, np.array([-jt.si[1], jt.si[0]]))
-                if j >= 0:
-                    _, _, c, s = self._body(z, j)
-                    Jm[:, r0:r0 + 2, 3 * j:3 * j + 2] = -eye
-                    Jm[:, r0:r0 + 2, 3 * j + 2] = -_apply(c, s, np.array([-jt.sj[1], jt.sj[0]]))
+                continue
             else:
                 _, _, ci, si_ = self._body(z, i)
                 n = _apply(ci, si_, np.array([-jt.u[1], jt.u[0]]))
@@ -398,8 +426,10 @@ class PlanarSystem:
 
         ``cross=True``: a singular configuration where branches meet (a change point: a
         parallelogram's flat positions) is located and crossed by continuity of velocity
-        (:meth:`_cross`); its input angle is listed in the change points.  Raises SolveError where
-        the branch ends (the input locks) or where no branch continues the velocity."""
+        (:meth:`_cross`); its input angle is listed in the change points.  A step that lands next
+        to one (κ < CHANGE_KAPPA) is not taken (its v, a come from a nearly singular solve): the
+        crossing starts from the points before it.  Raises SolveError where the branch ends (the
+        input locks) or where no branch continues the velocity."""
         qs = q0 + span * np.arange(n + 1) / n
         Z = np.empty((n + 1, self.nz))
         V = np.empty_like(Z)
