@@ -78,7 +78,9 @@ def corpus():
             if f.name == Path(__file__).name:  # (this file's own examples of what pint alone reads)
                 continue
             for m in QUOTED.finditer(f.read_text(encoding="utf-8")):
-                if "(" in m.group(1):  # a table cell such as "+3 (3 %)": prose, never a parameter's value
+                if any(c in m.group(1) for c in "(@"):  # "+3 (3 %)", "180.0° @ 0.1667 s": prose, never a value
+                    continue
+                if "°" in m.group(1):  # pint's preprocessor reads the degree sign: such a value takes pint's path
                     continue
                 found.setdefault(m.group(1).strip(), f.relative_to(ROOT).as_posix())
     return found
