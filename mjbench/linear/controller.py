@@ -7,6 +7,7 @@ import numpy as np
 from ..errors import ParameterError
 from .point import OperatingPoint
 from .signals import FD_Q, LAW_INPUTS, REF_INPUTS, REF_OUTPUTS, _ct
+from ..control import passthrough_reference, setpoint_reference  # noqa: F401 - (re-exported by mjbench.linear)
 from ..kernel import control_every
 
 
@@ -28,28 +29,6 @@ def reference_gain(ctrl, q) -> float:
         return 0.0
     e = FD_Q
     return (float(ref.crank_speed(q + e)) - float(ref.crank_speed(q - e))) / (2 * e)
-
-
-def setpoint_reference(T):
-    """A time-based reference as a DT system at period T (constant speed, motion law): q_ref =
-    q_set + Σ T·qd_set (exactly ω0·t for a step), q̇_ref = qd_set, q̈_ref = 0 (a set-point step is
-    not differentiated).  Inputs q_set, qd_set, q, qd → q_ref, qd_ref, qdd_ref."""
-    ct = _ct()
-    A = np.array([[1.0]])
-    B = np.array([[0.0, T, 0.0, 0.0]])
-    C = np.array([[1.0], [0.0], [0.0]])
-    D = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
-    return ct.ss(A, B, C, D, T, inputs=list(REF_INPUTS), outputs=list(REF_OUTPUTS), states=["qref_int"],
-                 name="reference")
-
-
-def passthrough_reference(T):
-    """The set-points themselves (a controller with its own set-point, e.g. SMC's ω_d): q_ref =
-    q_set, q̇_ref = qd_set, q̈_ref = 0."""
-    ct = _ct()
-    return ct.ss(np.zeros((0, 0)), np.zeros((0, 4)), np.zeros((3, 0)),
-                 [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 0, 0]], T, inputs=list(REF_INPUTS),
-                 outputs=list(REF_OUTPUTS), name="reference")
 
 
 def pid_law(kp, ki, kd, z, T, h):

@@ -2,7 +2,10 @@
 inputs and outputs of plant, controller and reference counterparts); python-control on demand."""
 from __future__ import annotations
 
-
+# one definition each, re-exported here: the inputs of a control law's counterpart (the reference's
+# outputs, then the measurements) are mjbench.linearise's; a reference counterpart's are mjbench.control's
+from ..control import REF_INPUTS, REF_OUTPUTS  # noqa: F401 - (re-exported)
+from ..linearise import LAW_INPUTS  # noqa: F401 - (re-exported)
 
 
 FD_Q = 1e-6  #: [rad] central-difference step for second derivatives in q
@@ -27,14 +30,3 @@ def _ct():
 
 def _sgn(v):
     return 1.0 if v > 0 else (-1.0 if v < 0 else 0.0)
-
-
-#: inputs of a control law's counterpart (the reference's outputs, then the measurements)
-LAW_INPUTS = ("q_ref", "qd_ref", "qdd_ref", "q", "qd", "qd_prev", "I")
-
-
-#: inputs and outputs of a reference's counterpart
-REF_INPUTS = ("q_set", "qd_set", "q", "qd")
-
-
-REF_OUTPUTS = ("q_ref", "qd_ref", "qdd_ref")

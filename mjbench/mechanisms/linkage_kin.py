@@ -334,10 +334,14 @@ class PlanarSystem:
         """Largest scaled residual |Φ| per configuration (lengths / L), (B,)."""
         return np.max(np.abs(self.phi(z, q) * self.row_scale[None, :]), axis=1)
 
+    def _q(self, q, B):
+        """The input q for a batch of B configurations: (B,) (several inputs: (B, n), their class)."""
+        return np.broadcast_to(np.asarray(q, dtype=float), (B,))
+
     def newton(self, z, q, tol=1e-13, maxit=12):
         """Newton on Φ(z, q) = 0 for a batch; returns (z, converged (B,) bool)."""
         z = np.array(np.atleast_2d(z), dtype=float)
-        q = np.broadcast_to(np.asarray(q, dtype=float), (z.shape[0],))
+        q = self._q(q, z.shape[0])
         ok = np.zeros(z.shape[0], dtype=bool)
         for _ in range(maxit):
             F = self.phi(z, q)

@@ -94,28 +94,6 @@ class MultiPlanarSystem(PlanarSystem):
     def velocity(self, z):  # the first input's column (what PlanarSystem's callers expect)
         return self.vmatrix(z)[:, :, 0]
 
-    def newton(self, z, q, tol=1e-13, maxit=12):
-        z = np.array(np.atleast_2d(z), dtype=float)
-        q = self._q(q, z.shape[0])
-        ok = np.zeros(z.shape[0], dtype=bool)
-        for _ in range(maxit):
-            F = self.phi(z, q)
-            err = np.max(np.abs(F * self.row_scale[None, :]), axis=1)
-            ok = np.isfinite(err) & (err < tol)
-            if ok.all():
-                break
-            idx = np.flatnonzero(~ok)
-            with np.errstate(all="ignore"):
-                try:
-                    dz = self._solve(self.jac(z[idx]), -F[idx])
-                except np.linalg.LinAlgError:
-                    return z, ok
-            z[idx] += dz
-        else:
-            err = self.residual_norm(z, q)
-            ok = np.isfinite(err) & (err < tol)
-        return z, ok
-
     def move(self, z, q0, q1, min_step=1e-9, max_frac=0.25):
         """Follow the assembly branch of z (assembled at inputs q0) along the straight segment to q1
         (predictor z + VΔq + ½wΔq², Newton corrector, steps halved until each converges close to
