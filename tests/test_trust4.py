@@ -253,8 +253,12 @@ def test_interrupt_while_mujoco_is_imported_is_one_line(tmp_path, module, sig, c
     """Ctrl-C in the first ~0.4 s (MuJoCo, NumPy being imported) was a KeyboardInterrupt traceback:
     the handlers are now installed before any heavy import; exit 130 (143) and one line."""
     env = {**os.environ, "MUJOCO_GL": "egl"}
+    # the child starts with SIGINT/SIGTERM at their defaults, as from a terminal: a suite started in the
+    # background (`cmd &` in a non-interactive shell) passes SIGINT ignored, which mjbench rightly keeps
     r = subprocess.run([sys.executable, "-c", INTERRUPT_DURING_IMPORT, module, sig, str(tmp_path / "o")],
-                       capture_output=True, text=True, timeout=120, env=env)
+                       capture_output=True, text=True, timeout=120, env=env,
+                       preexec_fn=lambda: (signal.signal(signal.SIGINT, signal.SIG_DFL),
+                                           signal.signal(signal.SIGTERM, signal.SIG_DFL)))
     assert r.returncode == code, r.stderr
     assert r.stderr == f"mjbench: interrupted ({sig})\n"
     assert not (tmp_path / "o").exists()
