@@ -415,14 +415,30 @@ def multi_state_size(n: int, channels: int) -> int:
     return multi_work(n) + n * n + n + channels + n * n + n
 
 
-@C.law(inline=False)
+@C.law
 def multi_accel(MODEL, t, S, iy, ia, TAU, P):
     """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
-    then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias by Gaussian elimination with partial pivoting."""
+    then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias: one or two inputs in closed form (Cramer's rule; the
+    matrix is symmetric positive definite, the determinant its two eigenvalues' product), more by
+    Gaussian elimination with partial pivoting."""
     n = P.n
     iw = P.iw
     MODEL(S, iy, t, P.model, S, iw)
     ib = iw + n * n
+    if n == 1:
+        S[ia] = (TAU[0] - P.c[0] * S[iy + 1] - S[ib]) / (S[iw] + P.Ja[0])
+        return
+    if n == 2:
+        a = S[iw] + P.Ja[0]
+        b = S[iw + 1]
+        c = S[iw + 2]
+        d = S[iw + 3] + P.Ja[1]
+        r0 = TAU[0] - P.c[0] * S[iy + 2] - S[ib]
+        r1 = TAU[1] - P.c[1] * S[iy + 3] - S[ib + 1]
+        det = a * d - b * c
+        S[ia] = (d * r0 - b * r1) / det
+        S[ia + 1] = (a * r1 - c * r0) / det
+        return
     iA = ib + n + P.nch
     ir = iA + n * n
     for i in range(n):
