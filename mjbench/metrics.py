@@ -150,9 +150,13 @@ def chi(t, omega, t0=None, t1=None, average="mean"):
     """χ of Eq 22 over the window [t0, t1] (defaults: whole record)."""
     sel = _window(t, t0, t1)
     w, tt = omega[sel], t[sel]
-    wmax, wmin = float(w.max()), float(w.min())
+    return _chi(float(w.max()), float(w.min()), average, lambda: time_mean(tt, w))
+
+
+def _chi(wmax: float, wmin: float, average: str, mean) -> float:
+    """(max − min)/average speed, the average ``mean()`` ("mean") or (max + min)/2 ("midrange")."""
     if average == "mean":
-        av = time_mean(tt, w)
+        av = mean()
     elif average == "midrange":
         av = 0.5 * (wmax + wmin)
     else:
@@ -345,20 +349,15 @@ def chi_of(traj, t0=None, t1=None, average="mean"):
     t0 = float(t[0]) if t0 is None else float(t0)
     t1 = float(t[-1]) if t1 is None else float(t1)
     wmax, wmin = window_extrema(traj, "motor_speed_rad_s", t0, t1)
-    if average == "mean":
+
+    def mean():
         phi = motor_angle(traj)
         if phi is None:
             sel = _window(t, t0, t1)
-            av = time_mean(t[sel], traj.omega[sel])
-        else:
-            av = (value_at(t, phi, t1) - value_at(t, phi, t0)) / (t1 - t0)
-    elif average == "midrange":
-        av = 0.5 * (wmax + wmin)
-    else:
-        raise ParameterError(f"metrics.chi_average = {average!r}: choose 'mean' or 'midrange'")
-    if av == 0:
-        raise ParameterError("χ undefined: zero average speed in the window")
-    return (wmax - wmin) / av
+            return time_mean(t[sel], traj.omega[sel])
+        return (value_at(t, phi, t1) - value_at(t, phi, t0)) / (t1 - t0)
+
+    return _chi(wmax, wmin, average, mean)
 
 
 def peak_abs(traj, column: str, t0=None, t1=None) -> float:

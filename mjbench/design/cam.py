@@ -27,7 +27,7 @@ kind, targets, achieved, constraints, info) and the cam's ``[mechanism]`` table.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -39,7 +39,7 @@ from ..errors import GeometryError, ParameterError
 from ..fields import OptQ, Q, Strict
 from ..mechanisms import from_dict
 from ..mechanisms.cam_profile import CamProgram, Follower, FollowerLoad, checks, jump_speed
-from .synthesis.common import constraint
+from .synthesis.common import Synthesis, constraint
 
 #: the base radius is rounded up to this [m] (what a drawing states) and searched to a tenth of it
 BASE_STEP = 1e-4
@@ -124,22 +124,8 @@ class CamReq(Strict):
 
 
 @dataclass
-class CamSynthesis:
+class CamSynthesis(Synthesis):
     """The designed cam (the linkage syntheses' interface, :class:`~.synthesis.common.Synthesis`)."""
-
-    kind: str
-    geometry: object
-    targets: dict
-    achieved: dict
-    constraints: list
-    info: dict = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return all(c["ok"] for c in self.constraints)
-
-    def failures(self) -> list:
-        return [c for c in self.constraints if not c["ok"]]
 
     def check(self, table) -> dict:
         """The designed cam re-checked as the mechanism mjbench builds from its table (profile checks,
