@@ -40,7 +40,7 @@ differentiated.
 (Eq 17 with the ramp and the cap: S(q), dS/dq read from the four-bar's periodic spline table of
 :func:`~mjbench.mechanisms.fourbar.coupler_speed_ratio_law`, ``FourBar.speed_ratio_table``, ≤ 1e-9
 of the peak — the closed forms cost four trigonometric calls, two atan2 and a square root per
-step —, s(q) by its :func:`~mjbench.mechanisms.fourbar.arc_length_law` on the tabulated arc
+step —, s(q) by its :func:`~mjbench.mechanisms.linkage_kin.arc_length_law` on the tabulated arc
 length); the reference
 :func:`coupler_speed_law` (state: previous time, φ_ref, q̇_trj, the derivative memory, the last
 ω̇_ref).  ``crank_speed``, ``vc_at`` and the FourBar methods run the same laws elementwise.
@@ -61,8 +61,7 @@ from pydantic import Field
 from mjbench import metrics as M
 from mjbench.compiled import law
 from mjbench.errors import ParameterError
-from mjbench.mechanisms.fourbar import arc_length_law
-from mjbench.mechanisms.linkage_kin import ptable_channel
+from mjbench.mechanisms.linkage_kin import arc_length_law, ptable_channel
 from mjbench.fields import Bool, Q, Strict
 
 from mjbench.control import REF_INPUTS, REF_OUTPUTS, Reference

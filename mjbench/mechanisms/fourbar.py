@@ -28,7 +28,7 @@ from ..fields import Q, Strict
 from . import register
 from .base import HINGE_AXIS, INPUT_JOINT, Mechanism, closure_solref, new_spec
 from .linkage_kin import _angle_ranges
-from .linkage_kin import PeriodicTable
+from .linkage_kin import ArcP, PeriodicTable, arc_length_law
 from .linkage import Linkage, LinkageParams, table_from_fourbar
 
 G = 9.81  #: gravitational acceleration [m/s²] (seed 000 Eq 3)
@@ -667,34 +667,6 @@ def coupler_speed_ratio_law(alpha, P):
     S = math.sqrt(0.0 if S2 < 0.0 else S2)
     dS2 = 2 * f * f * Q * dQ + 2 * a * f * (dQ * c - Q * s * (1.0 - Q))
     return S, dS2 / (2 * S)
-
-
-#: the coupler point's arc length over one turn for :func:`arc_length_law`: n intervals of
-#: h = 2π/n, path length L [m], s(α_i) [m] and S(α_i) = ds/dα [m/rad] at the n + 1 nodes
-ArcP = namedtuple("ArcP", "n h L s dsdq")
-
-
-@law
-def arc_length_law(alpha, P):
-    """s(α) [m] travelled since α = 0, cumulative over turns: cubic Hermite interpolation of the
-    tabulated s(α_i) with slopes S(α_i) on one turn; NaN for a non-finite angle."""
-    if not abs(alpha) < 1e15:
-        return math.nan
-    tw = 2.0 * math.pi
-    turns = math.floor(alpha / tw)
-    x = (alpha - turns * tw) / P.h
-    i = int(x)
-    if i > P.n - 1:
-        i = P.n - 1
-    if i < 0:
-        i = 0
-    u = x - i
-    h = P.h
-    u2 = u * u
-    u3 = u2 * u
-    y = ((2.0 * u3 - 3.0 * u2 + 1.0) * P.s[i] + (u3 - 2.0 * u2 + u) * h * P.dsdq[i]
-         + (3.0 * u2 - 2.0 * u3) * P.s[i + 1] + (u3 - u2) * h * P.dsdq[i + 1])
-    return y + turns * P.L
 
 
 def _each(fn, x, nout):

@@ -729,3 +729,31 @@ def _angle_ranges(alpha, mask):
         last = ranges.pop()
         ranges.append((last[0], first[1] + n))
     return [(alpha[s % n], alpha[s % n] + (e - s) * step) for s, e in ranges]
+
+
+#: the coupler point's arc length over one turn for :func:`arc_length_law`: n intervals of
+#: h = 2π/n, path length L [m], s(α_i) [m] and S(α_i) = ds/dα [m/rad] at the n + 1 nodes
+ArcP = namedtuple("ArcP", "n h L s dsdq")
+
+
+@law
+def arc_length_law(alpha, P):
+    """s(α) [m] travelled since α = 0, cumulative over turns: cubic Hermite interpolation of the
+    tabulated s(α_i) with slopes S(α_i) on one turn; NaN for a non-finite angle."""
+    if not abs(alpha) < 1e15:
+        return math.nan
+    tw = 2.0 * math.pi
+    turns = math.floor(alpha / tw)
+    x = (alpha - turns * tw) / P.h
+    i = int(x)
+    if i > P.n - 1:
+        i = P.n - 1
+    if i < 0:
+        i = 0
+    u = x - i
+    h = P.h
+    u2 = u * u
+    u3 = u2 * u
+    y = ((2.0 * u3 - 3.0 * u2 + 1.0) * P.s[i] + (u3 - 2.0 * u2 + u) * h * P.dsdq[i]
+         + (3.0 * u2 - 2.0 * u3) * P.s[i + 1] + (u3 - u2) * h * P.dsdq[i + 1])
+    return y + turns * P.L
