@@ -147,6 +147,25 @@ def test_change_points_of_a_motion_that_turns_back():
         assert abs(e["time_s"] - tt) < 1e-7, (e, tt)
 
 
+def test_sweep_rows_count_the_change_points_passed(tmp_path):
+    """Each row of a sweep over the starting speed counts its passages: at the no-load voltage of
+    each speed nothing accelerates the parallelogram (see ``constant_speed``), so a row at ω passes
+    the flat positions 180° + k·180° below 60° + ω·T — closed form floor((60° + ω·T − 180°)/180°) + 1."""
+    import mjbench
+    T = 0.5
+    speeds = [1.0 * math.pi, 3.0 * math.pi, 6.0 * math.pi]  # no-load voltages 3.8, 11.3, 22.6 V < v_max
+    ov = ["mechanism.gravity=[0.0, 0.0]", "drive.lam=0.0", f"initial.q0={Q0!r}"]
+    scn = mjbench.load(PARALLELOGRAM, ov)
+    rows = []
+    for w in speeds:  # one sweep per speed: the voltage follows the speed (no grid of pairs)
+        res = mjbench.parameter_sweep(scn, {"initial.qd0": [w], "modes.open.voltage": [K_M * Z * w]}, mode="open",
+                                      t_end=T, verify=0, out=tmp_path / f"w{len(rows)}")
+        rows += list(res.rows)
+    got = [r["change_points_passed"] for r in rows]
+    want = [math.floor((Q0 + w * T - math.pi) / math.pi) + 1 for w in speeds]
+    assert want == [0, 1, 3] and got == want, (got, want)
+
+
 # ---------------------------------------------------------------------------- the pendulum
 M_BAR, L_BAR, G = 0.5, 0.2, 9.81
 I_O = M_BAR * L_BAR ** 2 / 3.0  #: uniform bar about its end

@@ -46,7 +46,8 @@ def _run_settings(scn, t_end_fixed, backend="multibody"):
 
 
 def row_metrics(traj, st, machine=None) -> dict:
-    """A row's numeric metrics (:func:`mjbench.metrics.summary`).  Several motors: each axis's, named
+    """A row's numeric metrics (:func:`mjbench.metrics.summary`; a mechanism with change points: how
+    many its run passed, ``change_points_passed``).  Several motors: each axis's, named
     ``A:peak_current_A`` …, and the end effector's tracking of the path (``end_effector_max_error_m``,
     ``end_effector_rms_error_m``) when the machine's controllers track one."""
     if traj.axes:
@@ -64,7 +65,10 @@ def row_metrics(traj, st, machine=None) -> dict:
     drive, v_limit = st.get("duty") or (None, None)
     m = M.summary(traj, chi_window=win, average=st["chi_average"], steady_from=st.get("steady_from"),
                   band_rel=st.get("band_rel", 0.10), drive=drive, v_limit=v_limit)
-    return {k: v for k, v in m.items() if _number(v)}
+    out = {k: v for k, v in m.items() if _number(v)}
+    if machine is not None and machine.mechanism.change_points():
+        out["change_points_passed"] = len(M.change_points(machine.mechanism, traj))
+    return out
 
 
 def _number(v) -> bool:

@@ -79,7 +79,10 @@ def sweep_metrics(scn) -> dict:
                if k != "chi_window"}
         out.update(MULTI_AXIS_METRICS)
         return out
-    return {k: d for k, d in M.SUMMARY_METRICS.items() if k != "chi_window" or scn.metrics.chi_window is not None}
+    out = {k: d for k, d in M.SUMMARY_METRICS.items() if k != "chi_window" or scn.metrics.chi_window is not None}
+    out["change_points_passed"] = ("how many change points of the mechanism (branches of its assembly meeting) the run "
+                                   "passed; only for a mechanism that has any")
+    return out
 
 
 #: the machine-wide metrics of a sweep row of a machine with several motors (a path tracked)
