@@ -40,7 +40,8 @@ def jit() -> str:
     return mode
 
 
-def _positive(name: str, what: str, unset_means: str) -> float | None:
+def _number(name: str, ok, must: str, unset_means: str) -> float | None:
+    """The variable ``name`` as a number, None when unset; ParameterError unless ``ok(x)``."""
     v = _raw(name)
     if v is None:
         return None
@@ -48,9 +49,13 @@ def _positive(name: str, what: str, unset_means: str) -> float | None:
         x = float(v)
     except ValueError:
         x = math.nan
-    if not (math.isfinite(x) and x > 0):
-        raise ParameterError(f"{name} = {v!r}: must be a finite number of {what} > 0 (unset it for {unset_means})")
+    if not (math.isfinite(x) and ok(x)):
+        raise ParameterError(f"{name} = {v!r}: must be {must} (unset it for {unset_means})")
     return x
+
+
+def _positive(name: str, what: str, unset_means: str) -> float | None:
+    return _number(name, lambda x: x > 0, f"a finite number of {what} > 0", unset_means)
 
 
 def max_record_mb() -> float | None:
@@ -60,17 +65,8 @@ def max_record_mb() -> float | None:
 
 def max_sweep_rows() -> int | None:
     """``MJBENCH_MAX_SWEEP_ROWS``, None when unset."""
-    v = _raw("MJBENCH_MAX_SWEEP_ROWS")
-    if v is None:
-        return None
-    try:
-        x = float(v)
-    except ValueError:
-        x = math.nan
-    if not (math.isfinite(x) and x >= 1 and x == int(x)):
-        raise ParameterError(f"MJBENCH_MAX_SWEEP_ROWS = {v!r}: must be a whole number of rows >= 1 (unset it for "
-                             f"100,000)")
-    return int(x)
+    x = _number("MJBENCH_MAX_SWEEP_ROWS", lambda x: x >= 1 and x == int(x), "a whole number of rows >= 1", "100,000")
+    return None if x is None else int(x)
 
 
 def dask_timeout(default: float) -> float:
