@@ -333,7 +333,7 @@ def test_an_unwritable_cache_leaves_nothing_behind(tmp_path):
 
 # ============================================================================ the loop template
 def test_the_loop_template_unrolls_for_several_axes_and_controllers():
-    from mjbench.kernel import loop as LP
+    from mjbench.kernel import unroll as LP
 
     one = LP.source(1, 1)
     assert "q_0" in one and "q_1" not in one and "CTRL_0(Y" in one

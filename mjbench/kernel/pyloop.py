@@ -1,6 +1,6 @@
 """The CPython loop of a composition: the template unrolled, specialised to its constants, compiled once.
 
-CPython executes :func:`mjbench.kernel.loop.source` (the template unrolled for the machine's axes and
+CPython executes :func:`mjbench.kernel.unroll.source` (the template unrolled for the machine's axes and
 controllers) with a composition's laws, flags and layout offsets as globals.  Before it is compiled
 the source is specialised to the composition's constants, as numba does with the same source: every
 flag and offset (the integers and booleans of :attr:`Program.flags`) becomes a constant, every test
@@ -10,7 +10,7 @@ the loop gives the template's bits.
 
 The code object is kept in memory per composition's constants and in the user cache
 (:func:`mjbench.compiled.cache.store_object`, folder ``loops``), keyed by the template's text, the
-sources of this module and of :mod:`.loop` as imported, Python's version and the constants: a second
+sources of this module, of :mod:`.loop` and of :mod:`.unroll` as imported, Python's version and the constants: a second
 command neither unrolls the template nor compiles it.
 """
 from __future__ import annotations
@@ -24,6 +24,7 @@ import types
 
 from ..compiled import cache
 from . import loop as LP
+from . import unroll
 
 #: the code objects of the compositions met in this process: (axes, controllers, constants) → code
 _CODE: dict = {}
@@ -32,7 +33,7 @@ _CODE: dict = {}
 def _stamp() -> str:
     """The template's text and the two modules' files as imported (size, modification time)."""
     h = hashlib.sha256(LP.TEMPLATE.encode())
-    for f in (LP.__file__, __file__):
+    for f in (LP.__file__, unroll.__file__, __file__):
         try:
             st = os.stat(f)
             h.update(f"{os.path.basename(f)}:{st.st_size}:{st.st_mtime_ns}".encode())
@@ -63,7 +64,7 @@ def code(naxes: int, nctrl: int, flags: dict) -> types.CodeType:
         except (ValueError, EOFError, TypeError):
             c = None
         if not isinstance(c, types.CodeType) or c.co_name != "_loop":
-            src = specialise(LP.source(naxes, nctrl), dict(consts))
+            src = specialise(unroll.source(naxes, nctrl), dict(consts))
             mod = compile(src, f"<mjbench loop {naxes} axis(es), {nctrl} controller(s)>", "exec")
             c = next(x for x in mod.co_consts if isinstance(x, types.CodeType))
             cache.store_object("loops", disk, marshal.dumps(c))
