@@ -108,10 +108,10 @@ def _sample(mech, model, joints, q):
 
 
 def reduced_table(mech, model, q0: float):
-    """The reduced backend's joint table from the mechanism's kinematics (module doc) →
-    (JointsP, names, info) or (None, (), why-not); a mechanism with its own joint law
-    (``joint_write_form(model)`` → a Form whose law ``write(out, b, P, S)`` reads the plant's state
-    S = (q, q̇) and its parameters as ``P.joints``) gives that Form instead of a table."""
+    """The reduced backend's joints from the mechanism's kinematics (module doc) → (Form, names,
+    info) or (None, (), why-not): the Form's law ``write(out, b, P, S)`` reads the plant's state
+    S = (q, q̇) and the Form's parameters as ``P.joints`` — the mechanism's own joint law
+    (``joint_write_form(model)``) when it has one, else :func:`table_joints_write` on a table."""
     if mech.internal:
         return None, (), f"{type(mech).__name__} has internal coordinates: its joints depend on more than q"
     form = mech.joint_write_form(model)
@@ -159,4 +159,12 @@ def reduced_table(mech, model, q0: float):
             "source": f"{type(mech).__name__}'s own kinematics at every input angle (initial_qpos/initial_qvel)"}
     if err > TOL:
         return None, (), f"the joint table misses its tolerance {TOL:g} with {N} nodes (error {err:.3g})"
-    return JointsP(tab.P, np.ascontiguousarray(w, dtype=float), len(joints)), column_names(joints), info
+    return (C.Form(table_joints_write, JointsP(tab.P, np.ascontiguousarray(w, dtype=float), len(joints))),
+            column_names(joints), info)
+
+
+@C.law
+def table_joints_write(out, b, P, S):
+    """Every joint's coordinate and rate from the joint table at the reduced plant's state (q, q̇)
+    (:func:`table_joints`; the plant's parameters hold the table as ``P.joints``)."""
+    table_joints(out, b, S[0], S[1], P.joints)

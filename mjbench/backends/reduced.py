@@ -43,7 +43,6 @@ from ..drivetrain.gear import DEFLECTION
 from ..errors import ParameterError, SimulationDiverged
 from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
-from .joints import table_joints
 from .multibody import _extra_names
 from .table import composing
 from .joints import reduced_table
@@ -126,12 +125,11 @@ class ReducedPlant:
 
                 model = C.python_form(_closed_model(mech), "reduced.model = 'closed' (closed forms in Python)")
             self._meta_from(model)
-            own = isinstance(self._joints, C.Form)  # the mechanism's own joint law (joints.reduced_table)
-            jP = C.NO_PARAMS if self._joints is None else (self._joints.P if own else self._joints)
+            jP = C.NO_PARAMS if self._joints is None else self._joints.P  # (joints.reduced_table: a law)
             P = RigidP(self.h, self._Ja, self._c, model.P, jP)
             laws = {"read": reduced_read}
             if self._joints is not None:
-                laws["write"] = self._joints.law if own else rigid_joints_write
+                laws["write"] = self._joints.law
             return C.Form(rk4_rigid, P, np.array(self._state0()), laws=laws, flags=flags, fn_args=(model,))
         acc = mech.accel_form()
         self._meta_from(acc)
@@ -186,11 +184,9 @@ class ReducedPlant:
             for i in range(n):
                 out[b + i] = plant.x[i]
                 out[b + n + i] = plant.xd[i]
-            if isinstance(plant._joints, C.Form):
+            if plant._joints is not None:
                 plant._joints.law(out, b + 2 * n, RigidP(0.0, 0.0, 0.0, None, C.python_view(plant._joints.P)),
                                   [plant.q, plant.qd])
-            elif plant._joints is not None:
-                table_joints(out, b + 2 * n, plant.q, plant.qd, C.python_view(plant._joints))
 
         return C.python_form(step, "reduced.method = 'solve_ivp' (scipy, in Python)",
                              laws={"read": read, "write": write}, flags=flags)
@@ -286,18 +282,11 @@ def reduced_read(P, S, QO):
     QO[3] = 0.0
 
 
-@C.law
-def rigid_joints_write(out, b, P, S):
-    """Every joint's coordinate and rate from the mechanism's own kinematics at the state (q, q̇)
-    (:func:`mjbench.backends.joints.table_joints`)."""
-    table_joints(out, b, S[0], S[1], P.joints)
-
-
 _JOINT_TABLES: dict = {}
 
 
 def _joint_table(machine, h):
-    """(JointsP or None, column names, info or why not) of the machine's mechanism from its q0
+    """(the joints' write law (a Form) or None, column names, info or why not) of the machine's mechanism from its q0
     (cached by mechanism and q0)."""
 
     mech = machine.mechanism
