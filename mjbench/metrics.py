@@ -599,7 +599,8 @@ def change_points(mech, traj) -> list:
     passed, in time order: ``time_s`` (cubic Hermite interpolation of the recorded angle and
     speed), ``input_angle_rad`` (the recorded input angle there: the change point plus whole
     periods) and ``angle_deg`` (that angle reduced into [0°, 360°)); [] for a mechanism without.
-    A passage is seen between two recorded samples (a run that diverged: up to its last finite one)."""
+    A passage is seen between two recorded samples (a run that diverged: up to its last finite one);
+    a run that starts exactly on a change point passes it at its start, whichever way it moves."""
     qc = mech.change_points()
     if not qc:
         return []
@@ -611,6 +612,8 @@ def change_points(mech, traj) -> list:
     out = []
     for c in qc:
         k = np.floor((q - c) / P)
+        if len(q) > 1 and k[0] == (q[0] - c) / P and q[1] > q[0]:
+            k[0] -= 1.0  # a start exactly on a change point, moving up: passed at the start, as moving down
         for i in np.flatnonzero(k[1:] != k[:-1]):
             for j in range(int(min(k[i], k[i + 1])) + 1, int(max(k[i], k[i + 1])) + 1):
                 level = c + j * P

@@ -147,6 +147,28 @@ def test_change_points_of_a_motion_that_turns_back():
         assert abs(e["time_s"] - tt) < 1e-7, (e, tt)
 
 
+@pytest.mark.parametrize("direction", (1.0, -1.0))
+def test_a_run_starting_on_a_change_point_passes_it_at_its_start(direction):
+    """Started exactly on the flat position near 180° (the mechanism's own change point), either way
+    at 4π rad/s for 0.6 s: passed at t = 0, then the other flat position (|Δq| = its distance) and
+    the first again a turn later — three passages both ways, at the closed-form times."""
+    mech = S.make_mechanism(S.load(PARALLELOGRAM))
+    c0, c1 = (float(c) for c in mech.change_points())
+    t = np.linspace(0.0, 0.6, 601)
+    w = direction * W
+    q, qd = c1 + w * t, np.full_like(t, w)
+    tr = Trajectory(len(t), "reduced")
+    for k in range(len(t)):
+        row = tr.row()
+        row[tr.index["t_s"]], row[tr.index["crank_angle_rad"]], row[tr.index["crank_speed_rad_s"]] = t[k], q[k], qd[k]
+    tr.trim()
+    cps = M.change_points(mech, tr)
+    gap = (c1 - c0) if direction < 0 else (c0 + 2 * math.pi - c1)  # to the other flat position
+    want = [0.0, gap / W, 2 * math.pi / W]
+    assert len(cps) == 3 and cps[0]["input_angle_rad"] == c1, cps
+    assert max(abs(e["time_s"] - x) for e, x in zip(cps, want)) < 1e-12, (cps, want)
+
+
 def test_sweep_rows_count_the_change_points_passed(tmp_path):
     """Each row of a sweep over the starting speed counts its passages: at the no-load voltage of
     each speed nothing accelerates the parallelogram (see ``constant_speed``), so a row at ω passes
