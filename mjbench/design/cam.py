@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -47,6 +47,10 @@ BASE_STEP = 1e-4
 
 class CamReq(Strict):
     """``[mechanism] type = "cam"`` of a requirements file: the cam's task and its follower."""
+
+    #: the cam's process load is its follower load: no ``[[loads]]``
+    load_points: ClassVar = None
+    loads_refused: ClassVar[str] = "a cam's process load is its follower_load ([mechanism] follower_load)"
 
     type: Literal["cam"] = "cam"
     follower: Literal["translating", "oscillating"] = "translating"
@@ -121,6 +125,14 @@ class CamReq(Strict):
     @property
     def mass(self) -> float:
         return float(self.follower_mass if self.follower == "translating" else self.follower_inertia)
+
+    def synthesize(self, req) -> tuple:
+        """(CamSynthesis, ``[mechanism]`` table, geometry): :func:`synthesize`."""
+        return synthesize(req)
+
+    def requirement_rows(self, req, syn, an, syn_json, ach, row) -> list:
+        """The cam's pressure angle, curvature, spring and jump speed: :func:`requirement_rows`."""
+        return requirement_rows(req, an, ach, row)
 
 
 @dataclass

@@ -2,10 +2,8 @@
 (required vs achieved), the status and timing, the report written (:mod:`.report`)."""
 from __future__ import annotations
 
-import math
 import time
 
-from . import cam
 from . import report as RP
 from . import thermal as TH
 from .. import analyze as A
@@ -58,68 +56,9 @@ def requirements_table(req, syn, scn, cand, ach, syn_json) -> list:
     i.e. mjbench's own position solver; drive: the multibody run) and its margin."""
 
     an = A.analyze(scn, speeds=[req.duty.omega], n=720)
-    rows = _kinematic_rows(req, syn, an, syn_json)
-    if req.mechanism.type == "cam":  # a cam's pressure angle, curvature, spring, jump speed
-        rows += cam.requirement_rows(req, an, ach, _row)
+    rows = req.mechanism.requirement_rows(req, syn, an, syn_json, ach, _row)
     if ach is not None:
         rows += _drive_rows(req, cand, ach)
-    return rows
-
-
-def _kinematic_rows(req, syn, an, syn_json) -> list:
-    """The mechanism's requirements: stroke or swing and time ratio, structural error, poses
-    (mjbench analyze / the solver check), transmission angle, the synthesis's size constraints."""
-    rows = []
-    m = req.mechanism
-    src_k = "mjbench analyze (own position solver)"
-    if m.type == "slider-crank":
-        st = an["strokes_m"].get("guide")
-        rows.append(_row("stroke", m.stroke * 1e3, st * 1e3, "eq", "mm", src_k,
-                         ok=abs(st - m.stroke) <= 1e-6 * m.stroke))
-        arcs = an["stroke_arcs_deg"].get("guide")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(_row("time ratio (slow / return stroke)", m.time_ratio, Q, "eq", "1", src_k,
-                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
-    if m.type in ("crank-rocker",):
-        sw = an["swings_deg"].get("D")
-        rows.append(_row("rocker swing", math.degrees(m.swing), sw, "eq", "°", src_k,
-                         ok=sw is not None and abs(sw - math.degrees(m.swing)) <= 1e-3))
-        arcs = an["stroke_arcs_deg"].get("D")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(_row("time ratio (slow / fast swing)", m.time_ratio, Q, "eq", "1", src_k,
-                             ok=abs(Q - m.time_ratio) <= 1e-3 * m.time_ratio))
-    if m.type == "function-generator":
-        sc = syn_json.get("solver_check", {})
-        if m.max_structural_error is not None:
-            rows.append(_row("structural error (max |ψ − ψ_desired|)", math.degrees(m.max_structural_error),
-                             sc.get("structural_error_max_deg_solver"), "max", "°", "mjbench position solver, 201 points"))
-        else:
-            rows.append(_row("structural error (max |ψ − ψ_desired|)", None, sc.get("structural_error_max_deg_solver"),
-                             "info", "°", "mjbench position solver, 201 points", ok=True))
-        if m.method == "chebyshev":
-            rows.append(_row("precision points met (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
-                             "mjbench position solver"))
-    if m.type == "motion-generator":
-        sc = syn_json.get("solver_check", {})
-        rows.append(_row("poses met, position (solver)", 1e-9, sc.get("position_residual_m"), "max", "m",
-                         "mjbench position solver"))
-        rows.append(_row("poses met, angle (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
-                         "mjbench position solver"))
-    if m.type not in ("given", "cam"):  # (a cam's pressure angle: design/cam.py requirement_rows)
-        trans = an["transmission_angles_deg"]
-        if trans:
-            mu = min(v["min"] for v in trans.values())
-            if m.min_transmission is not None:
-                rows.append(_row("minimum transmission angle", math.degrees(m.min_transmission), mu, "min", "°", src_k))
-            else:
-                rows.append(_row("minimum transmission angle", None, mu, "info", "°", src_k, ok=True))
-        if syn is not None:
-            for c in syn.constraints:
-                if c["name"].startswith(("link-length", "envelope", "input crank")):
-                    rows.append(_row(c["name"], c["limit"], c["value"], {"max": "max", "min": "min"}.get(c["compare"], "true"),
-                                     c["unit"], "synthesis (closed form)", ok=c["ok"]))
     return rows
 
 

@@ -23,21 +23,17 @@ A design that meets its requirements returns status ``"ok"`` (exit 0); otherwise
 """
 from __future__ import annotations
 
-import copy
 import math
 import os
 import time
 
 import numpy as np
 
-from . import build as B
-from . import cam
 from . import control as CT
 from . import periodic as P
 from . import sizing as SZ
-from . import synthesis as S
 from . import thermal as TH
-from .requirements import Requirements, compile_function
+from .requirements import Requirements
 from .finish import _clean_metrics, _finish, _row, accept_tuned, requirements_table  # noqa: F401
 from .checks import DRIVE_FIGURES, check_row, drive_checks, sizing_common  # noqa: F401 - design.json's shared parts
 from .solver_check import solver_check
@@ -78,41 +74,9 @@ class Clock:
 
 # ============================================================================ synthesis
 def synthesize(req: Requirements):
-    """(Synthesis or None for a given mechanism, [mechanism] table, geometry or None)."""
-    m = req.mechanism
-    t = m.type
-    if t == "cam":  # a disc cam from its requirement: mjbench/design/cam.py
-        return cam.synthesize(req)
-    if t == "given":
-
-        scn = SC.load(req.path(m.scenario) if os.path.exists(req.path(m.scenario)) else m.scenario)
-        return None, copy.deepcopy(scn.raw["mechanism"]), None
-    common = dict(min_transmission=m.min_transmission, max_link_ratio=m.max_link_ratio, envelope=m.envelope)
-    if t == "slider-crank":
-        syn = S.slider_crank(m.stroke, m.time_ratio, offset=m.offset, working_direction=m.working_direction,
-                             rod_ratio=m.rod_ratio, **common)
-    elif t == "crank-rocker":
-        syn = S.crank_rocker(m.swing, m.time_ratio, rocker_length=m.rocker_length, ground_length=m.ground_length,
-                             slow_swing=m.slow_swing, rocker_mid_angle=m.rocker_mid_angle, **common)
-    elif t == "function-generator":
-        spec = S.FunctionSpec(compile_function(m.function), m.x_range[0], m.x_range[1], m.input_range,
-                              m.output_range, m.function)
-        syn = S.function_generator(spec, ground_length=m.ground_length, phi0=m.input_start, psi0=m.output_start,
-                                   method=m.method, n_points=m.points, full_rotation=m.full_rotation,
-                                   max_structural_error=m.max_structural_error, **common)
-    elif t == "motion-generator":
-        syn = S.motion_generator(m.poses, ground_pivots=m.ground_pivots, moving_pivots=m.moving_pivots,
-                                 search_box=m.search_box, n_candidates=m.candidates, **common)
-    else:  # pragma: no cover - the schema allows nothing else
-        raise ValueError(t)
-    geom = syn.geometry
-    loads = [B.load_table(ld, geom) for ld in req.loads]
-    if isinstance(geom, S.SliderCrank):
-        table = B.slidercrank_table(geom, m.mass, name=req.name, gravity=m.gravity, loads=loads)
-    else:
-        table = B.fourbar_table(geom, m.mass, name=req.name, gravity=m.gravity, loads=loads,
-                                tool_at="coupler.P" if t == "motion-generator" else "rocker.C")
-    return syn, table, geom
+    """(Synthesis or None for a given mechanism, [mechanism] table, geometry or None): the requirement
+    type's own synthesis (:meth:`~.requirements._MechBase.synthesize`, a cam's in design/cam.py)."""
+    return req.mechanism.synthesize(req)
 
 
 # ============================================================================ scenario

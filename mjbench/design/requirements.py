@@ -21,10 +21,11 @@ docs/design.md has the full reference.  Every physical value takes a unit (``"10
 from __future__ import annotations
 
 import ast
+import copy
 import math
 import os
 import tomllib
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 from pydantic import Field, ValidationError, field_validator, model_validator
@@ -35,6 +36,9 @@ from ..schema import Bool, OptQ, Q, Strict, format_errors
 from ..motionlaws import BezierLaw, PseudoPolynomialLaw
 from ..linear import parse_margin
 from ..errors import ParameterError
+from .. import scenario as SC
+from . import build as B
+from . import synthesis as S
 from .cam import CamReq
 
 Length = Q("length", plausible=False)
@@ -42,14 +46,6 @@ Angle = Q("angle")
 Point = tuple[Length, Length]
 
 #: the named points of each synthesised linkage (for [[loads]] and trace)
-POINTS = {
-    "slider-crank": ("crank.O", "crank.B", "rod.B", "rod.C", "ram.C"),
-    "crank-rocker": ("crank.A", "crank.B", "coupler.B", "coupler.C", "rocker.D", "rocker.C"),
-    "function-generator": ("crank.A", "crank.B", "coupler.B", "coupler.C", "rocker.D", "rocker.C"),
-    "motion-generator": ("crank.A", "crank.B", "coupler.B", "coupler.C", "coupler.P", "rocker.D", "rocker.C"),
-}
-
-
 def _err(msg, **ctx):
     return PydanticCustomError("mjbench_value", msg, ctx)
 
@@ -125,12 +121,63 @@ class MassModel(Strict):
 
 
 class _MechBase(Strict):
+    """A linkage synthesised from its task: what the design pipeline asks of every requirement type
+    (:meth:`synthesize`, :meth:`requirement_rows`, the load points ``load_points``)."""
+
+    #: the points a ``[[loads]]`` entry may name
+    load_points: ClassVar[tuple] = ("crank.A", "crank.B", "coupler.B", "coupler.C", "rocker.D", "rocker.C")
+    #: why the requirement takes no ``[[loads]]`` ("" when it takes them)
+    loads_refused: ClassVar[str] = ""
+    #: the four-bar's tool point (its weight, the loads' default)
+    tool_at: ClassVar[str] = "rocker.C"
+
     min_transmission: OptQ("angle", gt=0.0, lt=0.5 * math.pi) = Field(
         None, description="minimum transmission angle over the turn")
     max_link_ratio: float | None = Field(None, gt=1.0, description="longest / shortest link")
     envelope: tuple[Length, Length] | None = Field(None, description="[width, height] of the swept bounding box")
     gravity: tuple[float, float] = Field((0.0, -9.81), description="gravity in the plane [m/s²]")
     mass: MassModel = Field(default_factory=MassModel)
+
+    def _common(self) -> dict:
+        return dict(min_transmission=self.min_transmission, max_link_ratio=self.max_link_ratio, envelope=self.envelope)
+
+    def synthesis(self):
+        """The closed-form synthesis of this linkage (:mod:`mjbench.design.synthesis`)."""
+        raise NotImplementedError
+
+    def table(self, req, geom, loads) -> dict:
+        """The ``[mechanism]`` table of the synthesised geometry (:mod:`mjbench.design.build`)."""
+        return B.fourbar_table(geom, self.mass, name=req.name, gravity=self.gravity, loads=loads, tool_at=self.tool_at)
+
+    def synthesize(self, req) -> tuple:
+        """(Synthesis, ``[mechanism]`` table, geometry) of the requirement."""
+        syn = self.synthesis()
+        geom = syn.geometry
+        return syn, self.table(req, geom, [B.load_table(ld, geom) for ld in req.loads]), geom
+
+    def task_rows(self, syn, an, syn_json, row, src) -> list:
+        """The rows of this linkage's own task (stroke, swing, structural error, poses)."""
+        return []
+
+    def requirement_rows(self, req, syn, an, syn_json, ach, row) -> list:
+        """Every requirement of the mechanism with the achieved value (``an``: mjbench analyze of the
+        designed machine): its task (:meth:`task_rows`), the transmission angle, the synthesis's
+        size constraints.  ``row``: the design report's row maker."""
+        src = "mjbench analyze (own position solver)"
+        rows = self.task_rows(syn, an, syn_json, row, src)
+        trans = an["transmission_angles_deg"]
+        if trans:
+            mu = min(v["min"] for v in trans.values())
+            if self.min_transmission is not None:
+                rows.append(row("minimum transmission angle", math.degrees(self.min_transmission), mu, "min", "°", src))
+            else:
+                rows.append(row("minimum transmission angle", None, mu, "info", "°", src, ok=True))
+        if syn is not None:
+            for c in syn.constraints:
+                if c["name"].startswith(("link-length", "envelope", "input crank")):
+                    rows.append(row(c["name"], c["limit"], c["value"], {"max": "max", "min": "min"}.get(c["compare"], "true"),
+                                    c["unit"], "synthesis (closed form)", ok=c["ok"]))
+        return rows
 
 
 class SliderCrankReq(_MechBase):
@@ -150,6 +197,25 @@ class SliderCrankReq(_MechBase):
             raise _err("has zero length")
         return v
 
+    load_points: ClassVar[tuple] = ("crank.O", "crank.B", "rod.B", "rod.C", "ram.C")
+
+    def synthesis(self):
+        return S.slider_crank(self.stroke, self.time_ratio, offset=self.offset, working_direction=self.working_direction,
+                              rod_ratio=self.rod_ratio, **self._common())
+
+    def table(self, req, geom, loads) -> dict:
+        return B.slidercrank_table(geom, self.mass, name=req.name, gravity=self.gravity, loads=loads)
+
+    def task_rows(self, syn, an, syn_json, row, src) -> list:
+        st = an["strokes_m"].get("guide")
+        rows = [row("stroke", self.stroke * 1e3, st * 1e3, "eq", "mm", src, ok=abs(st - self.stroke) <= 1e-6 * self.stroke)]
+        arcs = an["stroke_arcs_deg"].get("guide")
+        if arcs:
+            Q = max(arcs.values()) / min(arcs.values())
+            rows.append(row("time ratio (slow / return stroke)", self.time_ratio, Q, "eq", "1", src,
+                            ok=abs(Q - self.time_ratio) <= 1e-3 * self.time_ratio))
+        return rows
+
 
 class CrankRockerReq(_MechBase):
     """Crank-rocker from rocker swing and time ratio."""
@@ -167,6 +233,22 @@ class CrankRockerReq(_MechBase):
         if (self.rocker_length is None) == (self.ground_length is None):
             raise _err("give exactly one of rocker_length, ground_length (the scale)")
         return self
+
+    def synthesis(self):
+        return S.crank_rocker(self.swing, self.time_ratio, rocker_length=self.rocker_length,
+                              ground_length=self.ground_length, slow_swing=self.slow_swing,
+                              rocker_mid_angle=self.rocker_mid_angle, **self._common())
+
+    def task_rows(self, syn, an, syn_json, row, src) -> list:
+        sw = an["swings_deg"].get("D")
+        rows = [row("rocker swing", math.degrees(self.swing), sw, "eq", "°", src,
+                    ok=sw is not None and abs(sw - math.degrees(self.swing)) <= 1e-3)]
+        arcs = an["stroke_arcs_deg"].get("D")
+        if arcs:
+            Q = max(arcs.values()) / min(arcs.values())
+            rows.append(row("time ratio (slow / fast swing)", self.time_ratio, Q, "eq", "1", src,
+                            ok=abs(Q - self.time_ratio) <= 1e-3 * self.time_ratio))
+        return rows
 
 
 class FunctionReq(_MechBase):
@@ -214,6 +296,27 @@ class FunctionReq(_MechBase):
             raise _err("method least-squares needs points >= 4, got {p}", p=self.points)
         return self
 
+    def synthesis(self):
+        spec = S.FunctionSpec(compile_function(self.function), self.x_range[0], self.x_range[1], self.input_range,
+                              self.output_range, self.function)
+        return S.function_generator(spec, ground_length=self.ground_length, phi0=self.input_start,
+                                    psi0=self.output_start, method=self.method, n_points=self.points,
+                                    full_rotation=self.full_rotation, max_structural_error=self.max_structural_error,
+                                    **self._common())
+
+    def task_rows(self, syn, an, syn_json, row, src) -> list:
+        sc = syn_json.get("solver_check", {})
+        what, where = "structural error (max |ψ − ψ_desired|)", "mjbench position solver, 201 points"
+        if self.max_structural_error is not None:
+            rows = [row(what, math.degrees(self.max_structural_error), sc.get("structural_error_max_deg_solver"),
+                        "max", "°", where)]
+        else:
+            rows = [row(what, None, sc.get("structural_error_max_deg_solver"), "info", "°", where, ok=True)]
+        if self.method == "chebyshev":
+            rows.append(row("precision points met (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
+                            "mjbench position solver"))
+        return rows
+
 
 class MotionReq(_MechBase):
     """Four-bar motion generator through three coupler poses."""
@@ -256,12 +359,38 @@ class MotionReq(_MechBase):
                        "three positions are then collinear and no four-bar passes them (a slider would)")
         return self
 
+    load_points: ClassVar[tuple] = ("crank.A", "crank.B", "coupler.B", "coupler.C", "coupler.P", "rocker.D", "rocker.C")
+    tool_at: ClassVar[str] = "coupler.P"
+
+    def synthesis(self):
+        return S.motion_generator(self.poses, ground_pivots=self.ground_pivots, moving_pivots=self.moving_pivots,
+                                  search_box=self.search_box, n_candidates=self.candidates, **self._common())
+
+    def task_rows(self, syn, an, syn_json, row, src) -> list:
+        sc = syn_json.get("solver_check", {})
+        return [row("poses met, position (solver)", 1e-9, sc.get("position_residual_m"), "max", "m",
+                    "mjbench position solver"),
+                row("poses met, angle (solver)", 1e-9, sc.get("angle_residual_rad"), "max", "rad",
+                    "mjbench position solver")]
+
 
 class GivenReq(Strict):
     """An existing mechanism (the ``[mechanism]`` of a scenario), re-sized."""
 
     type: Literal["given"] = "given"
     scenario: str = Field(description="built-in scenario name or TOML path (relative to the requirements file)")
+
+    load_points: ClassVar = None
+    loads_refused: ClassVar[str] = "a given mechanism keeps the loads of its scenario ([[mechanism.loads]] there)"
+
+    def synthesize(self, req) -> tuple:
+        """(None, the scenario's ``[mechanism]`` table, None): nothing to synthesise."""
+        path = req.path(self.scenario)
+        scn = SC.load(path if os.path.exists(path) else self.scenario)
+        return None, copy.deepcopy(scn.raw["mechanism"]), None
+
+    def requirement_rows(self, req, syn, an, syn_json, ach, row) -> list:
+        return []
 
 
 MECHANISMS = {c.model_fields["type"].default: c for c in (SliderCrankReq, CrankRockerReq, FunctionReq, MotionReq,
@@ -525,15 +654,14 @@ def validate(raw: dict, source: str = "") -> Requirements:
             problems.append(f"drive.catalogue: no such file {path!r} (a CSV or TOML catalogue, or 'example')")
     loads = raw.get("loads") if isinstance(raw.get("loads"), list) else []
     if typ in MECHANISMS:
-        pts = POINTS.get(typ)
+        cls = MECHANISMS[typ]
+        pts = cls.load_points
         for k, ld in enumerate(loads):
             pt = ld.get("point") if isinstance(ld, dict) else None
             if pts is not None and isinstance(pt, str) and pt not in pts:
                 problems.append(f"loads[{k}].point: {pt!r} is not a point of the {typ} ({', '.join(pts)})")
-        if typ == "given" and loads:
-            problems.append("loads: a given mechanism keeps the loads of its scenario ([[mechanism.loads]] there)")
-        if typ == "cam" and loads:
-            problems.append("loads: a cam's process load is its follower_load ([mechanism] follower_load)")
+        if cls.loads_refused and loads:
+            problems.append(f"loads: {cls.loads_refused}")
     if problems:
         name = (raw.get("design") or {}).get("name", "?") if isinstance(raw.get("design"), dict) else "?"
         where = f" ({source})" if source else ""
