@@ -124,6 +124,16 @@ def test_change_points_reported_at_the_closed_form_angles_and_times(constant_spe
         pytest.approx([e["angle_deg"] for e in r])
 
 
+def _recorded(t, q, qd) -> Trajectory:
+    """A reduced-backend record of the input angle and speed at the times t."""
+    tr = Trajectory(len(t), "reduced")
+    for k in range(len(t)):
+        row = tr.row()
+        row[tr.index["t_s"]], row[tr.index["crank_angle_rad"]], row[tr.index["crank_speed_rad_s"]] = t[k], q[k], qd[k]
+    tr.trim()
+    return tr
+
+
 def test_change_points_of_a_motion_that_turns_back():
     """The metric on a recorded motion, closed form: forward through 180°, back through it, back
     through 0° and forward through it again: each passage once, in time order, at the
@@ -132,12 +142,7 @@ def test_change_points_of_a_motion_that_turns_back():
     t = np.linspace(0.0, 2.0, 2001)
     q = Q0 + 3.0 * np.sin(math.pi * t)  # 60° → 60° + 3 rad → 60° − 3 rad → 60°
     qd = 3.0 * math.pi * np.cos(math.pi * t)
-    tr = Trajectory(len(t), "reduced")
-    for k in range(len(t)):
-        row = tr.row()
-        row[tr.index["t_s"]], row[tr.index["crank_angle_rad"]], row[tr.index["crank_speed_rad_s"]] = t[k], q[k], qd[k]
-    tr.trim()
-    cps = M.change_points(mech, tr)
+    cps = M.change_points(mech, _recorded(t, q, qd))
     s1 = math.asin((math.pi - Q0) / 3.0) / math.pi  # q = π on the way out
     s2 = 1.0 + math.asin(Q0 / 3.0) / math.pi  # q = 0 on the way back
     expect = [(180.0, s1), (180.0, 1.0 - s1), (0.0, s2), (0.0, 3.0 - s2)]
@@ -157,12 +162,7 @@ def test_a_run_starting_on_a_change_point_passes_it_at_its_start(direction):
     t = np.linspace(0.0, 0.6, 601)
     w = direction * W
     q, qd = c1 + w * t, np.full_like(t, w)
-    tr = Trajectory(len(t), "reduced")
-    for k in range(len(t)):
-        row = tr.row()
-        row[tr.index["t_s"]], row[tr.index["crank_angle_rad"]], row[tr.index["crank_speed_rad_s"]] = t[k], q[k], qd[k]
-    tr.trim()
-    cps = M.change_points(mech, tr)
+    cps = M.change_points(mech, _recorded(t, q, qd))
     gap = (c1 - c0) if direction < 0 else (c0 + 2 * math.pi - c1)  # to the other flat position
     want = [0.0, gap / W, 2 * math.pi / W]
     assert len(cps) == 3 and cps[0]["input_angle_rad"] == c1, cps

@@ -180,6 +180,15 @@ class _MechBase(Strict):
         return rows
 
 
+def _time_ratio_rows(an, joint: str, what: str, time_ratio: float, row, src) -> list:
+    """The time ratio (slower / faster arc of ``joint``'s stroke, mjbench analyze) against the required one."""
+    arcs = an["stroke_arcs_deg"].get(joint)
+    if not arcs:
+        return []
+    Q = max(arcs.values()) / min(arcs.values())
+    return [row(what, time_ratio, Q, "eq", "1", src, ok=abs(Q - time_ratio) <= 1e-3 * time_ratio)]
+
+
 class SliderCrankReq(_MechBase):
     """Offset slider-crank from stroke and time ratio."""
 
@@ -208,13 +217,8 @@ class SliderCrankReq(_MechBase):
 
     def task_rows(self, syn, an, syn_json, row, src) -> list:
         st = an["strokes_m"].get("guide")
-        rows = [row("stroke", self.stroke * 1e3, st * 1e3, "eq", "mm", src, ok=abs(st - self.stroke) <= 1e-6 * self.stroke)]
-        arcs = an["stroke_arcs_deg"].get("guide")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(row("time ratio (slow / return stroke)", self.time_ratio, Q, "eq", "1", src,
-                            ok=abs(Q - self.time_ratio) <= 1e-3 * self.time_ratio))
-        return rows
+        return [row("stroke", self.stroke * 1e3, st * 1e3, "eq", "mm", src, ok=abs(st - self.stroke) <= 1e-6 * self.stroke),
+                *_time_ratio_rows(an, "guide", "time ratio (slow / return stroke)", self.time_ratio, row, src)]
 
 
 class CrankRockerReq(_MechBase):
@@ -241,14 +245,9 @@ class CrankRockerReq(_MechBase):
 
     def task_rows(self, syn, an, syn_json, row, src) -> list:
         sw = an["swings_deg"].get("D")
-        rows = [row("rocker swing", math.degrees(self.swing), sw, "eq", "°", src,
-                    ok=sw is not None and abs(sw - math.degrees(self.swing)) <= 1e-3)]
-        arcs = an["stroke_arcs_deg"].get("D")
-        if arcs:
-            Q = max(arcs.values()) / min(arcs.values())
-            rows.append(row("time ratio (slow / fast swing)", self.time_ratio, Q, "eq", "1", src,
-                            ok=abs(Q - self.time_ratio) <= 1e-3 * self.time_ratio))
-        return rows
+        return [row("rocker swing", math.degrees(self.swing), sw, "eq", "°", src,
+                    ok=sw is not None and abs(sw - math.degrees(self.swing)) <= 1e-3),
+                *_time_ratio_rows(an, "D", "time ratio (slow / fast swing)", self.time_ratio, row, src)]
 
 
 class FunctionReq(_MechBase):
