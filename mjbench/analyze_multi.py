@@ -288,13 +288,7 @@ def workspace_grid(mech, point: str, grid: int = GRID) -> dict:
         Zp = Z[par[:, 0], par[:, 1]]
         Qp = Qn[par[:, 0], par[:, 1]]
         with np.errstate(all="ignore"):
-            V = sysm.vmatrix(Zp)
-            W = sysm.accel_terms(Zp, V, dq)
-            move = np.einsum("bzk,bk->bz", V, dq)
-            pred = Zp + move + 0.5 * W
-            Zn, ok = sysm.newton(pred, Qp + dq)
-            corr = np.max(np.abs((Zn - pred) * sysm.col_scale[None, :]), axis=1)
-            size = np.max(np.abs(move * sysm.col_scale[None, :]), axis=1)
+            Zn, ok, corr, size = sysm.predict_correct(Zp, Qp, dq)
             sign = np.linalg.slogdet(_scaled_jac(sysm, np.where(np.isfinite(Zn), Zn, 0.0)))[0]
         good = ok & (corr <= 0.1 * size + 1e-9) & (sign == sign0)
         front = []

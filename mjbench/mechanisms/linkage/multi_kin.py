@@ -122,6 +122,18 @@ class MultiPlanarSystem(PlanarSystem):
             h = min(2.0 * h, 1.0)
         return z
 
+    def predict_correct(self, Z, Q, dq):
+        """Configurations Z (B, 3n) at inputs Q moved by dq (B, n): the second-order prediction
+        (velocity matrix and acceleration terms) corrected by Newton at Q + dq → (Z, converged, the
+        correction's size, the predicted move's size), both sizes scaled per coordinate."""
+        V = self.vmatrix(Z)
+        W = self.accel_terms(Z, V, dq)
+        step = np.einsum("bzk,bk->bz", V, dq)
+        pred = Z + step + 0.5 * W
+        Zn, ok = self.newton(pred, Q + dq)
+        corr = np.max(np.abs((Zn - pred) * self.col_scale[None, :]), axis=1)
+        move = np.max(np.abs(step * self.col_scale[None, :]), axis=1)
+        return Zn, ok, corr, move
 
     def move_batch(self, Z, Q0, Q1, max_step=0.1, min_step=1e-7):
         """:meth:`move` for a batch of configurations Z (B, 3n) at inputs Q0 (B, n), all moved along
@@ -137,14 +149,7 @@ class MultiPlanarSystem(PlanarSystem):
         while s < 1.0 - 1e-15:
             h = min(h, 1.0 - s)
             Qa = Q0 + s * D
-            V = self.vmatrix(Z)
-            dq = h * D
-            W = self.accel_terms(Z, V, dq)
-            step = np.einsum("bzk,bk->bz", V, dq)
-            pred = Z + step + 0.5 * W
-            Zn, ok = self.newton(pred, Qa + dq)
-            corr = np.max(np.abs((Zn - pred) * self.col_scale[None, :]), axis=1)
-            move = np.max(np.abs(step * self.col_scale[None, :]), axis=1)
+            Zn, ok, corr, move = self.predict_correct(Z, Qa, h * D)
             good = ok & (corr <= 0.1 * move + 1e-9)
             if not good.all():
                 h *= 0.5
