@@ -257,6 +257,19 @@ class PlanarSystem:
         Jm[:, -1, 3 * self.input_body + 2] = 1.0
         return Jm
 
+    def centripetal(self, z, v, jt):
+        """(cos, sin of body i's angle, ω_i, A_i s_i ω_i² − A_j s_j ω_j² (B, 2)) of joint ``jt`` at
+        (z, v): the velocity-product term its two joint points contribute to γ."""
+        i, j = jt.i, jt.j
+        B = z.shape[0]
+        wi = v[:, 3 * i + 2] if i >= 0 else np.zeros(B)
+        wj = v[:, 3 * j + 2] if j >= 0 else np.zeros(B)
+        _, _, ci, si_ = self._body(z, i)
+        _, _, cj, sj_ = self._body(z, j)
+        Asi = _apply(ci, si_, jt.si) if i >= 0 else np.zeros((B, 2))
+        Asj = _apply(cj, sj_, jt.sj) if j >= 0 else np.zeros((B, 2))
+        return ci, si_, wi, Asi * (wi * wi)[:, None] - Asj * (wj * wj)[:, None]
+
     def gamma(self, z, v):
         """Velocity-product terms γ(z, v) of Φ_z a = γ, (B, m)."""
         z, v = np.atleast_2d(z), np.atleast_2d(v)
@@ -264,13 +277,7 @@ class PlanarSystem:
         out = np.zeros((B, self.m))
         for k, jt in enumerate(self.joints):
             i, j = jt.i, jt.j
-            wi = v[:, 3 * i + 2] if i >= 0 else np.zeros(B)
-            wj = v[:, 3 * j + 2] if j >= 0 else np.zeros(B)
-            _, _, ci, si_ = self._body(z, i)
-            _, _, cj, sj_ = self._body(z, j)
-            Asi = _apply(ci, si_, jt.si) if i >= 0 else np.zeros((B, 2))
-            Asj = _apply(cj, sj_, jt.sj) if j >= 0 else np.zeros((B, 2))
-            term = Asi * (wi * wi)[:, None] - Asj * (wj * wj)[:, None]
+            ci, si_, wi, term = self.centripetal(z, v, jt)
             if jt.kind == "R":
                 out[:, 2 * k:2 * k + 2] = term
             else:

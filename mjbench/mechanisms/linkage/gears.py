@@ -211,14 +211,7 @@ class KGear:
             return np.zeros(z.shape[0])
         jt = sysm.joints[self.jk]
         i, j = jt.i, jt.j
-        B = z.shape[0]
-        wi = v[:, 3 * i + 2] if i >= 0 else np.zeros(B)
-        wj = v[:, 3 * j + 2] if j >= 0 else np.zeros(B)
-        _, _, ci, si_ = sysm._body(z, i)
-        _, _, cj, sj_ = sysm._body(z, j)
-        Asi = _apply(ci, si_, jt.si) if i >= 0 else np.zeros((B, 2))
-        Asj = _apply(cj, sj_, jt.sj) if j >= 0 else np.zeros((B, 2))
-        term = Asi * (wi * wi)[:, None] - Asj * (wj * wj)[:, None]
+        ci, si_, wi, term = sysm.centripetal(z, v, jt)
         w = _apply(ci, si_, jt.u)
         n = np.stack([-w[:, 1], w[:, 0]], axis=-1)
         d = sysm.point(z, j, jt.sj) - sysm.point(z, i, jt.si)
