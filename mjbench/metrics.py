@@ -187,6 +187,17 @@ def last_turn(t, q):
     """(t_start, t_end) of the last crank turn of the record: the last 2π of crank travel, ending
     at the last sample (t_start interpolated; the latest instant at which the angle was 2π behind
     its final value).  None if the crank never travels 2π."""
+    found = _last_turn_sample(q)
+    if found is None:
+        return None
+    _, u, target, i = found
+    f = (target - u[i]) / (u[i + 1] - u[i]) if u[i + 1] != u[i] else 0.0
+    return float(t[i] + f * (t[i + 1] - t[i])), float(t[-1])
+
+
+def _last_turn_sample(q):
+    """(direction s = ±1, travel u = s·(q − q₀), u's value 2π before its end, the last sample i at
+    or before it) of a recorded angle, or None when it never travels 2π."""
     q = np.asarray(q, dtype=float)
     s = 1.0 if q[-1] >= q[0] else -1.0
     u = s * (q - q[0])
@@ -194,9 +205,7 @@ def last_turn(t, q):
     below = np.flatnonzero(u[:-1] <= target)
     if target < 0 or below.size == 0:
         return None
-    i = int(below[-1])
-    f = (target - u[i]) / (u[i + 1] - u[i]) if u[i + 1] != u[i] else 0.0
-    return float(t[i] + f * (t[i + 1] - t[i])), float(t[-1])
+    return s, u, target, int(below[-1])
 
 
 def chi_per_cycle(t, q, omega, average="mean"):
@@ -265,14 +274,11 @@ def cycles_of(traj):
 def last_turn_of(traj):
     """:func:`last_turn` of a run: the last 2π of crank travel to t_end, its start by Hermite
     interpolation (the latest instant the angle was 2π behind its final value)."""
-    t, q, qd = traj.t, np.asarray(traj.q, dtype=float), np.asarray(traj.qd, dtype=float)
-    s = 1.0 if q[-1] >= q[0] else -1.0
-    u = s * (q - q[0])
-    target = u[-1] - 2 * np.pi
-    below = np.flatnonzero(u[:-1] <= target)
-    if target < 0 or below.size == 0:
+    t, qd = traj.t, np.asarray(traj.qd, dtype=float)
+    found = _last_turn_sample(traj.q)
+    if found is None:
         return None
-    i = int(below[-1])
+    s, u, target, i = found
     return _hermite_cross(t, u, s * qd, i, target), float(t[-1])
 
 

@@ -55,7 +55,7 @@ from .interface.forms import (CompiledForms, SitePairsP, _closed_model, accel_ca
 from .interface.multibody import MultibodyModel
 from .interface.plane import (CLOSURE_SOLIMP, CLOSURE_TIMECONST_STEPS, HINGE_AXIS, INPUT_JOINT,  # noqa: F401
                               INTEGRATORS, PLANE_INDEX, SIDE_CAMERA, closure_solref, connect_site_pairs,
-                              integrator_enum, mj_to_plane, new_spec, plane_to_mj)
+                              integrator_enum, mj_to_plane, new_spec, plane_to_mj, set_solver_options)
 
 
 class Mechanism(ReducedDynamics, MultibodyModel, CompiledForms, Drawing, DesignAnalysis, abc.ABC):

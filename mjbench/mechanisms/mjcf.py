@@ -41,7 +41,7 @@ from ..compiled import law
 from ..errors import GeometryError, ParameterError
 from ..fields import Bool, OptQ, Strict
 from . import register
-from .base import PLANE_INDEX, Mechanism, closure_solref, integrator_enum
+from .base import PLANE_INDEX, Mechanism, closure_solref, set_solver_options
 from .linkage_kin import TWO_PI, PeriodicTable
 from .. import compiled as C
 from .linkage.view import _roots
@@ -179,12 +179,7 @@ class _Model:
 
         o = dict(options or {})
         spec = self.spec.copy()
-        opt = spec.option
-        opt.timestep = float(o.get("timestep", 1e-4))
-        opt.integrator = integrator_enum(o.get("integrator", "RK4"))
-        opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-        opt.iterations = int(o.get("iterations", 100))
-        opt.tolerance = float(o.get("tolerance", 1e-12))
+        opt = set_solver_options(spec.option, o)
         if not self.p.contacts:
             opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
         opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY

@@ -85,17 +85,26 @@ def new_spec(name, options=None, gravity=(0.0, 0.0, -9.81), offscreen=(1920, 108
     spec.modelname = name
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.autolimits = True
-    opt = spec.option
-    opt.timestep = float(o.get("timestep", 1e-4))
-    opt.integrator = integrator_enum(o.get("integrator", "RK4"))
-    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
-    opt.iterations = int(o.get("iterations", 100))
-    opt.tolerance = float(o.get("tolerance", 1e-12))
+    opt = set_solver_options(spec.option, o)
     opt.gravity = list(gravity)
     opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
     spec.visual.global_.offwidth, spec.visual.global_.offheight = offscreen
     return spec
+
+
+def set_solver_options(opt, o: dict):
+    """The step and solver options every mjbench model shares on an MjSpec's ``option``: ``timestep``
+    [s] (default 1e-4), ``integrator`` (default RK4), Newton with ``iterations`` (100) and
+    ``tolerance`` (1e-12) from ``o``; → ``opt``."""
+    import mujoco
+
+    opt.timestep = float(o.get("timestep", 1e-4))
+    opt.integrator = integrator_enum(o.get("integrator", "RK4"))
+    opt.solver = mujoco.mjtSolver.mjSOL_NEWTON
+    opt.iterations = int(o.get("iterations", 100))
+    opt.tolerance = float(o.get("tolerance", 1e-12))
+    return opt
 
 
 def connect_site_pairs(model) -> list:
