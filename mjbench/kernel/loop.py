@@ -109,11 +109,13 @@ def _loop(n0, n1, K, X):
         Tn_a = ks[ka_a + KS_TQ_MIN]
         Tnt_a = ks[ka_a + KS_TQ_T_MIN]
     n = n0
+    at_ctrl = n0 % every  # steps since the last control sample and the last record row (counters:
+    at_rec = n0 % decim  # no integer division per step)
     while n < n1:
         t = n * h
         for _a in AXES:
             qdd_a = (qd_a - qd_prev_a) * inv_h
-        if n % every == 0:
+        if at_ctrl == 0:
             # ---- sample: sensors → references → controllers → clip → delay (signals by name)
             Y[SI_T] = t
             for _a in AXES:
@@ -142,7 +144,7 @@ def _loop(n0, n1, K, X):
                     u_now_a = u_a
                     u_a = pend_a
                     pend_a = u_now_a
-        if n % decim == 0:
+        if at_rec == 0:
             # ---- divergence check, then one record row and its interval statistics
             bad = 0
             for _a in AXES:
@@ -298,6 +300,12 @@ def _loop(n0, n1, K, X):
             if tq_a < Tn_a:
                 Tn_a = tq_a
                 Tnt_a = t
+        at_ctrl += 1
+        if at_ctrl == every:
+            at_ctrl = 0
+        at_rec += 1
+        if at_rec == decim:
+            at_rec = 0
         n += 1
     ks[KS_K] = k
     for _a in AXES:
