@@ -288,7 +288,7 @@ def value_at(t, x, tt: float) -> float:
     if j < len(t) and abs(t[j] - tt) <= 1e-12 * max(1.0, abs(tt)):
         return float(x[j])
     lo = max(0, min(j - 2, len(t) - 4))
-    ts, xs = t[lo:lo + 4], x[lo:lo + 4]
+    ts, xs = t[lo:lo + 4].tolist(), x[lo:lo + 4].tolist()  # (Python floats: the same arithmetic, faster)
     v = 0.0
     for a in range(len(ts)):
         w = 1.0
@@ -314,8 +314,12 @@ def window_extrema(traj, column: str, t0=None, t1=None):
         return float(np.max(x[sel])), float(np.min(x[sel]))
     tmx, mn, tmn = (traj.stat(f"{column}:{k}") for k in ("t_max", "min", "t_min"))
     eps = 1e-12 * max(1.0, abs(t1))
-    a, b = t[:-1], t[1:]  # interval of row i ≥ 1: [t_{i-1}, t_i]
-    X, Tx, N, Tn = mx[1:], tmx[1:], mn[1:], tmn[1:]
+    # interval k = [t_k, t_{k+1}] (row k + 1's statistics); only those that can touch the window:
+    # t_{k+1} ≥ t0 − eps and t_k ≤ t1 + eps (the times increase)
+    lo = max(0, int(np.searchsorted(t, t0 - eps, "left")) - 1)
+    hi = min(len(t) - 1, int(np.searchsorted(t, t1 + eps, "right")))
+    a, b = t[lo:hi], t[lo + 1:hi + 1]
+    X, Tx, N, Tn = mx[lo + 1:hi + 1], tmx[lo + 1:hi + 1], mn[lo + 1:hi + 1], tmn[lo + 1:hi + 1]
     touch = (b >= t0 - eps) & (a <= t1 + eps)
     inside = touch & (a >= t0 - eps) & (b <= t1 + eps)
     edge = touch & ~inside
