@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import os
 import pkgutil
@@ -125,6 +126,10 @@ def _main(argv, outputs) -> int:
     gl = os.environ.get("MUJOCO_GL")
     if cmd in COMMAND_MODULES and cmd not in GL_COMMANDS and "mujoco" not in sys.modules:
         os.environ["MUJOCO_GL"] = "disable"  # no PyOpenGL for a command that never renders
+    # the command's modules and the classes they build (pydantic's schemas, dataclasses) are made
+    # without the cyclic collector, then kept out of its later passes (gc.freeze): they live as long
+    # as the process, and collecting them while they are made costs ≈ 3 % of a short run's CPU
+    gc.disable()
     try:
         try:
             args = build_parser(argv).parse_args(argv)
@@ -139,6 +144,8 @@ def _main(argv, outputs) -> int:
         print(f"mjbench: error: {e}", file=sys.stderr)
         return 2
     finally:
+        gc.freeze()
+        gc.enable()
         if gl is None:
             os.environ.pop("MUJOCO_GL", None)
         else:

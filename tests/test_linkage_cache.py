@@ -64,9 +64,7 @@ def test_a_corrupted_entry_is_rebuilt_and_said(tmp_path):
     from mjbench.compiled import cache
 
     body = pickle.dumps({"not": "a linkage"})
-    import hashlib
-
-    entry.write_bytes(cache.OBJECT_MAGIC + hashlib.sha256(body).digest() + body)
+    entry.write_bytes(cache.OBJECT_MAGIC + cache.checksum(body) + body)
     fourth = _run(env)
     assert fourth["digest"] == ref["digest"] and fourth["scipy"]
 
@@ -93,3 +91,28 @@ def test_the_cache_keeps_a_bounded_number_of_entries(tmp_path, monkeypatch):
     assert sorted(p.name for p in (tmp_path / "things").iterdir()) == ["k2.pickle", "k3.pickle", "k4.pickle"]
     assert np.array_equal(cache.load_object("things", "k4"), np.arange(4))
     assert cache.load_object("things", "k0") is None
+
+
+def test_an_entry_with_one_byte_changed_or_of_an_older_format(tmp_path, monkeypatch):
+    """A byte flipped inside the pickle fails the check (a note, the entry removed); an entry of the
+    format's earlier version (SHA-256 header) is absent, removed without a note."""
+    import hashlib
+
+    from mjbench.compiled import cache
+
+    monkeypatch.setattr(cache, "_ROOT", tmp_path)
+    monkeypatch.setattr(cache, "_CHECKED", True)
+    monkeypatch.setattr(cache, "NOTES", [])
+    assert cache.store_object("things", "a", np.arange(1000.0))
+    path = tmp_path / "things" / "a.pickle"
+    raw = bytearray(path.read_bytes())
+    raw[len(raw) // 2] ^= 0x10
+    path.write_bytes(bytes(raw))
+    assert cache.load_object("things", "a", "thing") is None
+    assert cache.NOTES == ["thing: its cache entry could not be read (checksum); rebuilt"] and not path.exists()
+    body = pickle.dumps(np.arange(3.0))
+    path.write_bytes(b"mjbench-object-1\n" + hashlib.sha256(body).digest() + body)
+    assert cache.load_object("things", "a", "thing") is None and not path.exists()
+    assert len(cache.NOTES) == 1
+    assert cache.store_object("things", "a", np.arange(3.0))
+    assert np.array_equal(cache.load_object("things", "a"), np.arange(3.0))

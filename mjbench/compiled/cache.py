@@ -23,6 +23,7 @@ import hashlib
 import os
 import pickle
 import sys
+import zlib
 from pathlib import Path
 
 _ROOT: Path | None = None
@@ -121,8 +122,10 @@ def note(msg: str) -> None:
 
 
 # ============================================================================ stored objects
-#: first bytes of a stored object's file, then the SHA-256 of the pickle that follows
-OBJECT_MAGIC = b"mjbench-object-1\n"
+#: first bytes of a stored object's file, then :func:`checksum` of the pickle that follows
+OBJECT_MAGIC = b"mjbench-object-2\n"
+#: what every version's entries start with (an entry of another version is absent, not corrupted)
+OBJECT_FAMILY = b"mjbench-object-"
 #: stored objects kept per folder (the oldest beyond are removed when one is stored)
 KEEP_OBJECTS = 64
 _VERSION: str | None = None
@@ -155,6 +158,16 @@ def code_version() -> str:
     return _VERSION
 
 
+def checksum(body: bytes) -> bytes:
+    """An entry's check: its length and CRC-32 (12 bytes).  It tells a truncated or corrupted file,
+    which is all it is for (the cache is the user's own; nothing adversarial), at ≈ 1/30 of SHA-256's
+    cost: a built linkage's 2 MB entry is checked in ≈ 1 ms instead of ≈ 20 ms."""
+    return len(body).to_bytes(8, "little") + zlib.crc32(body).to_bytes(4, "little")
+
+
+CHECK_BYTES = 12
+
+
 def _object_path(folder: str, key: str) -> Path | None:
     r = root()
     return None if r is None else r / folder / f"{key}.pickle"
@@ -171,9 +184,15 @@ def load_object(folder: str, key: str, what: str = "cache entry"):
     except OSError:
         return None
     n = len(OBJECT_MAGIC)
-    body = raw[n + 32:]
+    body = raw[n + CHECK_BYTES:]
+    if raw[:n] != OBJECT_MAGIC and raw.startswith(OBJECT_FAMILY) and raw[n - 1:n] == b"\n":
+        try:  # an entry of an earlier version of this format: not ours to read, replaced silently
+            path.unlink()
+        except OSError:
+            pass
+        return None
     try:
-        if raw[:n] != OBJECT_MAGIC or raw[n:n + 32] != hashlib.sha256(body).digest():
+        if raw[:n] != OBJECT_MAGIC or raw[n:n + CHECK_BYTES] != checksum(body):
             raise ValueError("checksum")
         return pickle.loads(body)  # noqa: S301 - our own file in the user's own cache, checksummed
     except Exception as e:  # noqa: BLE001 - a corrupted or unreadable entry: rebuilt
@@ -196,7 +215,7 @@ def store_object(folder: str, key: str, obj) -> bool:
     try:
         body = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_bytes(OBJECT_MAGIC + hashlib.sha256(body).digest() + body)
+        tmp.write_bytes(OBJECT_MAGIC + checksum(body) + body)
         os.replace(tmp, path)
     except (OSError, pickle.PicklingError, TypeError, AttributeError):
         try:
