@@ -113,6 +113,16 @@ def _interrupted(signum) -> int:
     return 128 + signum
 
 
+_FROZE = False
+
+
+def _froze() -> None:
+    global _FROZE
+    gc.freeze()
+    gc.enable()
+    _FROZE = True
+
+
 def _main(argv, outputs) -> int:
     from .render.gl import check_gl_env  # not for --version, which imports nothing of ours
 
@@ -128,8 +138,11 @@ def _main(argv, outputs) -> int:
         os.environ["MUJOCO_GL"] = "disable"  # no PyOpenGL for a command that never renders
     # the command's modules and the classes they build (pydantic's schemas, dataclasses) are made
     # without the cyclic collector, then kept out of its later passes (gc.freeze): they live as long
-    # as the process, and collecting them while they are made costs ≈ 3 % of a short run's CPU
-    gc.disable()
+    # as the process, and collecting them while they are made costs ≈ 3 % of a short run's CPU (once
+    # a process: a caller's own objects are frozen only by the first command it runs)
+    freeze = not _FROZE and gc.isenabled()
+    if freeze:
+        gc.disable()
     try:
         try:
             args = build_parser(argv).parse_args(argv)
@@ -144,8 +157,8 @@ def _main(argv, outputs) -> int:
         print(f"mjbench: error: {e}", file=sys.stderr)
         return 2
     finally:
-        gc.freeze()
-        gc.enable()
+        if freeze:
+            _froze()
         if gl is None:
             os.environ.pop("MUJOCO_GL", None)
         else:
