@@ -132,8 +132,9 @@ def unit_of(metric: str) -> str:
 def _window(t, t0=None, t1=None):
     t0 = t[0] if t0 is None else t0
     t1 = t[-1] if t1 is None else t1
-    sel = (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
-    if sel.sum() < 2:
+    # the samples with t0 − 1e-12 ≤ t ≤ t1 + 1e-12, as a slice (the times increase)
+    sel = slice(int(np.searchsorted(t, t0 - 1e-12, "left")), int(np.searchsorted(t, t1 + 1e-12, "right")))
+    if sel.stop - sel.start < 2:
         raise ParameterError(f"window [{t0}, {t1}] s holds fewer than 2 samples of the trajectory "
                              f"(t = {t[0]:.4g} .. {t[-1]:.4g} s)")
     return sel
@@ -233,15 +234,23 @@ def _hermite_cross(t, q, qd, i, target):
     h = float(t[i + 1]) - ti
     q0, q1, d0, d1, target = float(q[i]), float(q[i + 1]), float(qd[i]) * h, float(qd[i + 1]) * h, float(target)
     s = (target - q0) / (q1 - q0) if q1 != q0 else 0.0
-    for _ in range(20):
+    back = [None, None]  # the iterates one and two steps back (each a clipped iterate: never −0.0)
+    for k in range(20):
         s2, s3 = s * s, s * s * s
         f = (2 * s3 - 3 * s2 + 1) * q0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * q1 + (s3 - s2) * d1 - target
         df = (6 * s2 - 6 * s) * q0 + (3 * s2 - 4 * s + 1) * d0 + (-6 * s2 + 6 * s) * q1 + (3 * s2 - 2 * s) * d1
         if df == 0:
             break
         step = f / df
-        s = min(1.0, max(0.0, s - step))
+        s, back = min(1.0, max(0.0, s - step)), [s if k else None, back[0]]
         if abs(step) < 1e-15:
+            break
+        # rounding keeps the step above 1e-15 near the root: an iterate that repeats (a fixed point,
+        # or two values in turn) gives the same iterates to the 20th, which is taken at once
+        if s == back[0]:
+            break
+        if s == back[1]:
+            s = s if (19 - k) % 2 == 0 else back[0]
             break
     return ti + s * h
 
@@ -353,22 +362,21 @@ def _extrema(traj, column: str, t0s, t1s, cubic=None):
     a0, b1 = t0s - eps, t1s + eps
     i0, j1 = np.searchsorted(t, a0, "left"), np.searchsorted(t, b1, "right")
     # row r holds the statistics of the interval [t_{r-1}, t_r]: rows i0 + 1 … j1 − 1 lie inside
-    # [t0 − eps, t1 + eps]; rows i0 (≥ 1) and j1 (≤ n − 1) are cut by its edges and give their
-    # extreme when it occurred inside
-    wmax, tx = _range_reduce(np.maximum, mx, i0 + 1, j1, -np.inf)
-    wmin, tn = _range_reduce(np.minimum, mn, i0 + 1, j1, np.inf)
-    cut = np.concatenate([i0, j1])
-    valid = np.concatenate([(i0 >= 1) & (i0 <= np.minimum(n - 1, j1)), (j1 <= n - 1) & (j1 >= np.maximum(1, i0))])
-    r = np.where(valid, cut, 0)
-    A0, B1 = np.concatenate([a0, a0]), np.concatenate([b1, b1])
-    X, Tx, N, Tn = mx[r], tmx[r], mn[r], tmn[r]
-    ok_x = valid & np.isfinite(X) & (Tx >= A0) & (Tx <= B1)
-    ok_n = valid & np.isfinite(N) & (Tn >= A0) & (Tn <= B1)
-    W = len(t0s)
-    ex, en = np.where(ok_x, X, -np.inf), np.where(ok_n, N, np.inf)
-    wmax = np.maximum(wmax, np.maximum(ex[:W], ex[W:]))
-    wmin = np.minimum(wmin, np.minimum(en[:W], en[W:]))
-    found = (tx | ok_x[:W] | ok_x[W:]) & (tn | ok_n[:W] | ok_n[W:])
+    # [t0 − eps, t1 + eps]
+    wmax, tx = (v.tolist() for v in _range_reduce(np.maximum, mx, i0 + 1, j1, -np.inf))
+    wmin, tn = (v.tolist() for v in _range_reduce(np.minimum, mn, i0 + 1, j1, np.inf))
+    # rows i0 (≥ 1) and j1 (≤ n − 1) are cut by its edges: their extreme when it occurred inside
+    for w, (lo, hi, r0, r1) in enumerate(zip(a0.tolist(), b1.tolist(), i0.tolist(), j1.tolist())):
+        for r in (r0 if 1 <= r0 <= min(n - 1, r1) else 0, r1 if max(1, r0) <= r1 <= n - 1 else 0):
+            if r == 0:
+                continue
+            x, tt = float(mx[r]), float(tmx[r])
+            if math.isfinite(x) and lo <= tt <= hi:
+                wmax[w], tx[w] = max(wmax[w], x), True
+            x, tt = float(mn[r]), float(tmn[r])
+            if math.isfinite(x) and lo <= tt <= hi:
+                wmin[w], tn[w] = min(wmin[w], x), True
+    wmax, wmin, found = np.array(wmax), np.array(wmin), np.array(tx) & np.array(tn)
     if traj.has(column):  # the windows' own edges (a sample, or the interpolated value)
         x = traj[column]
         e0 = values_at(t, x, t0s, None if cubic is None else cubic[0])
@@ -491,11 +499,12 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
     t, om = traj.t, traj.omega
     if steady_from is None or steady_from >= t[-1] - 1e-12:  # default, or a run too short for it
         steady_from = t[-1] / 2
+    after = slice(int(np.searchsorted(t, steady_from, "left")), None)  # t ≥ steady_from (the times increase)
     out = {
         "t_end_s": float(t[-1]),
         "steady_from_s": float(steady_from),
-        "mean_motor_speed_rad_s": time_mean(t[t >= steady_from], om[t >= steady_from]),
-        "mean_crank_speed_rad_s": time_mean(t[t >= steady_from], traj.qd[t >= steady_from]),
+        "mean_motor_speed_rad_s": time_mean(t[after], om[after]),
+        "mean_crank_speed_rad_s": time_mean(t[after], traj.qd[after]),
         "peak_voltage_V": _peak_voltage(traj),
         "peak_current_A": peak_abs(traj, "current_A") if np.any(np.isfinite(traj.current)) else float("nan"),
         "peak_power_elec_W": float(np.max(traj.p_elec)),
@@ -572,8 +581,8 @@ def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
     output torque's over the recorded samples (:func:`duty_peaks`)."""
     t = traj.t
     t0 = float(steady_from if steady_from is not None else t[-1] / 2)
-    sel = t >= t0 - 1e-12
-    if sel.sum() < 1:
+    sel = slice(int(np.searchsorted(t, t0 - 1e-12, "left")), None)  # t ≥ t0 − 1e-12 (the times increase)
+    if sel.start >= len(t):
         return {}
     out = {"duty_window_s": [t0, float(t[-1])]}
     I = np.asarray(traj.current, dtype=float)[sel]
