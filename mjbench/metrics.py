@@ -301,18 +301,18 @@ def _cubic(t, tts):
     j = np.searchsorted(t, tts)
     jc = np.minimum(j, n - 1)
     on = (j < n) & (np.abs(t[jc] - tts) <= 1e-12 * np.maximum(1.0, np.abs(tts)))
+    if on.all():
+        return None, None, on, jc
     m = min(4, n)
     idx = np.maximum(0, np.minimum(j - 2, n - 4))[:, None] + np.arange(m)
-    if on.all():
-        return idx, None, on, jc
     ts = t[idx]
     others = _OTHERS[m]  # node a's weight: the product over b ≠ a, in order, of (tt − t_b)/(t_a − t_b)
     r = (tts[:, None, None] - ts[:, others]) / (ts[:, :, None] - ts[:, others])
-    w = np.ones((len(tts), m))
-    if m > 1:
-        w = r[:, :, 0]
-        for b in range(1, m - 1):
-            w = w * r[:, :, b]
+    if m == 1:
+        return idx, np.ones((len(tts), 1)), on, jc
+    w = r[:, :, 0]
+    for b in range(1, m - 1):
+        w = w * r[:, :, b]
     return idx, w, on, jc
 
 
@@ -335,26 +335,23 @@ def values_at(t, x, tts, cubic=None) -> np.ndarray:
 
 
 def _range_reduce(op, x, lo, hi, fill):
-    """op over x[lo[i]:hi[i]] for every i (hi ≤ len(x)), its non-finite values left out → (values,
-    whether any was taken); ``fill`` where none was."""
-    n = len(x)
-    fin = np.isfinite(x)
-    finite = bool(fin.all())
-    if not finite:
+    """op over x[lo[i]:hi[i]] for every i, its non-finite values left out → lists (values, whether
+    any was taken); ``fill`` where none was.  (A few windows: one slice each.)"""
+    fin = None if math.isfinite(float(np.sum(x))) else np.isfinite(x)  # (a finite sum: every value finite)
+    if fin is not None:
         x = np.where(fin, x, fill)
-    pairs = np.empty(2 * len(lo), dtype=np.intp)
-    pairs[0::2], pairs[1::2] = np.minimum(lo, n - 1), np.minimum(hi, n - 1)
-    vals = op.reduceat(x, pairs)[::2]
-    vals = np.where(hi >= n, op(vals, x[n - 1]), vals)  # a range to the end: its last value too
-    took = hi > lo
-    if not finite:
-        took &= np.array([fin[a:b].any() for a, b in zip(lo.tolist(), hi.tolist())], dtype=bool)
-    return np.where(took, vals, fill), took
+    vals, took = [], []
+    for a, b in zip(lo.tolist(), hi.tolist()):
+        ok = b > a and (fin is None or bool(fin[a:b].any()))
+        vals.append(float(op.reduce(x[a:b])) if ok else fill)
+        took.append(ok)
+    return vals, took
 
 
 def _extrema(traj, column: str, t0s, t1s, cubic=None):
     """(max, min, empty) of a quantity over every window [t0s[i], t1s[i]] from its interval
-    statistics, all windows at once; ``empty[i]``: the window holds no co-step and no edge value."""
+    statistics, all windows at once; ``empty[i]``: the window holds no co-step and no edge value;
+    ``cubic``: :func:`_cubic` of the edges (t0s, then t1s), when already known."""
     t = traj.t
     n = len(t)
     mx, tmx, mn, tmn = (traj.stat(f"{column}:{k}") for k in ("max", "t_max", "min", "t_min"))
@@ -363,8 +360,8 @@ def _extrema(traj, column: str, t0s, t1s, cubic=None):
     i0, j1 = np.searchsorted(t, a0, "left"), np.searchsorted(t, b1, "right")
     # row r holds the statistics of the interval [t_{r-1}, t_r]: rows i0 + 1 … j1 − 1 lie inside
     # [t0 − eps, t1 + eps]
-    wmax, tx = (v.tolist() for v in _range_reduce(np.maximum, mx, i0 + 1, j1, -np.inf))
-    wmin, tn = (v.tolist() for v in _range_reduce(np.minimum, mn, i0 + 1, j1, np.inf))
+    wmax, tx = _range_reduce(np.maximum, mx, i0 + 1, j1, -np.inf)
+    wmin, tn = _range_reduce(np.minimum, mn, i0 + 1, j1, np.inf)
     # rows i0 (≥ 1) and j1 (≤ n − 1) are cut by its edges: their extreme when it occurred inside
     for w, (lo, hi, r0, r1) in enumerate(zip(a0.tolist(), b1.tolist(), i0.tolist(), j1.tolist())):
         for r in (r0 if 1 <= r0 <= min(n - 1, r1) else 0, r1 if max(1, r0) <= r1 <= n - 1 else 0):
@@ -378,9 +375,8 @@ def _extrema(traj, column: str, t0s, t1s, cubic=None):
                 wmin[w], tn[w] = min(wmin[w], x), True
     wmax, wmin, found = np.array(wmax), np.array(wmin), np.array(tx) & np.array(tn)
     if traj.has(column):  # the windows' own edges (a sample, or the interpolated value)
-        x = traj[column]
-        e0 = values_at(t, x, t0s, None if cubic is None else cubic[0])
-        e1 = values_at(t, x, t1s, None if cubic is None else cubic[1])
+        ends = values_at(t, traj[column], np.concatenate([t0s, t1s]), cubic)
+        e0, e1 = ends[:len(t0s)], ends[len(t0s):]
         wmax = np.maximum(np.maximum(wmax, e0), e1)
         wmin = np.minimum(np.minimum(wmin, e0), e1)
         found[:] = True
@@ -437,7 +433,7 @@ def chis_of(traj, t0s, t1s, average="mean") -> np.ndarray:
     t0s, t1s = _edges(t, t0s, t1s)
     if traj.stat("motor_speed_rad_s:max") is None:
         return np.array([chi(t, traj.omega, a, b, average) for a, b in zip(t0s, t1s)])
-    cubic = _cubic(t, t0s), _cubic(t, t1s)  # (the edges' interpolation: the speed's and the angle's)
+    cubic = _cubic(t, np.concatenate([t0s, t1s]))  # (the edges' interpolation: the speed's and the angle's)
     wmax, wmin, empty = _extrema(traj, "motor_speed_rad_s", t0s, t1s, cubic)
     n = int(np.argmax(empty)) if empty.any() else len(t0s)  # the windows before the first without a co-step
     a, b = t0s[:n], t1s[:n]
@@ -446,7 +442,8 @@ def chis_of(traj, t0s, t1s, average="mean") -> np.ndarray:
         phi = motor_angle(traj)
         if phi is None:
             return np.array([time_mean(t[s], traj.omega[s]) for s in (_window(t, a0, b0) for a0, b0 in zip(a, b))])
-        return (values_at(t, phi, t1s, cubic[1])[:n] - values_at(t, phi, t0s, cubic[0])[:n]) / (b - a)
+        ends = values_at(t, phi, None, cubic)
+        return (ends[len(t0s):][:n] - ends[:n]) / (b - a)
 
     vals = _chi(wmax[:n], wmin[:n], average, mean) if n else np.empty(0)
     if n < len(t0s):
