@@ -132,8 +132,9 @@ def unit_of(metric: str) -> str:
 def _window(t, t0=None, t1=None):
     t0 = t[0] if t0 is None else t0
     t1 = t[-1] if t1 is None else t1
-    sel = (t >= t0 - 1e-12) & (t <= t1 + 1e-12)
-    if sel.sum() < 2:
+    # the samples with t0 − 1e-12 ≤ t ≤ t1 + 1e-12, as a slice (the times increase)
+    sel = slice(int(np.searchsorted(t, t0 - 1e-12, "left")), int(np.searchsorted(t, t1 + 1e-12, "right")))
+    if sel.stop - sel.start < 2:
         raise ParameterError(f"window [{t0}, {t1}] s holds fewer than 2 samples of the trajectory "
                              f"(t = {t[0]:.4g} .. {t[-1]:.4g} s)")
     return sel
@@ -153,15 +154,16 @@ def chi(t, omega, t0=None, t1=None, average="mean"):
     return _chi(float(w.max()), float(w.min()), average, lambda: time_mean(tt, w))
 
 
-def _chi(wmax: float, wmin: float, average: str, mean) -> float:
-    """(max − min)/average speed, the average ``mean()`` ("mean") or (max + min)/2 ("midrange")."""
+def _chi(wmax, wmin, average: str, mean):
+    """(max − min)/average speed, the average ``mean()`` ("mean") or (max + min)/2 ("midrange");
+    floats or arrays (one χ per window)."""
     if average == "mean":
         av = mean()
     elif average == "midrange":
         av = 0.5 * (wmax + wmin)
     else:
         raise ParameterError(f"metrics.chi_average = {average!r}: choose 'mean' or 'midrange'")
-    if av == 0:
+    if np.any(av == 0):
         raise ParameterError("χ undefined: zero average speed in the window")
     return (wmax - wmin) / av
 
@@ -226,21 +228,31 @@ def chi_per_cycle(t, q, omega, average="mean"):
 
 def _hermite_cross(t, q, qd, i, target):
     """Time in [t_i, t_{i+1}] at which the cubic Hermite interpolant of the angle (values q, slopes
-    q̇ at both ends) reaches ``target`` (Newton from the linear guess; q monotone there)."""
-    h = t[i + 1] - t[i]
-    q0, q1, d0, d1 = q[i], q[i + 1], qd[i] * h, qd[i + 1] * h
+    q̇ at both ends) reaches ``target`` (Newton from the linear guess; q monotone there).  On Python
+    floats: the same arithmetic as on NumPy's scalars, faster."""
+    ti = float(t[i])
+    h = float(t[i + 1]) - ti
+    q0, q1, d0, d1, target = float(q[i]), float(q[i + 1]), float(qd[i]) * h, float(qd[i + 1]) * h, float(target)
     s = (target - q0) / (q1 - q0) if q1 != q0 else 0.0
-    for _ in range(20):
+    back = [None, None]  # the iterates one and two steps back (each a clipped iterate: never −0.0)
+    for k in range(20):
         s2, s3 = s * s, s * s * s
         f = (2 * s3 - 3 * s2 + 1) * q0 + (s3 - 2 * s2 + s) * d0 + (-2 * s3 + 3 * s2) * q1 + (s3 - s2) * d1 - target
         df = (6 * s2 - 6 * s) * q0 + (3 * s2 - 4 * s + 1) * d0 + (-6 * s2 + 6 * s) * q1 + (3 * s2 - 2 * s) * d1
         if df == 0:
             break
         step = f / df
-        s = min(1.0, max(0.0, s - step))
+        s, back = min(1.0, max(0.0, s - step)), [s if k else None, back[0]]
         if abs(step) < 1e-15:
             break
-    return float(t[i] + s * h)
+        # rounding keeps the step above 1e-15 near the root: an iterate that repeats (a fixed point,
+        # or two values in turn) gives the same iterates to the 20th, which is taken at once
+        if s == back[0]:
+            break
+        if s == back[1]:
+            s = s if (19 - k) % 2 == 0 else back[0]
+            break
+    return ti + s * h
 
 
 def crossing_times(traj, targets_rel):
@@ -251,8 +263,7 @@ def crossing_times(traj, targets_rel):
     u, ud = sgn * (q - q[0]), sgn * qd
     umax = np.maximum.accumulate(u)
     out = []
-    for tg in targets_rel:
-        j = int(np.searchsorted(umax, tg, side="left"))
+    for tg, j in zip(targets_rel, np.searchsorted(umax, targets_rel, side="left").tolist()):
         if j == 0 or j >= len(u):
             out.append(float(t[min(j, len(t) - 1)]))
             continue
@@ -282,21 +293,105 @@ def last_turn_of(traj):
     return _hermite_cross(t, u, s * qd, i, target), float(t[-1])
 
 
-def value_at(t, x, tt: float) -> float:
-    """x at time tt by the cubic through the four nearest samples (a sample itself when tt is one)."""
-    j = int(np.searchsorted(t, tt))
-    if j < len(t) and abs(t[j] - tt) <= 1e-12 * max(1.0, abs(tt)):
-        return float(x[j])
-    lo = max(0, min(j - 2, len(t) - 4))
-    ts, xs = t[lo:lo + 4].tolist(), x[lo:lo + 4].tolist()  # (Python floats: the same arithmetic, faster)
+def _cubic(t, tts):
+    """The cubic through the four samples nearest each time of ``tts`` (Lagrange's form): (rows
+    (W, 4), weights (W, 4), whether the time is a sample, that sample's row)."""
+    tts = np.asarray(tts, dtype=float)
+    n = len(t)
+    j = np.searchsorted(t, tts)
+    jc = np.minimum(j, n - 1)
+    on = (j < n) & (np.abs(t[jc] - tts) <= 1e-12 * np.maximum(1.0, np.abs(tts)))
+    if on.all():
+        return None, None, on, jc
+    m = min(4, n)
+    idx = np.maximum(0, np.minimum(j - 2, n - 4))[:, None] + np.arange(m)
+    ts = t[idx]
+    others = _OTHERS[m]  # node a's weight: the product over b ≠ a, in order, of (tt − t_b)/(t_a − t_b)
+    r = (tts[:, None, None] - ts[:, others]) / (ts[:, :, None] - ts[:, others])
+    if m == 1:
+        return idx, np.ones((len(tts), 1)), on, jc
+    w = r[:, :, 0]
+    for b in range(1, m - 1):
+        w = w * r[:, :, b]
+    return idx, w, on, jc
+
+
+#: for each node count m ≤ 4: the other nodes of each node, in order
+_OTHERS = {m: np.array([[b for b in range(m) if b != a] for a in range(m)], dtype=int).reshape(m, m - 1)
+           for m in range(1, 5)}
+
+
+def values_at(t, x, tts, cubic=None) -> np.ndarray:
+    """x at each time of ``tts`` by the cubic through the four nearest samples (a sample itself where
+    the time is one); ``cubic``: :func:`_cubic` of these times, when already known."""
+    idx, w, on, jc = _cubic(t, tts) if cubic is None else cubic
+    if w is None:
+        return x[jc]
+    p = w * x[idx]
     v = 0.0
-    for a in range(len(ts)):
-        w = 1.0
-        for b in range(len(ts)):
-            if b != a:
-                w *= (tt - ts[b]) / (ts[a] - ts[b])
-        v += w * xs[a]
-    return float(v)
+    for a in range(p.shape[1]):
+        v = v + p[:, a]
+    return np.where(on, x[jc], v)
+
+
+def _range_reduce(op, x, lo, hi, fill):
+    """op over x[lo[i]:hi[i]] for every i, its non-finite values left out → lists (values, whether
+    any was taken); ``fill`` where none was.  (A few windows: one slice each.)"""
+    fin = None if math.isfinite(float(np.sum(x))) else np.isfinite(x)  # (a finite sum: every value finite)
+    if fin is not None:
+        x = np.where(fin, x, fill)
+    vals, took = [], []
+    for a, b in zip(lo.tolist(), hi.tolist()):
+        ok = b > a and (fin is None or bool(fin[a:b].any()))
+        vals.append(float(op.reduce(x[a:b])) if ok else fill)
+        took.append(ok)
+    return vals, took
+
+
+def _extrema(traj, column: str, t0s, t1s, cubic=None):
+    """(max, min, empty) of a quantity over every window [t0s[i], t1s[i]] from its interval
+    statistics, all windows at once; ``empty[i]``: the window holds no co-step and no edge value;
+    ``cubic``: :func:`_cubic` of the edges (t0s, then t1s), when already known."""
+    t = traj.t
+    n = len(t)
+    mx, tmx, mn, tmn = (traj.stat(f"{column}:{k}") for k in ("max", "t_max", "min", "t_min"))
+    eps = 1e-12 * np.maximum(1.0, np.abs(t1s))
+    a0, b1 = t0s - eps, t1s + eps
+    i0, j1 = np.searchsorted(t, a0, "left"), np.searchsorted(t, b1, "right")
+    # row r holds the statistics of the interval [t_{r-1}, t_r]: rows i0 + 1 … j1 − 1 lie inside
+    # [t0 − eps, t1 + eps]
+    wmax, tx = _range_reduce(np.maximum, mx, i0 + 1, j1, -np.inf)
+    wmin, tn = _range_reduce(np.minimum, mn, i0 + 1, j1, np.inf)
+    # rows i0 (≥ 1) and j1 (≤ n − 1) are cut by its edges: their extreme when it occurred inside
+    for w, (lo, hi, r0, r1) in enumerate(zip(a0.tolist(), b1.tolist(), i0.tolist(), j1.tolist())):
+        for r in (r0 if 1 <= r0 <= min(n - 1, r1) else 0, r1 if max(1, r0) <= r1 <= n - 1 else 0):
+            if r == 0:
+                continue
+            x, tt = float(mx[r]), float(tmx[r])
+            if math.isfinite(x) and lo <= tt <= hi:
+                wmax[w], tx[w] = max(wmax[w], x), True
+            x, tt = float(mn[r]), float(tmn[r])
+            if math.isfinite(x) and lo <= tt <= hi:
+                wmin[w], tn[w] = min(wmin[w], x), True
+    wmax, wmin, found = np.array(wmax), np.array(wmin), np.array(tx) & np.array(tn)
+    if traj.has(column):  # the windows' own edges (a sample, or the interpolated value)
+        ends = values_at(t, traj[column], np.concatenate([t0s, t1s]), cubic)
+        e0, e1 = ends[:len(t0s)], ends[len(t0s):]
+        wmax = np.maximum(np.maximum(wmax, e0), e1)
+        wmin = np.minimum(np.minimum(wmin, e0), e1)
+        found[:] = True
+    return wmax, wmin, ~found
+
+
+def _no_costep(t, t0, t1) -> ParameterError:
+    return ParameterError(f"window [{t0}, {t1}] s holds no co-step of the run (t = {t[0]:.4g} .. {t[-1]:.4g} s)")
+
+
+def _edges(t, t0s, t1s):
+    """The windows' edges as float arrays, a missing one (None) the record's start or end."""
+    t0s = np.array([float(t[0]) if a is None else float(a) for a in t0s])
+    t1s = np.array([float(t[-1]) if b is None else float(b) for b in t1s])
+    return t0s, t1s
 
 
 def window_extrema(traj, column: str, t0=None, t1=None):
@@ -305,35 +400,15 @@ def window_extrema(traj, column: str, t0=None, t1=None):
     interval's extremes; an interval cut by the window's edge its extreme when it occurred inside,
     and the value at the edge (interpolated) otherwise.  Without statistics: the samples."""
     t = traj.t
-    t0 = float(t[0]) if t0 is None else float(t0)
-    t1 = float(t[-1]) if t1 is None else float(t1)
-    mx = traj.stat(f"{column}:max")
-    if mx is None:
+    (t0,), (t1,) = _edges(t, [t0], [t1])
+    if traj.stat(f"{column}:max") is None:
         x = traj[column]
         sel = _window(t, t0, t1)
         return float(np.max(x[sel])), float(np.min(x[sel]))
-    tmx, mn, tmn = (traj.stat(f"{column}:{k}") for k in ("t_max", "min", "t_min"))
-    eps = 1e-12 * max(1.0, abs(t1))
-    # interval k = [t_k, t_{k+1}] (row k + 1's statistics); only those that can touch the window:
-    # t_{k+1} ≥ t0 − eps and t_k ≤ t1 + eps (the times increase)
-    lo = max(0, int(np.searchsorted(t, t0 - eps, "left")) - 1)
-    hi = min(len(t) - 1, int(np.searchsorted(t, t1 + eps, "right")))
-    a, b = t[lo:hi], t[lo + 1:hi + 1]
-    X, Tx, N, Tn = mx[lo + 1:hi + 1], tmx[lo + 1:hi + 1], mn[lo + 1:hi + 1], tmn[lo + 1:hi + 1]
-    touch = (b >= t0 - eps) & (a <= t1 + eps)
-    inside = touch & (a >= t0 - eps) & (b <= t1 + eps)
-    edge = touch & ~inside
-    fin_x, fin_n = np.isfinite(X), np.isfinite(N)
-    cand_x = np.concatenate([X[inside & fin_x], X[edge & fin_x & (Tx >= t0 - eps) & (Tx <= t1 + eps)]])
-    cand_n = np.concatenate([N[inside & fin_n], N[edge & fin_n & (Tn >= t0 - eps) & (Tn <= t1 + eps)]])
-    if traj.has(column):  # the window's own edges (a sample, or the interpolated value)
-        x = traj[column]
-        ends = [value_at(t, x, t0), value_at(t, x, t1)]
-        cand_x = np.concatenate([cand_x, ends])
-        cand_n = np.concatenate([cand_n, ends])
-    if not cand_x.size:
-        raise ParameterError(f"window [{t0}, {t1}] s holds no co-step of the run (t = {t[0]:.4g} .. {t[-1]:.4g} s)")
-    return float(np.max(cand_x)), float(np.min(cand_n))
+    mx, mn, empty = _extrema(traj, column, np.array([t0]), np.array([t1]))
+    if empty[0]:
+        raise _no_costep(t, float(t0), float(t1))
+    return float(mx[0]), float(mn[0])
 
 
 def motor_angle(traj):
@@ -348,26 +423,37 @@ def motor_angle(traj):
     return phi
 
 
-def chi_of(traj, t0=None, t1=None, average="mean"):
-    """χ of Eq 22 of a run over [t0, t1] from every co-step: max − min of the motor speed from the
-    interval statistics (:func:`window_extrema`), the time mean from the motor angle, Δφ/Δt (exact;
-    the angle at a window edge by cubic interpolation); ``average = "midrange"``: (max + min)/2.
-    Without statistics: :func:`chi` of the samples."""
-    if traj.stat("motor_speed_rad_s:max") is None:
-        return chi(traj.t, traj.omega, t0, t1, average)
+def chis_of(traj, t0s, t1s, average="mean") -> np.ndarray:
+    """χ of Eq 22 of a run over each window [t0s[i], t1s[i]] from every co-step, all windows at once:
+    max − min of the motor speed from the interval statistics (:func:`window_extrema`), the time
+    mean from the motor angle, Δφ/Δt (exact; the angle at a window edge by cubic interpolation);
+    ``average = "midrange"``: (max + min)/2.  Without statistics: :func:`chi` of the samples.  A
+    failing window raises as if the windows were taken one by one, in order."""
     t = traj.t
-    t0 = float(t[0]) if t0 is None else float(t0)
-    t1 = float(t[-1]) if t1 is None else float(t1)
-    wmax, wmin = window_extrema(traj, "motor_speed_rad_s", t0, t1)
+    t0s, t1s = _edges(t, t0s, t1s)
+    if traj.stat("motor_speed_rad_s:max") is None:
+        return np.array([chi(t, traj.omega, a, b, average) for a, b in zip(t0s, t1s)])
+    cubic = _cubic(t, np.concatenate([t0s, t1s]))  # (the edges' interpolation: the speed's and the angle's)
+    wmax, wmin, empty = _extrema(traj, "motor_speed_rad_s", t0s, t1s, cubic)
+    n = int(np.argmax(empty)) if empty.any() else len(t0s)  # the windows before the first without a co-step
+    a, b = t0s[:n], t1s[:n]
 
     def mean():
         phi = motor_angle(traj)
         if phi is None:
-            sel = _window(t, t0, t1)
-            return time_mean(t[sel], traj.omega[sel])
-        return (value_at(t, phi, t1) - value_at(t, phi, t0)) / (t1 - t0)
+            return np.array([time_mean(t[s], traj.omega[s]) for s in (_window(t, a0, b0) for a0, b0 in zip(a, b))])
+        ends = values_at(t, phi, None, cubic)
+        return (ends[len(t0s):][:n] - ends[:n]) / (b - a)
 
-    return _chi(wmax, wmin, average, mean)
+    vals = _chi(wmax[:n], wmin[:n], average, mean) if n else np.empty(0)
+    if n < len(t0s):
+        raise _no_costep(t, float(t0s[n]), float(t1s[n]))
+    return vals
+
+
+def chi_of(traj, t0=None, t1=None, average="mean"):
+    """χ of Eq 22 of a run over [t0, t1] (default: the whole record) from every co-step (:func:`chis_of`)."""
+    return float(chis_of(traj, [t0], [t1], average)[0])
 
 
 def peak_abs(traj, column: str, t0=None, t1=None) -> float:
@@ -410,11 +496,12 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
     t, om = traj.t, traj.omega
     if steady_from is None or steady_from >= t[-1] - 1e-12:  # default, or a run too short for it
         steady_from = t[-1] / 2
+    after = slice(int(np.searchsorted(t, steady_from, "left")), None)  # t ≥ steady_from (the times increase)
     out = {
         "t_end_s": float(t[-1]),
         "steady_from_s": float(steady_from),
-        "mean_motor_speed_rad_s": time_mean(t[t >= steady_from], om[t >= steady_from]),
-        "mean_crank_speed_rad_s": time_mean(t[t >= steady_from], traj.qd[t >= steady_from]),
+        "mean_motor_speed_rad_s": time_mean(t[after], om[after]),
+        "mean_crank_speed_rad_s": time_mean(t[after], traj.qd[after]),
         "peak_voltage_V": _peak_voltage(traj),
         "peak_current_A": peak_abs(traj, "current_A") if np.any(np.isfinite(traj.current)) else float("nan"),
         "peak_power_elec_W": float(np.max(traj.p_elec)),
@@ -426,7 +513,12 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
     out.update(end_state(traj, band_rel))
     out.update(duty(traj, steady_from, drive, v_limit))
     cyc = cycles_of(traj)
-    vals = np.array([chi_of(traj, a, b, average) for a, b in cyc])
+    turn = last_turn_of(traj)
+    win = chi_window is not None and t[-1] >= chi_window[1] - 1e-9
+    # every χ of the run at once, in this order: the cycles', the last turn's, the window's
+    spans = [*cyc.tolist(), *([turn] if turn is not None else []), *([chi_window] if win else [])]
+    chis = chis_of(traj, [a for a, _ in spans], [b for _, b in spans], average) if spans else np.empty(0)
+    vals = chis[:len(cyc)]
     # two readings of "χ over the last cycle" (docs/validation.md): the last complete cycle
     # counted from α(0) (cycles() — it may end up to one period before t_end), and the last
     # 2π of crank travel ending at t_end
@@ -440,15 +532,12 @@ def summary(traj, chi_window=None, average="mean", steady_from=None, band_rel=0.
         out["n_cycles"] = int(len(vals))
         out["chi_cycles"] = [{"t_start_s": float(a), "t_end_s": float(b), "chi": float(v)}
                              for (a, b), v in zip(cyc, vals)]
-    turn = last_turn_of(traj)
     if turn is not None:
-        out["chi_last_turn"] = chi_of(traj, turn[0], turn[1], average)
+        out["chi_last_turn"] = float(chis[len(cyc)])
         out["last_turn_start_s"], out["last_turn_end_s"] = turn
-    if chi_window is not None:
-        t0, t1 = chi_window
-        if t[-1] >= t1 - 1e-9:
-            out["chi_window"] = chi_of(traj, t0, t1, average)
-            out["chi_window_s"] = [float(t0), float(t1)]
+    if win:
+        out["chi_window"] = float(chis[-1])
+        out["chi_window_s"] = [float(chi_window[0]), float(chi_window[1])]
     if any(k.startswith("chi") for k in out) and traj.stat("motor_speed_rad_s:max") is None:
         # a run read back from a CSV has no interval statistics: its χ is max − min of the recorded
         # samples and depends on their interval, so it is labelled with it
@@ -489,8 +578,8 @@ def duty(traj, steady_from, drive=None, v_limit=None) -> dict:
     output torque's over the recorded samples (:func:`duty_peaks`)."""
     t = traj.t
     t0 = float(steady_from if steady_from is not None else t[-1] / 2)
-    sel = t >= t0 - 1e-12
-    if sel.sum() < 1:
+    sel = slice(int(np.searchsorted(t, t0 - 1e-12, "left")), None)  # t ≥ t0 − 1e-12 (the times increase)
+    if sel.start >= len(t):
         return {}
     out = {"duty_window_s": [t0, float(t[-1])]}
     I = np.asarray(traj.current, dtype=float)[sel]

@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import inspect
 import re
+import weakref
 from dataclasses import dataclass
 
 from .errors import ParameterError
@@ -130,14 +131,31 @@ def describe() -> list[tuple[str, str, str, str]]:
 def law_parameters(fn, nfn: int) -> list[str]:
     """The signal names a law reads: its parameters after ``nfn`` function arguments, before its
     parameter tuple and state (the last two)."""
-    try:
-        params = list(inspect.signature(fn).parameters)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{_law_name(fn)}: its parameters cannot be read (a law is a plain def function)") from None
+    params = _parameter_names(fn)
     if len(params) < nfn + 2:
         raise ParameterError(f"{_law_name(fn)}: a control law takes its signals, then its parameter tuple and its state "
                              f"(… P, S); it has {len(params)} parameter(s)")
-    return params[nfn:-2]
+    return list(params[nfn:-2])
+
+
+#: each law's parameter names, read once per law while it lives (a sweep composes a run per row)
+_PARAMETERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _parameter_names(fn) -> tuple:
+    try:
+        return _PARAMETERS[fn]
+    except (KeyError, TypeError):  # (TypeError: a callable that cannot be weakly referenced or hashed)
+        pass
+    try:
+        params = tuple(inspect.signature(fn).parameters)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{_law_name(fn)}: its parameters cannot be read (a law is a plain def function)") from None
+    try:
+        _PARAMETERS[fn] = params
+    except TypeError:
+        pass
+    return params
 
 
 def _law_name(fn) -> str:

@@ -30,7 +30,8 @@ def simulate_many(machines, backend: str, t_end: float, record_dt: float = 1e-3,
     ``options``: the backend's options (``runner.backend_options``); the reduced batch integrates
     with RK4 (a scenario's ``solve_ivp`` method is replaced by RK4 here).  ``consume(i, trajectory)``:
     called with each run's :class:`~mjbench.trajectory.Trajectory` as soon as the run ends, the
-    records are then not kept (``BatchResult.results`` holds what it returned)."""
+    records are then not kept (``BatchResult.results`` holds what it returned; the trajectory's
+    arrays may be reused by the next run: ``consume`` copies what it keeps)."""
     _check(backend)
     if backend == "multibody":
         return batch.simulate(list(machines), t_end, record_dt=record_dt, options=options, progress=progress,

@@ -55,6 +55,9 @@ TRAIN_COLUMNS = (("SENSE_COLS", ("angle_meas_rad", "speed_est_rad_s", "accel_est
                  ("MINMAX_COLS", ("current_min_A", "current_max_A")),
                  ("IREF_COL", ("current_ref_A",)))
 
+#: each record layout and its loop constants, by (axes, controllers, plant columns, drive-train columns, labels)
+_LAYOUTS: dict = {}
+
 #: the per-run constants of the loop
 Run = namedtuple("Run", "h nsteps decim every ks out stats ncol nstat div y tau qo")
 #: the slots' parameters and states of one run (per axis / per controller: tuples)
@@ -173,10 +176,15 @@ class Program:
         if len(plant.extra_columns) != pr.flags["NEXTRA"]:
             raise ParameterError(f"plant declares {len(plant.extra_columns)} extra columns but writes "
                                  f"{pr.flags['NEXTRA']}")
-        lay = LY.RecordLayout(pr.naxes, plant.extra_columns, train_cols, getattr(machine, "axis_labels", None))
+        labels = getattr(machine, "axis_labels", None)
+        key = (pr.naxes, pr.nctrl, tuple(plant.extra_columns), tuple(map(tuple, train_cols)), tuple(labels or ()))
+        if key not in _LAYOUTS:  # (one per record layout: a sweep composes a run per row)
+            lay = LY.RecordLayout(pr.naxes, plant.extra_columns, train_cols, labels)
+            _LAYOUTS[key] = lay, LY.constants(pr.naxes, pr.nctrl, lay)
+        lay, consts = _LAYOUTS[key]
         pr.layout = lay
         pr.columns, pr.stat_columns = lay.columns, lay.stats
-        pr.flags.update(LY.constants(pr.naxes, pr.nctrl, lay))
+        pr.flags.update(consts)
         return pr
 
     def _axis(self, a: int, drive, plant, h: float, every: int, parts: dict) -> list:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 
 import numpy as np
@@ -232,8 +233,9 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     GIL).  Progress: co-steps of a single run, finished runs of a batch.
 
     ``consume(i, record)``: called with each run's own one-run :class:`Record` as soon as it ends;
-    its records are then not kept (a sweep that needs only metrics holds one record per thread):
-    the returned Record has ``data = None`` and ``results`` = the values ``consume`` returned."""
+    its records are then not kept (a sweep that needs only metrics holds one record per thread,
+    reused by the thread's next run: ``consume`` copies what it keeps): the returned Record has
+    ``data = None`` and ``results`` = the values ``consume`` returned."""
     plants, machines = list(plants), list(machines)
     h = float(plants[0].h)
     CK.check_times(t_end, h, record_dt)
@@ -262,10 +264,18 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     results = [None] * N
     div_state = [None]
 
+    local = threading.local()  # consume: each thread's record, refilled for its next run
+
     def task(i, prog, stop=None):
         pr = progs[i]
-        st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, None if data is None else data[i],
-                     fns[pr.loop_key(mode)], None if stats is None else stats[i], strict=strict)
+        if data is None:
+            if not hasattr(local, "rec"):
+                local.rec = np.empty(nrec * ncol), np.empty(nrec * nstat)
+            for a in local.rec:
+                a.fill(np.nan)
+        out, sts = local.rec if data is None else (data[i], stats[i])
+        st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, out, fns[pr.loop_key(mode)], sts,
+                     strict=strict)
         _run_one(st, prog, mode != "python", stop)
         if st.fallback:
             meta["loop"], meta["loop_reason"] = "python", st.fallback
@@ -363,7 +373,6 @@ def _run_one(st: Stepper, progress, compiled: bool, stop=None) -> None:
 def _run_threaded(task, N: int, nthreads: int, progress) -> None:
     """``task(i, None, stop)`` for every run on a thread pool (the compiled loop releases the GIL);
     Ctrl-C/SIGTERM reach the main thread, which stops the workers at their next chunk and re-raises."""
-    import threading
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
     stop = threading.Event()

@@ -14,6 +14,7 @@ sees the array, so a new signal in the set changes no law.
 from __future__ import annotations
 
 import inspect
+import weakref
 from dataclasses import dataclass
 
 from .. import signals as SIG
@@ -39,6 +40,25 @@ class Wiring:
 def wire(form, axis: int, naxes: int, default_outputs: tuple, what: str) -> Wiring:
     """Resolve ``form``'s law's signal names for a component on ``axis``; ParameterError (one line
     naming ``what``, the law and the name) for a name outside the set or a write to a read-only signal."""
+    fn = form.law
+    key = (len(form.fn_args), tuple(form.outputs or ()), axis, naxes, tuple(default_outputs))
+    try:
+        return _WIRINGS[fn][key]  # (resolved once per law and place: a sweep composes a run per row)
+    except (KeyError, TypeError):
+        pass
+    w = _wire(form, axis, naxes, default_outputs, what)
+    try:
+        _WIRINGS.setdefault(fn, {})[key] = w
+    except TypeError:  # (a callable that cannot be weakly referenced)
+        pass
+    return w
+
+
+#: each law's resolved wirings while it lives, by (function arguments, outputs, axis, axes, default outputs)
+_WIRINGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _wire(form, axis: int, naxes: int, default_outputs: tuple, what: str) -> Wiring:
     fn = form.law
     names = law_parameters(fn, len(form.fn_args))
     reads = []
