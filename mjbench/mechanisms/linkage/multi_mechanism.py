@@ -117,7 +117,7 @@ class MultiLinkage(Linkage):
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
                                        "table_rel_error_g": self.table_info.get("rel_error_g")},
-                             "channels": tab.kloop})
+                             "channels": tab.slots})
 
     def has_multibody_load(self) -> bool:
         return False
