@@ -548,26 +548,12 @@ def multi_model(S, iy, t, P, W, iw):
         grid1_eval(S[iy], P.table, W, ic)
     else:
         grid2_eval(S[iy], S[iy + 1], P.table, W, ic)
-    if n == 2:  # the loops below written out (the same operations in the same order)
-        vx = S[iy + 2]
-        vy = S[iy + 3]
-        W[iw] = W[ic]
-        W[iw + 1] = W[ic + 1]
-        W[iw + 2] = W[ic + 1]
-        W[iw + 3] = W[ic + 2]
-        b0 = W[ic + 9]
-        b0 += W[ic + 3] * vx * vx
-        b0 += W[ic + 4] * vx * vy
-        b0 += W[ic + 5] * vy * vy
-        b1 = W[ic + 10]
-        b1 += W[ic + 6] * vx * vx
-        b1 += W[ic + 7] * vx * vy
-        b1 += W[ic + 8] * vy * vy
-        if P.damped:
-            b0 += W[ic + 11] * vx
-            b0 += W[ic + 12] * vy
-            b1 += W[ic + 12] * vx
-            b1 += W[ic + 13] * vy
+    if n == 2:
+        m00, m01, m11, b0, b1 = two_model(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, ic)
+        W[iw] = m00
+        W[iw + 1] = m01
+        W[iw + 2] = m01
+        W[iw + 3] = m11
         W[iw + 4] = b0
         W[iw + 5] = b1
         return
@@ -595,6 +581,29 @@ def multi_model(S, iy, t, P, W, iw):
         W[iw + n * n + i] = b
 
 
+@C.law
+def two_model(q0, q1, v0, v1, t, P, W, ic):
+    """The reduced model of a linkage with two inputs at q = (q0, q1), q̇ = (v0, v1): (M̄₀₀, M̄₀₁, M̄₁₁,
+    bias₀, bias₁), the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇; the table's channels go to W[ic:ic+LANES]
+    (scratch).  :func:`multi_model`'s loops written out for n = 2 (the same operations in the same
+    order), and the model law of the two-input RK4 (:func:`mjbench.backends.reduced.rk4_two`)."""
+    grid2_eval(q0, q1, P.table, W, ic)
+    b0 = W[ic + 9]
+    b0 += W[ic + 3] * v0 * v0
+    b0 += W[ic + 4] * v0 * v1
+    b0 += W[ic + 5] * v1 * v1
+    b1 = W[ic + 10]
+    b1 += W[ic + 6] * v0 * v0
+    b1 += W[ic + 7] * v0 * v1
+    b1 += W[ic + 8] * v1 * v1
+    if P.damped:
+        b0 += W[ic + 11] * v0
+        b0 += W[ic + 12] * v1
+        b1 += W[ic + 12] * v0
+        b1 += W[ic + 13] * v1
+    return W[ic], W[ic + 1], W[ic + 2], b0, b1
+
+
 class MultiLinkageMixin:
     """What a linkage with several inputs offers besides the linkage's MJCF builder."""
 
@@ -602,4 +611,4 @@ class MultiLinkageMixin:
         return self.c.z_ref[None]
 
 
-__all__ += ["MultiModelP", "multi_model", "MultiLinkageMixin"]
+__all__ += ["MultiModelP", "multi_model", "two_model", "MultiLinkageMixin"]

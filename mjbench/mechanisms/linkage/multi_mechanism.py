@@ -14,7 +14,7 @@ import numpy as np
 from ... import compiled as C
 from ...errors import GeometryError, ParameterError
 from .mechanism import Linkage
-from .multi import MultiCompiled, MultiModelP, multi_model
+from .multi import MultiCompiled, MultiModelP, multi_model, two_model
 from .topology import _ref
 _CACHE: dict = {}
 
@@ -110,9 +110,10 @@ class MultiLinkage(Linkage):
         return False
 
     def model_form(self):
-        """The n-input model law (:func:`.multi.multi_model`) on the grid table."""
+        """The n-input model law on the grid table: :func:`.multi.multi_model`, for two inputs the scalar
+        :func:`.multi.two_model` (the reduced plant's two-input RK4 calls it so)."""
         tab = self.c.table_n
-        return C.Form(multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
+        return C.Form(two_model if self.n_inputs == 2 else multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
                       flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
