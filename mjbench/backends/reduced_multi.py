@@ -150,8 +150,10 @@ def solve2(a, b, c, d, r0, r1):
 @C.law
 def accel_two(MODEL, q0, q1, v0, v1, t, TAU, P, S):
     """:func:`multi_accel` for two inputs at (q, q̇) = (q0, q1, v0, v1): MODEL(q0, q1, v0, v1, t, P.model,
-    S, ic) → (M̄₀₀, M̄₀₁, M̄₁₁, bias₀, bias₁) with its scratch at S[ic:] (ic as :func:`multi_model`'s)."""
-    m00, m01, m11, g0, g1 = MODEL(q0, q1, v0, v1, t, P.model, S, P.iw + 6)
+    S, 4) → (M̄₀₀, M̄₀₁, M̄₁₁, bias₀, bias₁) with its scratch at S[4:] (:func:`rk4_two` keeps its state in
+    S[0:4] and the rest in local variables; a constant offset: the scratch's addresses are constants
+    of the compiled code)."""
+    m00, m01, m11, g0, g1 = MODEL(q0, q1, v0, v1, t, P.model, S, 4)
     r0 = TAU[0] - P.c[0] * v0 - g0
     r1 = TAU[1] - P.c[1] * v1 - g1
     return solve2(m00 + P.Ja[0], m01, m01, m11 + P.Ja[1], r0, r1)

@@ -27,6 +27,7 @@ def compiled_multi(p) -> MultiCompiled:
         if len(_CACHE) > 16:
             _CACHE.clear()
         hit = _CACHE[key] = MultiCompiled(p).build()
+        hit.content_key = f"multi-linkage:{key}"
     return hit
 
 
@@ -43,6 +44,12 @@ class MultiLinkage(Linkage):
     @classmethod
     def from_params(cls, p):
         return cls(p)
+
+    def content_key(self) -> str:
+        """The key of the description this linkage was built from (a hash of its parameters' JSON: the
+        compiled description's cache key), for :func:`mjbench.mechanisms.table.mechanism_key` — the
+        linkage runs that description whatever later happens to ``params``."""
+        return self.c.content_key
 
     @property
     def input_joints(self) -> tuple:
