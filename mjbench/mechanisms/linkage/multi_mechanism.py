@@ -120,7 +120,8 @@ class MultiLinkage(Linkage):
         """The n-input model law on the grid table: :func:`.multi.multi_model`, for two inputs the scalar
         :func:`.multi.two_model` (the reduced plant's two-input RK4 calls it so)."""
         tab = self.c.table_n
-        return C.Form(two_model if self.n_inputs == 2 else multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
+        law = two_model if self.n_inputs == 2 else multi_model
+        return C.Form(law, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
                       flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
