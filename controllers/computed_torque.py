@@ -50,17 +50,13 @@ CTP = namedtuple("CTP", "kp kd kind Ja c z R km T0 model iw")
 
 @law(outputs=("u_0", "u_1"))
 def ct_law(MODEL, t, q_0, q_1, qd_0, qd_1, phi_ref_0, om_ref_0, acc_ref_0, phi_ref_1, om_ref_1, acc_ref_1, P, S):
-    """Computed torque for two axes (module docstring); S: the model's work space."""
-    S[0] = q_0
-    S[1] = q_1
-    S[2] = qd_0
-    S[3] = qd_1
-    iw = P.iw
-    MODEL(S, 0, t, P.model, S, iw)
+    """Computed torque for two axes (module docstring); S: the model's work space.  MODEL: the
+    mechanism's two-input model law, (M̄₀₀, M̄₀₁, M̄₁₁, bias₀, bias₁) at (q, q̇), its scratch at S[ic:]."""
+    m00, m01, m11, g0, g1 = MODEL(q_0, q_1, qd_0, qd_1, t, P.model, S, P.iw + 6)
     a0 = acc_ref_0 / P.z[0] + P.kd * (om_ref_0 / P.z[0] - qd_0) + P.kp * (phi_ref_0 / P.z[0] - q_0)
     a1 = acc_ref_1 / P.z[1] + P.kd * (om_ref_1 / P.z[1] - qd_1) + P.kp * (phi_ref_1 / P.z[1] - q_1)
-    tau0 = (S[iw] + P.Ja[0]) * a0 + S[iw + 1] * a1 + S[iw + 4] + P.c[0] * qd_0
-    tau1 = S[iw + 2] * a0 + (S[iw + 3] + P.Ja[1]) * a1 + S[iw + 5] + P.c[1] * qd_1
+    tau0 = (m00 + P.Ja[0]) * a0 + m01 * a1 + g0 + P.c[0] * qd_0
+    tau1 = m01 * a0 + (m11 + P.Ja[1]) * a1 + g1 + P.c[1] * qd_1
     return ct_command(tau0, qd_0, 0, P), ct_command(tau1, qd_1, 1, P)
 
 

@@ -37,6 +37,7 @@ from .compiled import law
 from .control import Reference
 from .errors import ParameterError
 from .fields import Bool, Q, Strict
+from .mechanisms.table import mechanism_key
 
 SAMPLE_DT = 5e-4  #: [s] the inverse kinematics' sampling of the path (the reference's nodes)
 
@@ -247,8 +248,7 @@ class PathReferences:
     (Solved once per mechanism and path in a process.)"""
 
     def __init__(self, mechanism, path: PathParams):
-        desc = getattr(mechanism, "describe", None)
-        key = (type(mechanism).__name__, repr(desc()) if desc is not None else id(mechanism), path.model_dump_json())
+        key = (type(mechanism).__name__, mechanism_key(mechanism), path.model_dump_json())
         hit = _TRAJ.get(key)
         if hit is None:
             if len(_TRAJ) > 8:

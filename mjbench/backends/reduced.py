@@ -44,6 +44,7 @@ from ..errors import ParameterError, SimulationDiverged
 from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
 from .multibody import _extra_names
+from .reduced_multi import MultiP, multi_read, multi_state_size, multi_work, rk4_multi, rk4_two
 from .table import composing
 from .joints import reduced_table
 from .multibody import build_model
@@ -158,7 +159,8 @@ class ReducedPlant:
         S0[n:2 * n] = self.qd
         P = MultiP(self.h, n, np.ascontiguousarray(self._Ja), np.ascontiguousarray(self._c), model.P,
                    multi_work(n), k)
-        return C.Form(rk4_multi, P, S0, laws={"read": multi_read}, flags=flags, fn_args=(model,))
+        law = rk4_two if n == 2 else rk4_multi  # (two inputs: the model law is scalar, two_model)
+        return C.Form(law, P, S0, laws={"read": multi_read}, flags=flags, fn_args=(model,))
 
     def _meta_from(self, form):
         tab = form.flags.get("table")
@@ -383,133 +385,3 @@ def internal_write(out, b, P, S):
     for i in range(n):
         out[b + i] = S[2 + 2 * i]
         out[b + n + i] = S[3 + 2 * i]
-
-
-# ============================================================================ n inputs
-#: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
-#: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
-#: number of the model's scratch channels
-MultiP = namedtuple("MultiP", "h n Ja c model iw nch")
-
-
-def multi_work(n: int) -> int:
-    """Offset of :func:`rk4_multi`'s model work space in its state: y (2n), the stage state (2n),
-    four stage accelerations and three stage velocities (n each)."""
-    return 11 * n
-
-
-def multi_state_size(n: int, channels: int) -> int:
-    """Length of :func:`rk4_multi`'s state: :func:`multi_work`, the model's M̄ and bias (n² + n), its
-    channels, the linear solve's matrix and right-hand side (n² + n)."""
-    return multi_work(n) + n * n + n + channels + n * n + n
-
-
-@C.law
-def multi_accel(MODEL, t, S, iy, ia, TAU, P):
-    """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
-    then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias: one or two inputs in closed form (Cramer's rule; the
-    matrix is symmetric positive definite, the determinant its two eigenvalues' product), more by
-    Gaussian elimination with partial pivoting."""
-    n = P.n
-    iw = P.iw
-    MODEL(S, iy, t, P.model, S, iw)
-    ib = iw + n * n
-    if n == 1:
-        S[ia] = (TAU[0] - P.c[0] * S[iy + 1] - S[ib]) / (S[iw] + P.Ja[0])
-        return
-    if n == 2:
-        a = S[iw] + P.Ja[0]
-        b = S[iw + 1]
-        c = S[iw + 2]
-        d = S[iw + 3] + P.Ja[1]
-        r0 = TAU[0] - P.c[0] * S[iy + 2] - S[ib]
-        r1 = TAU[1] - P.c[1] * S[iy + 3] - S[ib + 1]
-        det = a * d - b * c
-        S[ia] = (d * r0 - b * r1) / det
-        S[ia + 1] = (a * r1 - c * r0) / det
-        return
-    iA = ib + n + P.nch
-    ir = iA + n * n
-    for i in range(n):
-        for j in range(n):
-            S[iA + i * n + j] = S[iw + i * n + j]
-        S[iA + i * n + i] += P.Ja[i]
-        S[ir + i] = TAU[i] - P.c[i] * S[iy + n + i] - S[ib + i]
-    for c in range(n):
-        piv = c
-        big = abs(S[iA + c * n + c])
-        for r in range(c + 1, n):
-            v = abs(S[iA + r * n + c])
-            if v > big:
-                big = v
-                piv = r
-        if piv != c:
-            for j in range(n):
-                tmp = S[iA + c * n + j]
-                S[iA + c * n + j] = S[iA + piv * n + j]
-                S[iA + piv * n + j] = tmp
-            tmp = S[ir + c]
-            S[ir + c] = S[ir + piv]
-            S[ir + piv] = tmp
-        d = S[iA + c * n + c]
-        for r in range(c + 1, n):
-            f = S[iA + r * n + c] / d
-            for j in range(c, n):
-                S[iA + r * n + j] -= f * S[iA + c * n + j]
-            S[ir + r] -= f * S[ir + c]
-    for i in range(n - 1, -1, -1):
-        acc = S[ir + i]
-        for j in range(i + 1, n):
-            acc -= S[iA + i * n + j] * S[ia + j]
-        S[ia + i] = acc / S[iA + i * n + i]
-
-
-@C.law
-def rk4_multi(MODEL, TAU, t, P, S, QO):
-    """One classical RK4 step of the n-input reduced model with the axes' torques TAU held; the
-    state S[0:2n] = (q, q̇); (q_a, q̇_a, 0, 0) of every axis into QO."""
-    n = P.n
-    h = P.h
-    h2 = 0.5 * h
-    h6 = h / 6.0
-    ys = 2 * n
-    a1 = 4 * n
-    a2 = a1 + n
-    a3 = a2 + n
-    a4 = a3 + n
-    u2 = a4 + n
-    u3 = u2 + n
-    u4 = u3 + n
-    multi_accel(MODEL, t, S, 0, a1, TAU, P)
-    for j in range(n):
-        S[u2 + j] = S[n + j] + h2 * S[a1 + j]
-        S[ys + j] = S[j] + h2 * S[n + j]
-        S[ys + n + j] = S[u2 + j]
-    multi_accel(MODEL, t + h2, S, ys, a2, TAU, P)
-    for j in range(n):
-        S[u3 + j] = S[n + j] + h2 * S[a2 + j]
-        S[ys + j] = S[j] + h2 * S[u2 + j]
-        S[ys + n + j] = S[u3 + j]
-    multi_accel(MODEL, t + h2, S, ys, a3, TAU, P)
-    for j in range(n):
-        S[u4 + j] = S[n + j] + h * S[a3 + j]
-        S[ys + j] = S[j] + h * S[u3 + j]
-        S[ys + n + j] = S[u4 + j]
-    multi_accel(MODEL, t + h, S, ys, a4, TAU, P)
-    for j in range(n):
-        p = S[j]
-        v = S[n + j]
-        S[j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
-        S[n + j] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
-    multi_read(P, S, QO)
-
-
-@C.law
-def multi_read(P, S, QO):
-    """(q_a, q̇_a, 0, 0) of every axis into QO."""
-    n = P.n
-    for a in range(n):
-        QO[4 * a] = S[a]
-        QO[4 * a + 1] = S[n + a]
-        QO[4 * a + 2] = 0.0
-        QO[4 * a + 3] = 0.0

@@ -147,7 +147,8 @@ _MEMO = threading.local()
 
 
 def mechanism_key(mech) -> str:
-    """The mechanism's parameters as a cache key, ``repr(sorted(mech.describe().items()))``;
+    """The mechanism's parameters as a cache key: its ``content_key()`` if it has one (a key of the
+    description it was built from, kept since), else ``repr(sorted(mech.describe().items()))``;
     computed once per mechanism object while a job is composed (:func:`composing`: the machine
     check and the table both need it, and a description can cost ≈ 25–100 µs)."""
     memo = getattr(_MEMO, "keys", None)
@@ -155,7 +156,8 @@ def mechanism_key(mech) -> str:
         hit = memo.get(id(mech))
         if hit is not None and hit[0] is mech:
             return hit[1]
-    k = repr(sorted(mech.describe().items()))
+    own = getattr(mech, "content_key", None)  # a mechanism that keeps its description's key
+    k = own() if own is not None else repr(sorted(mech.describe().items()))
     if memo is not None:
         memo[id(mech)] = (mech, k)
     return k

@@ -363,11 +363,16 @@ class MultiCompiled(_Compiled):
 
 
 # ============================================================================ the grid table
-#: a grid table's parameters: coefficient rows (cells, k·16) — a cell's channels side by side, so one
-#: evaluation reads one contiguous block —, the channels the simulation reads (the first ``kloop``), per
-#: input: the first node, 1/h, the
-#: number of cells, periodic (1) or not (0); the number of inputs
+#: a grid table's parameters: coefficient rows, one per cell, so one evaluation reads one contiguous
+#: block — 1 input: (cells, k·4), a channel's 4 coefficients side by side; 2 inputs: (cells, 16·LANES),
+#: coefficient m = 4a + b of every channel side by side (m·LANES + channel), the simulation's channels
+#: padded to :data:`LANES` —, the channels the simulation reads (the first ``kloop``), per input: the
+#: first node, 1/h, the number of cells, periodic (1) or not (0); the number of inputs
 GridTableP = namedtuple("GridTableP", "rows kloop x0 inv_h ncell periodic n")
+#: a 2-input table's compiled channels: the simulation's (M̄, the Christoffel symbols, ḡ: 11; + D̄: 14)
+#: padded to 16 — numba (LLVM) vectorises the evaluation across the channels, 4 per AVX register,
+#: only for a loop of at least 16 trips (a shorter one needing run-time alias checks stays scalar)
+LANES = 16
 
 
 class GridTable:
@@ -403,13 +408,25 @@ class GridTable:
             self.ncell = [int(c0.shape[1])]
             rows = np.transpose(c0, (1, 2, 0)).reshape(c0.shape[1], -1)  # [i, 4·ch + a]
             self.width = 4
+            self.coef = rows.reshape(rows.shape[0], k, 4)
         else:
             c = spline(nodes[1], c0, 2, self.periodic[1], self.h[1])  # (4₁, C1, 4₀, C0, k)
             self.ncell = [int(c.shape[3]), int(c.shape[1])]
-            rows = np.transpose(c, (3, 1, 4, 2, 0)).reshape(c.shape[3] * c.shape[1], -1)  # [i·C1 + j, 16·ch + 4·a + b]
+            cells = c.shape[3] * c.shape[1]
+            coef = np.transpose(c, (3, 1, 2, 0, 4)).reshape(cells, 16, k)  # [i·C1 + j, 4·a + b, ch]
             self.width = 16
+            self.coef = np.ascontiguousarray(np.transpose(coef, (0, 2, 1)))  # [cell, ch, 4·a + b]
         self.k = k
         self.kloop = int(k if kloop is None else kloop)
+        #: the slots the compiled evaluation writes (2 inputs: :data:`LANES`, the padding zeros)
+        self.slots = self.kloop
+        if self.n == 2:
+            if self.kloop > LANES:
+                raise ParameterError(f"a 2-input table of {self.kloop} channels: at most {LANES} are evaluated")
+            rows = np.zeros((cells, 16, LANES))
+            rows[:, :, :self.kloop] = coef[:, :, :self.kloop]
+            rows = rows.reshape(cells, 16 * LANES)  # [i·C1 + j, 16·(4·a + b) + ch]
+            self.slots = LANES
         self.P = GridTableP(np.ascontiguousarray(rows), self.kloop, np.array(self.x0), 1.0 / np.array(self.h),
                             np.array(self.ncell, dtype=np.int64), np.array(self.periodic, dtype=np.int64), self.n)
 
@@ -432,7 +449,7 @@ class GridTable:
         """Channels (B, k) at inputs Q (B, n), NaN outside the ranges (NumPy, vectorised: the same
         cells and Horner order as the compiled laws :func:`grid1_eval`, :func:`grid2_eval`)."""
         Q = np.atleast_2d(np.asarray(Q, float))
-        R = self.P.rows.reshape(self.P.rows.shape[0], self.k, self.width)
+        R = self.coef
         i, s, bad = self._cells(Q[:, 0], 0)
         if self.n == 1:
             c = np.moveaxis(R[i], 1, 0)  # (k, B, 4)
@@ -489,43 +506,29 @@ def grid1_eval(q, T, out, o):
 
 @C.law
 def grid2_eval(q0, q1, T, out, o):
-    """The simulation's channels (the first ``T.kloop``) of a 2-input grid table at (q0, q1) into
-    out[o:o+kloop] (NaN outside its ranges): Horner in the second input's coordinate for each power
-    of the first, then in the first's; one cell's coefficients are one contiguous row."""
+    """The simulation's channels of a 2-input grid table at (q0, q1) into out[o:o+LANES] (the first
+    ``T.kloop``; the rest 0.  NaN outside its ranges): Horner in the second input's coordinate for
+    each power of the first, then in the first's.  One cell's coefficients are one contiguous row,
+    coefficient by coefficient with the channels side by side, so the loop over the channels runs
+    4 at a time in SIMD registers (the same operations per channel: the same bits as channel by
+    channel)."""
     i, s = grid_cell(q0, 0, T)
     j, t = grid_cell(q1, 1, T)
     R = T.rows
-    k = T.kloop
     if i < 0 or j < 0:
-        for c in range(k):
+        for c in range(T.kloop):
             out[o + c] = math.nan
         return
     r = i * T.ncell[1] + j
-    # the two inputs' channel counts (M̄, its Christoffel symbols, ḡ; + D̄ when damped) as constants:
-    # numba unrolls and interleaves the channels (half the time of a loop over a run-time count)
-    if k == 11:
-        for c in range(11):
-            out[o + c] = grid2_channel(R, r, 16 * c, s, t)
-    elif k == 14:
-        for c in range(14):
-            out[o + c] = grid2_channel(R, r, 16 * c, s, t)
-    else:
-        for c in range(k):
-            out[o + c] = grid2_channel(R, r, 16 * c, s, t)
+    for c in range(16):  # LANES
+        a0 = ((R[r, c] * t + R[r, 16 + c]) * t + R[r, 32 + c]) * t + R[r, 48 + c]
+        a1 = ((R[r, 64 + c] * t + R[r, 80 + c]) * t + R[r, 96 + c]) * t + R[r, 112 + c]
+        a2 = ((R[r, 128 + c] * t + R[r, 144 + c]) * t + R[r, 160 + c]) * t + R[r, 176 + c]
+        a3 = ((R[r, 192 + c] * t + R[r, 208 + c]) * t + R[r, 224 + c]) * t + R[r, 240 + c]
+        out[o + c] = ((a0 * s + a1) * s + a2) * s + a3
 
 
-@C.law
-def grid2_channel(R, r, b, s, t):
-    """One channel of cell row ``r`` at (s, t), its 16 coefficients at R[r, b:b+16]: Horner in t
-    for each power of s, then in s."""
-    a0 = ((R[r, b] * t + R[r, b + 1]) * t + R[r, b + 2]) * t + R[r, b + 3]
-    a1 = ((R[r, b + 4] * t + R[r, b + 5]) * t + R[r, b + 6]) * t + R[r, b + 7]
-    a2 = ((R[r, b + 8] * t + R[r, b + 9]) * t + R[r, b + 10]) * t + R[r, b + 11]
-    a3 = ((R[r, b + 12] * t + R[r, b + 13]) * t + R[r, b + 14]) * t + R[r, b + 15]
-    return ((a0 * s + a1) * s + a2) * s + a3
-
-
-__all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "grid2_channel", "grid_cell",
+__all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "grid_cell", "LANES",
            "TABLE_TARGET"]
 
 
@@ -545,26 +548,12 @@ def multi_model(S, iy, t, P, W, iw):
         grid1_eval(S[iy], P.table, W, ic)
     else:
         grid2_eval(S[iy], S[iy + 1], P.table, W, ic)
-    if n == 2:  # the loops below written out (the same operations in the same order)
-        vx = S[iy + 2]
-        vy = S[iy + 3]
-        W[iw] = W[ic]
-        W[iw + 1] = W[ic + 1]
-        W[iw + 2] = W[ic + 1]
-        W[iw + 3] = W[ic + 2]
-        b0 = W[ic + 9]
-        b0 += W[ic + 3] * vx * vx
-        b0 += W[ic + 4] * vx * vy
-        b0 += W[ic + 5] * vy * vy
-        b1 = W[ic + 10]
-        b1 += W[ic + 6] * vx * vx
-        b1 += W[ic + 7] * vx * vy
-        b1 += W[ic + 8] * vy * vy
-        if P.damped:
-            b0 += W[ic + 11] * vx
-            b0 += W[ic + 12] * vy
-            b1 += W[ic + 12] * vx
-            b1 += W[ic + 13] * vy
+    if n == 2:
+        m00, m01, m11, b0, b1 = two_model(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, ic)
+        W[iw] = m00
+        W[iw + 1] = m01
+        W[iw + 2] = m01
+        W[iw + 3] = m11
         W[iw + 4] = b0
         W[iw + 5] = b1
         return
@@ -592,6 +581,29 @@ def multi_model(S, iy, t, P, W, iw):
         W[iw + n * n + i] = b
 
 
+@C.law
+def two_model(q0, q1, v0, v1, t, P, W, ic):
+    """The reduced model of a linkage with two inputs at q = (q0, q1), q̇ = (v0, v1): (M̄₀₀, M̄₀₁, M̄₁₁,
+    bias₀, bias₁), the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇; the table's channels go to W[ic:ic+LANES]
+    (scratch).  :func:`multi_model`'s loops written out for n = 2 (the same operations in the same
+    order), and the model law of the two-input RK4 (:func:`mjbench.backends.reduced.rk4_two`)."""
+    grid2_eval(q0, q1, P.table, W, ic)
+    b0 = W[ic + 9]
+    b0 += W[ic + 3] * v0 * v0
+    b0 += W[ic + 4] * v0 * v1
+    b0 += W[ic + 5] * v1 * v1
+    b1 = W[ic + 10]
+    b1 += W[ic + 6] * v0 * v0
+    b1 += W[ic + 7] * v0 * v1
+    b1 += W[ic + 8] * v1 * v1
+    if P.damped:
+        b0 += W[ic + 11] * v0
+        b0 += W[ic + 12] * v1
+        b1 += W[ic + 12] * v0
+        b1 += W[ic + 13] * v1
+    return W[ic], W[ic + 1], W[ic + 2], b0, b1
+
+
 class MultiLinkageMixin:
     """What a linkage with several inputs offers besides the linkage's MJCF builder."""
 
@@ -599,4 +611,4 @@ class MultiLinkageMixin:
         return self.c.z_ref[None]
 
 
-__all__ += ["MultiModelP", "multi_model", "MultiLinkageMixin"]
+__all__ += ["MultiModelP", "multi_model", "two_model", "MultiLinkageMixin"]

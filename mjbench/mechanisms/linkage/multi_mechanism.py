@@ -14,7 +14,7 @@ import numpy as np
 from ... import compiled as C
 from ...errors import GeometryError, ParameterError
 from .mechanism import Linkage
-from .multi import MultiCompiled, MultiModelP, multi_model
+from .multi import MultiCompiled, MultiModelP, multi_model, two_model
 from .topology import _ref
 _CACHE: dict = {}
 
@@ -27,6 +27,7 @@ def compiled_multi(p) -> MultiCompiled:
         if len(_CACHE) > 16:
             _CACHE.clear()
         hit = _CACHE[key] = MultiCompiled(p).build()
+        hit.content_key = f"multi-linkage:{key}"
     return hit
 
 
@@ -43,6 +44,12 @@ class MultiLinkage(Linkage):
     @classmethod
     def from_params(cls, p):
         return cls(p)
+
+    def content_key(self) -> str:
+        """The key of the description this linkage was built from (a hash of its parameters' JSON: the
+        compiled description's cache key), for :func:`mjbench.mechanisms.table.mechanism_key` — the
+        linkage runs that description whatever later happens to ``params``."""
+        return self.c.content_key
 
     @property
     def input_joints(self) -> tuple:
@@ -110,14 +117,16 @@ class MultiLinkage(Linkage):
         return False
 
     def model_form(self):
-        """The n-input model law (:func:`.multi.multi_model`) on the grid table."""
+        """The n-input model law on the grid table: :func:`.multi.multi_model`, for two inputs the scalar
+        :func:`.multi.two_model` (the reduced plant's two-input RK4 calls it so)."""
         tab = self.c.table_n
-        return C.Form(multi_model, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
+        law = two_model if self.n_inputs == 2 else multi_model
+        return C.Form(law, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
                       flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
                                        "table_rel_error_g": self.table_info.get("rel_error_g")},
-                             "channels": tab.kloop})
+                             "channels": tab.slots})
 
     def has_multibody_load(self) -> bool:
         return False

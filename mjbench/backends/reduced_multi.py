@@ -1,0 +1,198 @@
+"""The reduced plant of a machine with n inputs (one motor each): RK4 on
+
+    M̄(q) q̈ + c̄(q, q̇) + ḡ(q) + D̄(q) q̇ = τ − c·q̇
+
+with the mechanism's n-input model law (``model_form``; :mod:`mjbench.backends.reduced` builds the
+plant): :func:`rk4_multi` for any n, :func:`rk4_two` for two inputs — the same operations in the same
+order, written out in local variables (no state round trips, no loops over a run-time n).
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+from .. import compiled as C
+
+#: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
+#: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
+#: number of the model's scratch channels
+MultiP = namedtuple("MultiP", "h n Ja c model iw nch")
+
+
+def multi_work(n: int) -> int:
+    """Offset of :func:`rk4_multi`'s model work space in its state: y (2n), the stage state (2n),
+    four stage accelerations and three stage velocities (n each)."""
+    return 11 * n
+
+
+def multi_state_size(n: int, channels: int) -> int:
+    """Length of :func:`rk4_multi`'s state: :func:`multi_work`, the model's M̄ and bias (n² + n), its
+    channels, the linear solve's matrix and right-hand side (n² + n)."""
+    return multi_work(n) + n * n + n + channels + n * n + n
+
+
+@C.law
+def multi_accel(MODEL, t, S, iy, ia, TAU, P):
+    """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
+    then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias: one or two inputs in closed form (Cramer's rule; the
+    matrix is symmetric positive definite, the determinant its two eigenvalues' product), more by
+    Gaussian elimination with partial pivoting."""
+    n = P.n
+    iw = P.iw
+    MODEL(S, iy, t, P.model, S, iw)
+    ib = iw + n * n
+    if n == 1:
+        S[ia] = (TAU[0] - P.c[0] * S[iy + 1] - S[ib]) / (S[iw] + P.Ja[0])
+        return
+    if n == 2:
+        a = S[iw] + P.Ja[0]
+        b = S[iw + 1]
+        c = S[iw + 2]
+        d = S[iw + 3] + P.Ja[1]
+        r0 = TAU[0] - P.c[0] * S[iy + 2] - S[ib]
+        r1 = TAU[1] - P.c[1] * S[iy + 3] - S[ib + 1]
+        S[ia], S[ia + 1] = solve2(a, b, c, d, r0, r1)
+        return
+    iA = ib + n + P.nch
+    ir = iA + n * n
+    for i in range(n):
+        for j in range(n):
+            S[iA + i * n + j] = S[iw + i * n + j]
+        S[iA + i * n + i] += P.Ja[i]
+        S[ir + i] = TAU[i] - P.c[i] * S[iy + n + i] - S[ib + i]
+    for c in range(n):
+        piv = c
+        big = abs(S[iA + c * n + c])
+        for r in range(c + 1, n):
+            v = abs(S[iA + r * n + c])
+            if v > big:
+                big = v
+                piv = r
+        if piv != c:
+            for j in range(n):
+                tmp = S[iA + c * n + j]
+                S[iA + c * n + j] = S[iA + piv * n + j]
+                S[iA + piv * n + j] = tmp
+            tmp = S[ir + c]
+            S[ir + c] = S[ir + piv]
+            S[ir + piv] = tmp
+        d = S[iA + c * n + c]
+        for r in range(c + 1, n):
+            f = S[iA + r * n + c] / d
+            for j in range(c, n):
+                S[iA + r * n + j] -= f * S[iA + c * n + j]
+            S[ir + r] -= f * S[ir + c]
+    for i in range(n - 1, -1, -1):
+        acc = S[ir + i]
+        for j in range(i + 1, n):
+            acc -= S[iA + i * n + j] * S[ia + j]
+        S[ia + i] = acc / S[iA + i * n + i]
+
+
+@C.law
+def rk4_multi(MODEL, TAU, t, P, S, QO):
+    """One classical RK4 step of the n-input reduced model with the axes' torques TAU held; the
+    state S[0:2n] = (q, q̇); (q_a, q̇_a, 0, 0) of every axis into QO."""
+    n = P.n
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    ys = 2 * n
+    a1 = 4 * n
+    a2 = a1 + n
+    a3 = a2 + n
+    a4 = a3 + n
+    u2 = a4 + n
+    u3 = u2 + n
+    u4 = u3 + n
+    multi_accel(MODEL, t, S, 0, a1, TAU, P)
+    for j in range(n):
+        S[u2 + j] = S[n + j] + h2 * S[a1 + j]
+        S[ys + j] = S[j] + h2 * S[n + j]
+        S[ys + n + j] = S[u2 + j]
+    multi_accel(MODEL, t + h2, S, ys, a2, TAU, P)
+    for j in range(n):
+        S[u3 + j] = S[n + j] + h2 * S[a2 + j]
+        S[ys + j] = S[j] + h2 * S[u2 + j]
+        S[ys + n + j] = S[u3 + j]
+    multi_accel(MODEL, t + h2, S, ys, a3, TAU, P)
+    for j in range(n):
+        S[u4 + j] = S[n + j] + h * S[a3 + j]
+        S[ys + j] = S[j] + h * S[u3 + j]
+        S[ys + n + j] = S[u4 + j]
+    multi_accel(MODEL, t + h, S, ys, a4, TAU, P)
+    for j in range(n):
+        p = S[j]
+        v = S[n + j]
+        S[j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
+        S[n + j] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    multi_read(P, S, QO)
+
+
+@C.law
+def multi_read(P, S, QO):
+    """(q_a, q̇_a, 0, 0) of every axis into QO."""
+    n = P.n
+    for a in range(n):
+        QO[4 * a] = S[a]
+        QO[4 * a + 1] = S[n + a]
+        QO[4 * a + 2] = 0.0
+        QO[4 * a + 3] = 0.0
+
+
+@C.law
+def solve2(a, b, c, d, r0, r1):
+    """x of [[a, b], [c, d]]·x = r by Cramer's rule (the matrix M̄ + diag J_eq is symmetric positive
+    definite: the determinant is its two eigenvalues' product)."""
+    det = a * d - b * c
+    return (d * r0 - b * r1) / det, (a * r1 - c * r0) / det
+
+
+@C.law
+def accel_two(MODEL, q0, q1, v0, v1, t, TAU, P, S):
+    """:func:`multi_accel` for two inputs at (q, q̇) = (q0, q1, v0, v1): MODEL(q0, q1, v0, v1, t, P.model,
+    S, 4) → (M̄₀₀, M̄₀₁, M̄₁₁, bias₀, bias₁) with its scratch at S[4:] (:func:`rk4_two` keeps its state in
+    S[0:4] and the rest in local variables; a constant offset: the scratch's addresses are constants
+    of the compiled code)."""
+    m00, m01, m11, g0, g1 = MODEL(q0, q1, v0, v1, t, P.model, S, 4)
+    r0 = TAU[0] - P.c[0] * v0 - g0
+    r1 = TAU[1] - P.c[1] * v1 - g1
+    return solve2(m00 + P.Ja[0], m01, m01, m11 + P.Ja[1], r0, r1)
+
+
+@C.law
+def rk4_two(MODEL, TAU, t, P, S, QO):
+    """:func:`rk4_multi` for two inputs (P.n = 2), its loops written out in local variables: the same
+    operations in the same order (the same bits); the model law is scalar (:func:`accel_two`)."""
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    x0 = S[0]
+    x1 = S[1]
+    v0 = S[2]
+    v1 = S[3]
+    a10, a11 = accel_two(MODEL, x0, x1, v0, v1, t, TAU, P, S)
+    u20 = v0 + h2 * a10
+    u21 = v1 + h2 * a11
+    a20, a21 = accel_two(MODEL, x0 + h2 * v0, x1 + h2 * v1, u20, u21, t + h2, TAU, P, S)
+    u30 = v0 + h2 * a20
+    u31 = v1 + h2 * a21
+    a30, a31 = accel_two(MODEL, x0 + h2 * u20, x1 + h2 * u21, u30, u31, t + h2, TAU, P, S)
+    u40 = v0 + h * a30
+    u41 = v1 + h * a31
+    a40, a41 = accel_two(MODEL, x0 + h * u30, x1 + h * u31, u40, u41, t + h, TAU, P, S)
+    q0 = x0 + h6 * (v0 + 2.0 * u20 + 2.0 * u30 + u40)
+    q1 = x1 + h6 * (v1 + 2.0 * u21 + 2.0 * u31 + u41)
+    w0 = v0 + h6 * (a10 + 2.0 * a20 + 2.0 * a30 + a40)
+    w1 = v1 + h6 * (a11 + 2.0 * a21 + 2.0 * a31 + a41)
+    S[0] = q0
+    S[1] = q1
+    S[2] = w0
+    S[3] = w1
+    QO[0] = q0
+    QO[1] = w0
+    QO[2] = 0.0
+    QO[3] = 0.0
+    QO[4] = q1
+    QO[5] = w1
+    QO[6] = 0.0
+    QO[7] = 0.0
