@@ -544,11 +544,7 @@ def multi_model(S, iy, t, P, W, iw):
     W[iw+n²:iw+n²+n]; the table's channels go to W[iw+n²+n:] (scratch)."""
     n = P.n
     ic = iw + n * n + n
-    if n == 1:
-        grid1_eval(S[iy], P.table, W, ic)
-    else:
-        grid2_eval(S[iy], S[iy + 1], P.table, W, ic)
-    if n == 2:
+    if n == 2:  # (two_model evaluates the table itself: once)
         m00, m01, m11, b0, b1 = two_model(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, ic)
         W[iw] = m00
         W[iw + 1] = m01
@@ -557,6 +553,10 @@ def multi_model(S, iy, t, P, W, iw):
         W[iw + 4] = b0
         W[iw + 5] = b1
         return
+    if n == 1:
+        grid1_eval(S[iy], P.table, W, ic)
+    else:
+        grid2_eval(S[iy], S[iy + 1], P.table, W, ic)
     npair = n * (n + 1) // 2
     m = 0
     for j in range(n):
