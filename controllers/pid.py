@@ -23,7 +23,6 @@ State (``STATE``): ``offset`` φ_w [rad], ``epos_prev`` the previous angle error
 ``started`` (1 once ``epos_prev`` holds a sample).  The law is :func:`pid_law`; its linear
 counterpart (:meth:`PID.linear`) is :func:`pid_counterpart` with K_p(t*) frozen.
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple

@@ -24,7 +24,6 @@ The real drive train (PWM amplifier, encoder and speed estimation, sampling dela
 and efficiency, dry friction, current loop) is optional: sub-tables of ``[drive]``
 (:mod:`mjbench.drivetrain`), held in ``DCMotorDrive.train`` (None = the ideal drive above).
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple

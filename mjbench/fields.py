@@ -9,7 +9,6 @@ Mechanisms (``Params``), controllers (``Params``), the drive and the drive-train
 their tables with these types; :mod:`mjbench.schema` assembles the scenario from them.  Nothing here
 imports a component, so every component module can import it at module level.
 """
-from __future__ import annotations
 
 import math
 import typing

@@ -26,7 +26,6 @@ The field types (``Q``, ``OptQ``, ``Bool``, ``Strict``) live in the leaf module
 mechanisms and the controllers import their field types without a cycle, and
 :mod:`mjbench.validation` (which imports them all) assembles a scenario.
 """
-from __future__ import annotations
 
 import math
 from typing import Any, ClassVar, Literal

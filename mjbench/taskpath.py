@@ -23,7 +23,6 @@ point.  The joint trajectories q_k(t), q̇_k, q̈_k are tabulated at the samples
 accelerations from the kinematics, exact) and read by the reference law :func:`path_reference`
 (cubic Hermite in time).
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple

@@ -49,7 +49,6 @@ The object keeps the state of its Python calls: it must be called once per contr
 non-decreasing t; ``reset()`` clears it (a call with t below the previous one also does).  The
 kernel starts every run from a fresh state.
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple

@@ -267,6 +267,7 @@ def python_step(P, model, data, load=None):
         lines += [f"    QO[{4 * a}] = q", f"    QO[{4 * a + 1}] = qd", f"    QO[{4 * a + 2}] = dm", f"    QO[{4 * a + 3}] = dmd"]
     src = "\n".join(lines) + "\n"
     exec(compile(src, "<mjbench MuJoCo step twin>", "exec"), env)  # noqa: S102 - our own generated source
+    env["mujoco_step_twin"].source = src  # (what mjbench/kernel/inline.py reads)
     return env["mujoco_step_twin"]
 
 

@@ -24,7 +24,6 @@ holds both); a different one is an error naming both.  Redundant datasheet value
 (a stall torque and a stall current that do not match k_m and R by more than 10 %, catalogues
 often state them at different temperatures) are warnings naming the values.
 """
-from __future__ import annotations
 
 import math
 

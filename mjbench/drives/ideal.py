@@ -28,7 +28,6 @@ source delivers, T·q̇ (for the torque source before its own damping, as the DC
 before its friction).  Every law is a :func:`mjbench.compiled.law`: CPython and the compiled loop
 give the same bits.
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple

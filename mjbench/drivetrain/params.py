@@ -6,7 +6,6 @@ voltage source, exact measurement, rigid lossless gear, viscous friction only), 
 without them runs exactly as before.  Physical values take units (``frequency = "20 kHz"``,
 ``backlash = "0.1 deg"``); bare numbers are SI.  See docs/drivetrain.md.
 """
-from __future__ import annotations
 
 import math
 from typing import Annotated, Literal

@@ -19,7 +19,7 @@ from .. import environment
 from ..compiled import jit
 from ..errors import ParameterError
 from . import loop as LP
-from . import pyloop, unroll
+from . import inline, pyloop, unroll
 from .program import MIN_STEPS, Program
 
 #: the values ``MJBENCH_JIT`` may take
@@ -34,15 +34,20 @@ def loop_env() -> dict:
             "MAX_CURRENT": LP.MAX_CURRENT}
 
 
-def python_loop(program: Program):
-    """The loop executed by CPython for this composition (the unrolled template's code)."""
-    key = program.key
+def python_loop(program: Program, inline_laws: bool = True):
+    """The loop executed by CPython for this composition (the unrolled template's code, its laws
+    written into it: :mod:`.inline`; ``inline_laws=False``: called, the reference of the tests)."""
+    key = (program.key, inline_laws)
     shared = program.compiled and not program.twins  # (a loop holding a run's twins is that run's alone)
     fn = _PY_LOOPS.get(key) if shared else None
     if fn is None:
-        code = pyloop.code(program.naxes, program.nctrl, program.flags)  # specialised to its constants, kept
         env = {**loop_env(), **program.env()}
+        code, aliases, laws = pyloop.code(program.naxes, program.nctrl, program.flags,
+                                          env if inline_laws else None)  # specialised, kept
+        for name, path in aliases.items():  # the inlined laws' globals (mjbench/kernel/inline.py)
+            env[name] = inline.resolve(path, env)
         fn = types.FunctionType(code, env, "_loop")
+        fn.__mjbench_inlined__ = tuple((inline.resolve(path, env), first) for path, first in laws)
         if shared:
             _PY_LOOPS[key] = fn  # (its globals hold the laws: their ids in the key stay unique)
     return fn

@@ -28,7 +28,6 @@ source, so they give the same bits.
 """
 from __future__ import annotations
 
-import inspect
 import textwrap
 
 from ..compiled import clip, isfinite  # noqa: F401 - globals of the loop
@@ -346,9 +345,23 @@ def _loop(n0, n1, K, X):
     return n
 
 
+def _source() -> str:
+    """:func:`_loop`'s source read from this file: its ``def`` line and every following line that is
+    blank or indented (what ``inspect.getsource`` gives, without tokenizing the file: ≈ 10 ms)."""
+    with open(__file__, encoding="utf-8") as f:
+        lines = f.read().splitlines(keepends=True)
+    first = _loop.__code__.co_firstlineno - 1
+    end = first + 1
+    while end < len(lines) and (not lines[end].strip() or lines[end][0] in " \t"):
+        end += 1
+    while not lines[end - 1].strip():
+        end -= 1
+    return textwrap.dedent("".join(lines[first:end]))
+
+
 #: the template's source as loaded (the compiled loop is generated from exactly the code CPython
 #: runs, even if the file changes on disk while this process lives)
-TEMPLATE = textwrap.dedent(inspect.getsource(_loop))
+TEMPLATE = _source()
 
 
 __all__ = ["MAX_SPEED", "MAX_CURRENT", "TEMPLATE"]

@@ -23,6 +23,7 @@ import sys
 import types
 
 from ..compiled import cache
+from . import inline
 from . import loop as LP
 from . import unroll
 
@@ -31,9 +32,9 @@ _CODE: dict = {}
 
 
 def _stamp() -> str:
-    """The template's text and the two modules' files as imported (size, modification time)."""
+    """The template's text and the modules' files as imported (size, modification time)."""
     h = hashlib.sha256(LP.TEMPLATE.encode())
-    for f in (LP.__file__, unroll.__file__, __file__):
+    for f in (LP.__file__, unroll.__file__, inline.__file__, __file__):
         try:
             st = os.stat(f)
             h.update(f"{os.path.basename(f)}:{st.st_size}:{st.st_mtime_ns}".encode())
@@ -51,25 +52,33 @@ def constants(flags: dict) -> tuple:
     return tuple(sorted((k, v) for k, v in flags.items() if isinstance(v, (bool, int))))
 
 
-def code(naxes: int, nctrl: int, flags: dict) -> types.CodeType:
-    """The compiled, specialised loop function's code for these axes, controllers and flags."""
+def code(naxes: int, nctrl: int, flags: dict, env: dict | None = None) -> tuple:
+    """The compiled, specialised loop function's code for these axes, controllers and flags, with
+    the laws of the loop's globals ``env`` inlined (:mod:`.inline`; None: none): (code, the aliases
+    it adds to the globals {name: path}, the inlined laws [(path, file line of the def)])."""
     consts = constants(flags)
-    key = (int(naxes), int(nctrl), consts)
-    c = _CODE.get(key)
-    if c is None:
+    lkey = inline.law_key(env) if env is not None else ""
+    key = (int(naxes), int(nctrl), consts, lkey)
+    hit = _CODE.get(key)
+    if hit is None:
         disk = hashlib.sha256(f"{_STAMP}\n{key!r}".encode()).hexdigest()[:40]
         blob = cache.load_object("loops", disk, "CPython loop")
         try:
-            c = marshal.loads(blob) if isinstance(blob, bytes) else None
+            hit = marshal.loads(blob) if isinstance(blob, bytes) else None
         except (ValueError, EOFError, TypeError):
-            c = None
-        if not isinstance(c, types.CodeType) or c.co_name != "_loop":
-            src = specialise(unroll.source(naxes, nctrl), dict(consts))
-            mod = compile(src, f"<mjbench loop {naxes} axis(es), {nctrl} controller(s)>", "exec")
+            hit = None
+        if not (isinstance(hit, tuple) and len(hit) == 3 and isinstance(hit[0], types.CodeType)
+                and hit[0].co_name == "_loop"):
+            tree = ast.parse(specialise(unroll.source(naxes, nctrl), dict(consts)))
+            aliases, laws = inline.fuse(tree, env) if env is not None else ({}, [])
+            if env is not None:
+                inline.hoist(tree)
+            mod = compile(tree, f"<mjbench loop {naxes} axis(es), {nctrl} controller(s)>", "exec")
             c = next(x for x in mod.co_consts if isinstance(x, types.CodeType))
-            cache.store_object("loops", disk, marshal.dumps(c))
-        _CODE[key] = c
-    return c
+            hit = (c, aliases, laws)
+            cache.store_object("loops", disk, marshal.dumps(hit))
+        _CODE[key] = hit
+    return hit
 
 
 def specialise(src: str, consts: dict) -> str:

@@ -7,6 +7,7 @@ within a chunk.
 """
 from __future__ import annotations
 
+import gc
 import math
 import os
 import threading
@@ -18,6 +19,7 @@ from .. import signals as SIG
 from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
+from .inline import LINE_BASE
 from .choice import choose_loop, jit_mode, loop_function, python_loop
 from .program import Program, Run
 from ..backends.table import composing
@@ -90,9 +92,29 @@ class Stepper:
         self.n = 0
 
     def _bind(self, python: bool):
+        """The run's arrays as the loop reads them: the arrays themselves (compiled), memoryviews of the
+        record and the kernel state, and lists of the signals, torques and plant outputs, which the
+        CPython loop reads and writes at every step (copied back after each chunk: :meth:`_sync`)."""
         view = memoryview if python else (lambda a: a)
+        box = (lambda a: a.tolist()) if python else (lambda a: a)
         self.run = Run(self.h, self.nsteps, self.decim, self.every, view(self.ks), view(self.out), view(self.stats),
-                       self.ncol, self.nstat, view(self.div), view(self.y), view(self.tau), view(self.qo))
+                       self.ncol, self.nstat, view(self.div), box(self.y), box(self.tau), box(self.qo))
+
+    def _python_chunk(self, n1: int) -> int:
+        """The CPython loop up to ``n1``: without the cyclic collector (the loop makes no cycles; its
+        passes would cost ≈ 2 % of a co-step), the lists copied back into the arrays afterwards."""
+        gc_on = gc.isenabled()
+        if gc_on:
+            gc.disable()
+        try:
+            return self.fn(self.n, n1, self.run, self.parts)
+        finally:
+            if gc_on:
+                gc.enable()
+            r = self.run
+            self.y[:] = r.y
+            self.tau[:] = r.tau
+            self.qo[:] = r.qo
 
     @property
     def diverged(self) -> bool:
@@ -136,7 +158,7 @@ class Stepper:
             return self.n
         n1 = min(int(n_to), self.nsteps + 1)
         try:
-            self.n = self.fn(self.n, n1, self.run, self.parts)
+            self.n = self._python_chunk(n1) if self.mode == "python" else self.fn(self.n, n1, self.run, self.parts)
         except (ParameterError, SimulationDiverged, KeyboardInterrupt, SystemExit, MemoryError):
             raise
         except Exception as e:  # noqa: BLE001 - a law's failure becomes one line naming it
@@ -149,9 +171,9 @@ class Stepper:
                 self.fn = python_loop(self.program)
                 self.parts = self.program.parts(True)
                 self._bind(True)
-                self.n = self.fn(self.n, n1, self.run, self.parts)
+                self.n = self._python_chunk(n1)
                 return self.n
-            msg = law_failure_message(self.program, e, self.n * self.h)
+            msg = law_failure_message(self.program, e, self.n * self.h, self.fn)
             if msg is None and self.mode == "check" and isinstance(e, IndexError):
                 msg = self._locate() or (f"an array was read or written past its end in the compiled loop "
                                          f"(MJBENCH_JIT=check) between t = {self.n * self.h:.6g} s and "
@@ -185,14 +207,22 @@ class Stepper:
         return CK.divergence_message(backend, *d[1:6], cause)
 
 
-def law_failure_message(program, exc, t: float) -> str | None:
+def law_failure_message(program, exc, t: float, loop=None) -> str | None:
     """One line naming the component, the law and the line where ``exc`` was raised inside a law of
-    ``program`` (None when it was not raised in a law)."""
+    ``program`` (None when it was not raised in a law); ``loop``: the CPython loop that ran, whose
+    inlined statements carry their law's line (:data:`.inline.LINE_BASE`)."""
     frames = program.law_frames()
+    inlined = getattr(loop, "__mjbench_inlined__", ())
+    code = getattr(loop, "__code__", None)
     tb, hit = exc.__traceback__, None
     while tb is not None:
-        if tb.tb_frame.f_code in frames:
-            hit = (frames[tb.tb_frame.f_code], tb.tb_lineno)
+        c, line = tb.tb_frame.f_code, tb.tb_lineno
+        if c in frames:
+            hit = (frames[c], line)
+        elif c is code and line is not None and line >= LINE_BASE and line // LINE_BASE - 1 < len(inlined):
+            fn, first = inlined[line // LINE_BASE - 1]
+            if getattr(fn, "__code__", None) in frames:
+                hit = (frames[fn.__code__], first + line % LINE_BASE - 1)
         tb = tb.tb_next
     if hit is None:
         return None

@@ -99,7 +99,9 @@ def adapter_source(name: str, target: str, w: Wiring) -> str:
 def python_adapter(name: str, fn, w: Wiring):
     """The adapter of :func:`adapter_source` as a Python function calling ``fn`` (the CPython loop)."""
     env = {"_target": fn}
-    exec(compile(adapter_source(name, "_target", w), f"<mjbench wiring {name}>", "exec"), env)  # noqa: S102
+    src = adapter_source(name, "_target", w)
+    exec(compile(src, f"<mjbench wiring {name}>", "exec"), env)  # noqa: S102
+    env[name].source = src  # (what mjbench/kernel/inline.py reads)
     return env[name]
 
 

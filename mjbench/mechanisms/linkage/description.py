@@ -13,7 +13,6 @@
 Each table is validated field by field; :class:`LinkageParams` then checks the structure
 (:func:`.topology.topology_problems`).  docs/linkages.md §1 is the reference.
 """
-from __future__ import annotations
 
 import math
 from typing import Literal

@@ -34,7 +34,6 @@ tendon equality with the loop closures' solref/solimp (soft like every MuJoCo eq
 measured slip is in docs/higher_pairs.md §1).  :class:`GearsMixin` gives the linkage the closure
 residual as one law over the connect sites and the gear slips (:func:`gear_closure`).
 """
-from __future__ import annotations
 
 import math
 from collections import namedtuple
