@@ -73,6 +73,33 @@ def _absent(*args):  # a slot no run calls (its flag is off)
 _ABSENT = C.Form(_absent)
 
 
+_BLANK: dict = {}
+
+
+def _blank(naxes: int) -> tuple:
+    """(slots, flags) of a program of ``naxes`` axes before its components bind them (every slot
+    absent, every flag off): built once per number of axes, copied by each :class:`Program`."""
+    hit = _BLANK.get(naxes)
+    if hit is None:
+        slots = {f"{s}_{a}": _ABSENT for a in range(naxes) for s in AXIS_SLOTS}
+        slots.update({s: _ABSENT for s in RUN_SLOTS})
+        flags = {f"{f}_{a}": v for a in range(naxes) for f, v in AXIS_FLAGS.items()}
+        flags.update(FLAGS)
+        hit = _BLANK[naxes] = (slots, flags)
+    return hit
+
+
+_BARE: dict = {}
+
+
+def _bare(law):
+    """The form of a bare law (no parameters, no state): one per law (a slot's form is only read)."""
+    hit = _BARE.get(id(law))
+    if hit is None or hit[0] is not law:
+        hit = _BARE[id(law)] = (law, C.Form(law))
+    return hit[1]
+
+
 def _ident(form) -> tuple:
     """A form's law and its function arguments' laws, nested, by identity (:attr:`Program.key`)."""
     if not form.fn_args:
@@ -89,11 +116,10 @@ class Program:
 
     def __init__(self, naxes: int = 1, nctrl: int = 1):
         self.naxes, self.nctrl = naxes, nctrl
-        self.slots = {f"{s}_{a}": _ABSENT for a in range(naxes) for s in AXIS_SLOTS}
-        self.slots.update({s: _ABSENT for s in RUN_SLOTS})
+        slots, flags = _blank(naxes)
+        self.slots = dict(slots)
         self.wired: dict = {}  # slot → (form, Wiring): the control laws, called through adapters
-        self.flags = {f"{f}_{a}": v for a in range(naxes) for f, v in AXIS_FLAGS.items()}
-        self.flags.update(FLAGS)
+        self.flags = dict(flags)
         self.reasons: list[str] = []
         self.broken: list[str] = []  # laws that break the contract (numba cannot compile them)
         self.forms: dict = {}
@@ -107,7 +133,7 @@ class Program:
     def use(self, slot: str, form, why: str = ""):
         """Bind ``slot`` to ``form`` (a Form, or a bare law)."""
         if not isinstance(form, C.Form):
-            form = C.Form(form)
+            form = _bare(form)
         self.slots[slot] = form
         if not form.compiled:
             self.reasons.append(f"{why or slot.lower()}: {form.reason}")
