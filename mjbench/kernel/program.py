@@ -89,6 +89,26 @@ def _blank(naxes: int) -> tuple:
     return hit
 
 
+class _Key(tuple):
+    """A composition's key (:attr:`Program.key`): a tuple that hashes once (the loop caches look it up
+    several times per run; its wirings hash in Python).  Equal keys are one object (:data:`_KEYS`):
+    a lookup then matches by identity."""
+
+    def __new__(cls, items):
+        k = super().__new__(cls, items)
+        k._hash = tuple.__hash__(k)
+        return k
+
+    def __hash__(self):
+        return self._hash
+
+    def __reduce__(self):
+        return _Key, (tuple(self),)
+
+
+#: every composition key of this process once (bounded: a run whose laws are new functions has a new key)
+_KEYS: dict = {}
+
 _BARE: dict = {}
 
 
@@ -275,9 +295,12 @@ class Program:
         computed once (the slots do not change after :meth:`build`)."""
         k = self.__dict__.get("_key")
         if k is None:
-            k = self._key = (self.naxes, self.nctrl, tuple((s, _ident(self.slots[s])) for s in sorted(self.slots)),
-                             tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())),
-                             tuple(sorted(self.flags.items())))
+            k = _Key((self.naxes, self.nctrl, tuple((s, _ident(self.slots[s])) for s in sorted(self.slots)),
+                      tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())),
+                      tuple(sorted(self.flags.items()))))
+            if len(_KEYS) > 256:
+                _KEYS.clear()
+            k = self._key = _KEYS.setdefault(k, k)
         return k
 
     @property
