@@ -78,6 +78,11 @@ class Machine:
         if n > 1:
             for name in ("q0", "qd0", "I0"):
                 v = getattr(self, name)
+                if type(v) is float or type(v) is int:  # (the common cases, without NumPy: the same floats)
+                    setattr(self, name, (float(v),) * n)
+                    continue
+                if type(v) is tuple and len(v) == n and all(type(x) is float for x in v):
+                    continue
                 arr = np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy() if np.ndim(v) == 0 else \
                     np.asarray(v, dtype=float)
                 if arr.shape != (n,):
@@ -162,6 +167,9 @@ def _check_parts(m: Machine) -> None:
                                  f"build one with {_MAKE[name]}")
     for name in ("q0", "qd0", "I0"):
         v = getattr(m, name)
+        if type(v) is tuple and all(type(x) is float for x in v):  # (several axes, as __post_init__ leaves them)
+            if all(math.isfinite(x) for x in v):
+                continue
         try:
             ok = all(not isinstance(x, bool) and math.isfinite(float(x)) for x in np.atleast_1d(np.asarray(v, dtype=object)))
         except (TypeError, ValueError):

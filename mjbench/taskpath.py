@@ -218,9 +218,11 @@ class PathReference(Reference):
     STATE = ()
     law = path_reference
 
-    def __init__(self, t, q, qd, qdd, period):
+    def __init__(self, t, q, qd, qdd, period, nodes=None):
         self.t, self.period = np.asarray(t, float), float(period)
-        self.nodes = np.ascontiguousarray(np.stack([q, qd, qdd], axis=1), dtype=float)
+        if nodes is None:  # (given: the same stacked (q, q̇, q̈), kept by PathReferences)
+            nodes = np.ascontiguousarray(np.stack([q, qd, qdd], axis=1), dtype=float)
+        self.nodes = nodes
         self.h = float(self.t[1] - self.t[0])
         self.reset()
 
@@ -252,15 +254,19 @@ class PathReferences:
         if hit is None:
             if len(_TRAJ) > 8:
                 _TRAJ.clear()
-            hit = _TRAJ[key] = joint_trajectories(mechanism, path)
-        self.t, self.Q, self.Qd, self.Qdd, self.path = hit
+            hit = _TRAJ[key] = joint_trajectories(mechanism, path) + ({},)
+        self.t, self.Q, self.Qd, self.Qdd, self.path, self._nodes = hit
         self.period = self.path.duration if path.repeat else 0.0
 
     def reset(self):
         """(A per-axis reference holds the state; this set has none.)"""
 
     def for_axis(self, k: int) -> PathReference:
-        r = PathReference(self.t, self.Q[:, k], self.Qd[:, k], self.Qdd[:, k], self.period)
+        nodes = self._nodes.get(k)  # (axis k's node table: stacked once per trajectory, only read)
+        if nodes is None:
+            nodes = self._nodes[k] = np.ascontiguousarray(np.stack([self.Q[:, k], self.Qd[:, k], self.Qdd[:, k]],
+                                                                   axis=1), dtype=float)
+        r = PathReference(self.t, self.Q[:, k], self.Qd[:, k], self.Qdd[:, k], self.period, nodes)
         r.source = self
         return r
 

@@ -114,7 +114,9 @@ class Form:
     python: Callable | None = None
 
     def __post_init__(self):
-        self.S0 = np.ascontiguousarray(self.S0, dtype=np.float64).reshape(-1)
+        S0 = self.S0
+        if not (type(S0) is np.ndarray and S0.ndim == 1 and S0.dtype == np.float64 and S0.flags.c_contiguous):
+            self.S0 = np.ascontiguousarray(S0, dtype=np.float64).reshape(-1)
         if self.compiled and not getattr(self.law, "__mjbench_law__", False):
             self.compiled = False
             self.reason = self.reason or f"{_name(self.law)} is not a law (@mjbench.compiled.law)"

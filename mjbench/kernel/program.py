@@ -73,6 +73,53 @@ def _absent(*args):  # a slot no run calls (its flag is off)
 _ABSENT = C.Form(_absent)
 
 
+_BLANK: dict = {}
+
+
+def _blank(naxes: int) -> tuple:
+    """(slots, flags) of a program of ``naxes`` axes before its components bind them (every slot
+    absent, every flag off): built once per number of axes, copied by each :class:`Program`."""
+    hit = _BLANK.get(naxes)
+    if hit is None:
+        slots = {f"{s}_{a}": _ABSENT for a in range(naxes) for s in AXIS_SLOTS}
+        slots.update({s: _ABSENT for s in RUN_SLOTS})
+        flags = {f"{f}_{a}": v for a in range(naxes) for f, v in AXIS_FLAGS.items()}
+        flags.update(FLAGS)
+        hit = _BLANK[naxes] = (slots, flags)
+    return hit
+
+
+class _Key(tuple):
+    """A composition's key (:attr:`Program.key`): a tuple that hashes once (the loop caches look it up
+    several times per run; its wirings hash in Python).  Equal keys are one object (:data:`_KEYS`):
+    a lookup then matches by identity."""
+
+    def __new__(cls, items):
+        k = super().__new__(cls, items)
+        k._hash = tuple.__hash__(k)
+        return k
+
+    def __hash__(self):
+        return self._hash
+
+    def __reduce__(self):
+        return _Key, (tuple(self),)
+
+
+#: every composition key of this process once (bounded: a run whose laws are new functions has a new key)
+_KEYS: dict = {}
+
+_BARE: dict = {}
+
+
+def _bare(law):
+    """The form of a bare law (no parameters, no state): one per law (a slot's form is only read)."""
+    hit = _BARE.get(id(law))
+    if hit is None or hit[0] is not law:
+        hit = _BARE[id(law)] = (law, C.Form(law))
+    return hit[1]
+
+
 def _ident(form) -> tuple:
     """A form's law and its function arguments' laws, nested, by identity (:attr:`Program.key`)."""
     if not form.fn_args:
@@ -89,11 +136,10 @@ class Program:
 
     def __init__(self, naxes: int = 1, nctrl: int = 1):
         self.naxes, self.nctrl = naxes, nctrl
-        self.slots = {f"{s}_{a}": _ABSENT for a in range(naxes) for s in AXIS_SLOTS}
-        self.slots.update({s: _ABSENT for s in RUN_SLOTS})
+        slots, flags = _blank(naxes)
+        self.slots = dict(slots)
         self.wired: dict = {}  # slot → (form, Wiring): the control laws, called through adapters
-        self.flags = {f"{f}_{a}": v for a in range(naxes) for f, v in AXIS_FLAGS.items()}
-        self.flags.update(FLAGS)
+        self.flags = dict(flags)
         self.reasons: list[str] = []
         self.broken: list[str] = []  # laws that break the contract (numba cannot compile them)
         self.forms: dict = {}
@@ -107,7 +153,7 @@ class Program:
     def use(self, slot: str, form, why: str = ""):
         """Bind ``slot`` to ``form`` (a Form, or a bare law)."""
         if not isinstance(form, C.Form):
-            form = C.Form(form)
+            form = _bare(form)
         self.slots[slot] = form
         if not form.compiled:
             self.reasons.append(f"{why or slot.lower()}: {form.reason}")
@@ -249,9 +295,12 @@ class Program:
         computed once (the slots do not change after :meth:`build`)."""
         k = self.__dict__.get("_key")
         if k is None:
-            k = self._key = (self.naxes, self.nctrl, tuple((s, _ident(self.slots[s])) for s in sorted(self.slots)),
-                             tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())),
-                             tuple(sorted(self.flags.items())))
+            k = _Key((self.naxes, self.nctrl, tuple((s, _ident(self.slots[s])) for s in sorted(self.slots)),
+                      tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())),
+                      tuple(sorted(self.flags.items()))))
+            if len(_KEYS) > 256:
+                _KEYS.clear()
+            k = self._key = _KEYS.setdefault(k, k)
         return k
 
     @property

@@ -27,6 +27,15 @@ from ..backends.table import composing
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.05
 
+#: the kernel state a run starts from, per axis: these entries (offsets in an axis's block, in the
+#: order :class:`Stepper` writes their values), the rest zero
+_KS_AX_NAMES = ("q", "qd", "qd_prev", "I", "dm", "dmd", "qm", "qdm", "w_max", "w_min", "w_t_max", "w_t_min", "I_max",
+                "I_min", "I_t_max", "I_t_min", "Vb_max", "Vb_min", "tq_max", "tq_min", "Vb_t_max", "Vb_t_min",
+                "tq_t_max", "tq_t_min")
+_KS_START = LY.ks_index(LY.KS_AXIS[0], 0)
+_KS_NAXIS = LY.ks_index(LY.KS_AXIS[0], 1) - _KS_START
+_KS_AX_IDX = np.array([LY.ks_index(n, 0) - _KS_START for n in _KS_AX_NAMES])
+
 
 class Record:
     """Samples of one run (``data`` (nrec, ncol)) or of N runs (``data`` (nsim, nrec, ncol)) in
@@ -78,13 +87,10 @@ class Stepper:
         for a in range(nax):
             q, qd, dm, dmd = (float(v) for v in qo[4 * a:4 * a + 4])
             w = float(X.drive[a].z) * (qd + dmd)
-            for name, v in (("q", q), ("qd", qd), ("qd_prev", qd), ("I", I0[a]), ("dm", dm), ("dmd", dmd),
-                            ("qm", q), ("qdm", qd), ("w_max", w), ("w_min", w), ("w_t_max", 0.0),
-                            ("w_t_min", 0.0), ("I_max", I0[a]), ("I_min", I0[a]), ("I_t_max", 0.0),
-                            ("I_t_min", 0.0), ("Vb_max", -math.inf), ("Vb_min", math.inf), ("tq_max", -math.inf),
-                            ("tq_min", math.inf), ("Vb_t_max", math.nan), ("Vb_t_min", math.nan),
-                            ("tq_t_max", math.nan), ("tq_t_min", math.nan)):
-                ks[LY.ks_index(name, a)] = v
+            i0 = I0[a]
+            ks[_KS_START + a * _KS_NAXIS + _KS_AX_IDX] = (q, qd, qd, i0, dm, dmd, q, qd, w, w, 0.0, 0.0, i0, i0, 0.0,
+                                                          0.0, -math.inf, math.inf, -math.inf, math.inf, math.nan,
+                                                          math.nan, math.nan, math.nan)
         self.div = np.zeros(len(LY.DIV_FIELDS))
         self.y = pr.signals0.copy()
         self.tau = np.zeros(nax)

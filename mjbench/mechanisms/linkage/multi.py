@@ -511,13 +511,15 @@ def grid2_eval(q0, q1, T, out, o):
     each power of the first, then in the first's.  One cell's coefficients are one contiguous row,
     coefficient by coefficient with the channels side by side, so the loop over the channels runs
     4 at a time in SIMD registers (the same operations per channel: the same bits as channel by
-    channel)."""
+    channel).  The channels go through the view ``out[o:]`` (index c ≥ 0: numba's negative-index
+    wraparound of ``out[o + c]`` made the compiled stores per-lane scatters)."""
     i, s = grid_cell(q0, 0, T)
     j, t = grid_cell(q1, 1, T)
     R = T.rows
+    w = out[o:]
     if i < 0 or j < 0:
         for c in range(T.kloop):
-            out[o + c] = math.nan
+            w[c] = math.nan
         return
     r = i * T.ncell[1] + j
     for c in range(16):  # LANES
@@ -525,7 +527,7 @@ def grid2_eval(q0, q1, T, out, o):
         a1 = ((R[r, 64 + c] * t + R[r, 80 + c]) * t + R[r, 96 + c]) * t + R[r, 112 + c]
         a2 = ((R[r, 128 + c] * t + R[r, 144 + c]) * t + R[r, 160 + c]) * t + R[r, 176 + c]
         a3 = ((R[r, 192 + c] * t + R[r, 208 + c]) * t + R[r, 224 + c]) * t + R[r, 240 + c]
-        out[o + c] = ((a0 * s + a1) * s + a2) * s + a3
+        w[c] = ((a0 * s + a1) * s + a2) * s + a3
 
 
 __all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "grid_cell", "LANES",
