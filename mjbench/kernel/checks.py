@@ -6,6 +6,7 @@ import math
 
 from .. import environment
 from ..errors import ParameterError
+from .inline import LINE_BASE
 from .loop import MAX_CURRENT, MAX_SPEED
 from ..backends.table import mechanism_key
 
@@ -159,5 +160,33 @@ def check_record(nsteps: int, decim: int, ncol: int, nsim: int, h: float, record
             f"simulations at once")
 
 
-__all__ = ["check_times", "control_every", "machine_every", "check_machine", "diagnose", "divergence_message",
+
+def law_failure_message(program, exc, t: float, loop=None) -> str | None:
+    """One line naming the component, the law and the line where ``exc`` was raised inside a law of
+    ``program`` (None when it was not raised in a law); ``loop``: the CPython loop that ran, whose
+    inlined statements carry their law's line (:data:`.inline.LINE_BASE`)."""
+    frames = program.law_frames()
+    inlined = getattr(loop, "__mjbench_inlined__", ())
+    code = getattr(loop, "__code__", None)
+    tb, hit = exc.__traceback__, None
+    while tb is not None:
+        c, line = tb.tb_frame.f_code, tb.tb_lineno
+        if c in frames:
+            hit = (frames[c], line)
+        elif c is code and line is not None and line >= LINE_BASE and line // LINE_BASE - 1 < len(inlined):
+            fn, first = inlined[line // LINE_BASE - 1]
+            if getattr(fn, "__code__", None) in frames:
+                hit = (frames[fn.__code__], first + line % LINE_BASE - 1)
+        tb = tb.tb_next
+    if hit is None:
+        return None
+    (what, name), line = hit
+    extra = ""
+    if isinstance(exc, IndexError):
+        extra = " (an index past an array: its state S has the entries of STATE; MJBENCH_JIT=check bounds-checks " \
+                "the compiled loop too)"
+    return f"{what}: law {name} failed at line {line} (t = {t:.6g} s): {type(exc).__name__}: {exc}{extra}"
+
+
+__all__ = ["law_failure_message", "check_times", "control_every", "machine_every", "check_machine", "diagnose", "divergence_message",
            "record_bytes", "memory_limit", "check_record", "SMALL_RECORD"]

@@ -14,7 +14,7 @@ is inlined only when its source, compiled again, is its running code (an edited 
 as the code that runs).  A law with an early ``return``, a closure, a nested function, a
 comprehension, ``try``/``with``, keyword or default arguments is called as before.  Each inlined
 statement keeps its law and its line (:data:`LINE_BASE`): a law that fails inside the loop is
-named with its own line (:func:`mjbench.kernel.running.law_failure_message`).
+named with its own line (:func:`mjbench.kernel.checks.law_failure_message`).
 
 Each inlined global is recorded as a path from the loop's globals (:func:`resolve`), so a fused
 loop kept on disk is bound again to the objects of the process that loads it.

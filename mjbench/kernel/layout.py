@@ -57,6 +57,15 @@ def ks_index(name: str, axis: int = 0) -> int:
     return len(KS_GLOBAL) + axis * len(KS_AXIS) + KS_AXIS.index(name)
 
 
+#: the kernel state a run starts from, per axis: these entries (in the order
+#: :class:`mjbench.kernel.running.Stepper` writes their values), the rest zero; their indices in axis
+#: 0's block (axis a: + a·len(KS_AXIS))
+KS_START = ("q", "qd", "qd_prev", "I", "dm", "dmd", "qm", "qdm", "w_max", "w_min", "w_t_max", "w_t_min", "I_max",
+            "I_min", "I_t_max", "I_t_min", "Vb_max", "Vb_min", "tq_max", "tq_min", "Vb_t_max", "Vb_t_min",
+            "tq_t_max", "tq_t_min")
+KS_START_INDEX = tuple(ks_index(n, 0) for n in KS_START)
+
+
 def stat_names(naxes: int, labels=None) -> tuple:
     """Names of the statistics columns: ``<record column>:<field>`` per axis (one axis: unlabelled)."""
     out = []
@@ -117,5 +126,5 @@ def constants(naxes: int, nctrl: int, layout: RecordLayout) -> dict:
     return c
 
 
-__all__ = ["KS_GLOBAL", "KS_AXIS", "KS_AXIS_STATE", "STAT_SIGNALS", "STAT_COLUMNS", "STAT_FIELDS", "DIV_FIELDS",
+__all__ = ["KS_GLOBAL", "KS_AXIS", "KS_START", "KS_START_INDEX", "KS_AXIS_STATE", "STAT_SIGNALS", "STAT_COLUMNS", "STAT_FIELDS", "DIV_FIELDS",
            "ks_size", "ks_index", "stat_names", "axis_column", "RecordLayout", "constants", "NDRIVE_COLS"]

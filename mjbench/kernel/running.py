@@ -19,7 +19,6 @@ from .. import signals as SIG
 from ..errors import ParameterError, SimulationDiverged
 from . import checks as CK
 from . import layout as LY
-from .inline import LINE_BASE
 from .choice import choose_loop, jit_mode, loop_function, python_loop
 from .program import Program, Run
 from ..backends.table import composing
@@ -27,14 +26,7 @@ from ..backends.table import composing
 #: wall time a chunk of a compiled run aims at (progress, signals)
 CHUNK_S = 0.05
 
-#: the kernel state a run starts from, per axis: these entries (offsets in an axis's block, in the
-#: order :class:`Stepper` writes their values), the rest zero
-_KS_AX_NAMES = ("q", "qd", "qd_prev", "I", "dm", "dmd", "qm", "qdm", "w_max", "w_min", "w_t_max", "w_t_min", "I_max",
-                "I_min", "I_t_max", "I_t_min", "Vb_max", "Vb_min", "tq_max", "tq_min", "Vb_t_max", "Vb_t_min",
-                "tq_t_max", "tq_t_min")
-_KS_START = LY.ks_index(LY.KS_AXIS[0], 0)
-_KS_NAXIS = LY.ks_index(LY.KS_AXIS[0], 1) - _KS_START
-_KS_AX_IDX = np.array([LY.ks_index(n, 0) - _KS_START for n in _KS_AX_NAMES])
+_KS_START = np.array(LY.KS_START_INDEX)  # (LY.KS_START, axis 0)
 
 
 class Record:
@@ -88,7 +80,7 @@ class Stepper:
             q, qd, dm, dmd = (float(v) for v in qo[4 * a:4 * a + 4])
             w = float(X.drive[a].z) * (qd + dmd)
             i0 = I0[a]
-            ks[_KS_START + a * _KS_NAXIS + _KS_AX_IDX] = (q, qd, qd, i0, dm, dmd, q, qd, w, w, 0.0, 0.0, i0, i0, 0.0,
+            ks[_KS_START + a * len(LY.KS_AXIS)] = (q, qd, qd, i0, dm, dmd, q, qd, w, w, 0.0, 0.0, i0, i0, 0.0,
                                                           0.0, -math.inf, math.inf, -math.inf, math.inf, math.nan,
                                                           math.nan, math.nan, math.nan)
         self.div = np.zeros(len(LY.DIV_FIELDS))
@@ -179,7 +171,7 @@ class Stepper:
                 self._bind(True)
                 self.n = self._python_chunk(n1)
                 return self.n
-            msg = law_failure_message(self.program, e, self.n * self.h, self.fn)
+            msg = CK.law_failure_message(self.program, e, self.n * self.h, self.fn)
             if msg is None and self.mode == "check" and isinstance(e, IndexError):
                 msg = self._locate() or (f"an array was read or written past its end in the compiled loop "
                                          f"(MJBENCH_JIT=check) between t = {self.n * self.h:.6g} s and "
@@ -211,33 +203,6 @@ class Stepper:
             hint_fn = getattr(self.machine.controller, "divergence_hint", None)
             cause = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
         return CK.divergence_message(backend, *d[1:6], cause)
-
-
-def law_failure_message(program, exc, t: float, loop=None) -> str | None:
-    """One line naming the component, the law and the line where ``exc`` was raised inside a law of
-    ``program`` (None when it was not raised in a law); ``loop``: the CPython loop that ran, whose
-    inlined statements carry their law's line (:data:`.inline.LINE_BASE`)."""
-    frames = program.law_frames()
-    inlined = getattr(loop, "__mjbench_inlined__", ())
-    code = getattr(loop, "__code__", None)
-    tb, hit = exc.__traceback__, None
-    while tb is not None:
-        c, line = tb.tb_frame.f_code, tb.tb_lineno
-        if c in frames:
-            hit = (frames[c], line)
-        elif c is code and line is not None and line >= LINE_BASE and line // LINE_BASE - 1 < len(inlined):
-            fn, first = inlined[line // LINE_BASE - 1]
-            if getattr(fn, "__code__", None) in frames:
-                hit = (frames[fn.__code__], first + line % LINE_BASE - 1)
-        tb = tb.tb_next
-    if hit is None:
-        return None
-    (what, name), line = hit
-    extra = ""
-    if isinstance(exc, IndexError):
-        extra = " (an index past an array: its state S has the entries of STATE; MJBENCH_JIT=check bounds-checks " \
-                "the compiled loop too)"
-    return f"{what}: law {name} failed at line {line} (t = {t:.6g} s): {type(exc).__name__}: {exc}{extra}"
 
 
 def _per_axis(v, n):
