@@ -131,7 +131,7 @@ class PID(Controller):
                 raise ParameterError("PID needs a reference or omega0 (motor speed set-point, rad/s)")
             reference = ConstantSpeed(omega0)
         for name, v in (("kp", kp), ("ki", ki), ("kd", kd)):
-            if not np.all(np.isfinite(v)):
+            if not (math.isfinite(v) if type(v) is float else np.all(np.isfinite(v))):
                 raise ParameterError(f"PID {name} = {v!r}: must be finite")
         self.kp, self.ki, self.kd = kp, ki, kd
         self.kp_ramp = bool(kp_ramp)

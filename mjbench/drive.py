@@ -91,7 +91,7 @@ class DriveParams(Strict):
 
     def build(self) -> "DCMotorDrive":
 
-        d = DCMotorDrive(**{f.name: getattr(self, f.name) for f in fields(DCMotorDrive) if f.name != "train"})
+        d = DCMotorDrive(**{n: getattr(self, n) for n in _scalar_fields(DCMotorDrive)})
         d.train = DriveTrain.from_params(self, d)
         return d
 
@@ -110,8 +110,16 @@ class DriveParams(Strict):
         return check_against(self, scn) + mode_output_problems(scn, "dcmotor")
 
 
-#: per drive class, its parameter fields (for :meth:`DCMotorDrive._validate_scalars`)
+#: per drive class, its parameter fields (:func:`_scalar_fields`)
 _SCALAR_FIELDS: dict = {}
+
+
+def _scalar_fields(cls) -> tuple:
+    """The parameter fields of a drive class (its dataclass fields but the drive train), once per class."""
+    names = _SCALAR_FIELDS.get(cls)
+    if names is None:
+        names = _SCALAR_FIELDS[cls] = tuple(f.name for f in fields(cls) if f.name != "train")
+    return names
 
 
 @register
@@ -153,8 +161,9 @@ class DCMotorDrive(Drive):
 
     def _flags(self):
         """Hot-path flags (scalar 'no limit' tests), refreshed by prepare() at every run start."""
-        self._no_vlimit = bool(np.ndim(self.v_max) == 0 and self.v_max == math.inf)
-        self._no_ilimit = bool(np.ndim(self.i_max) == 0 and self.i_max == math.inf)
+        v, i = self.v_max, self.i_max
+        self._no_vlimit = v == math.inf if type(v) is float else bool(np.ndim(v) == 0 and v == math.inf)
+        self._no_ilimit = i == math.inf if type(i) is float else bool(np.ndim(i) == 0 and i == math.inf)
 
     # ---------------------------------------------------------------- parameters
     def validate(self):
@@ -182,9 +191,7 @@ class DCMotorDrive(Drive):
         """:meth:`validate` for a drive whose parameters are all plain numbers (every scenario's):
         the same checks in the same order without NumPy (≈ 80 µs per run otherwise); False (not
         checked) if any is an array."""
-        names = _SCALAR_FIELDS.get(type(self))
-        if names is None:
-            names = _SCALAR_FIELDS[type(self)] = tuple(f.name for f in fields(self) if f.name != "train")
+        names = _scalar_fields(type(self))
         vals = [getattr(self, n) for n in names]
         if not all(isinstance(v, (float, int)) for v in vals):
             return False

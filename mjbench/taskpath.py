@@ -161,7 +161,7 @@ def path_reference(t, P, S):
     """φ_ref = z·q(t), φ̇_ref = z·q̇(t), φ̈_ref = z·q̈(t) of one axis from its tabulated joint
     trajectory: cubic Hermite of q (slopes q̇) and of q̇ (slopes q̈), q̈ linear, between nodes."""
     tt = t - P.t0
-    if P.period > 0.0:
+    if P.period > 0.0 and not (0.0 <= tt < P.period):  # (within the first cycle: no division, floor 0)
         tt = tt - P.period * math.floor(tt / P.period)
     u = tt * P.inv_h
     N = P.nodes.shape[0]

@@ -28,8 +28,9 @@ import dis
 import functools
 import hashlib
 import marshal
-import textwrap
 import types
+
+from .loop import def_source
 
 #: line numbers of inlined statements: (k + 1)·LINE_BASE + the statement's line in the k-th inlined
 #: law's source (1: its ``def`` line)
@@ -60,21 +61,10 @@ def _source(fn):
     src = getattr(fn, "source", None)  # generated functions carry their source
     first = 1
     if not isinstance(src, str):
-        try:
-            with open(code.co_filename, encoding="utf-8") as f:
-                lines = f.read().splitlines(keepends=True)
-        except (OSError, UnicodeDecodeError):
+        found = def_source(code.co_filename, code.co_firstlineno)
+        if found is None:
             return None
-        j = code.co_firstlineno - 1
-        while j < len(lines) and not lines[j].lstrip().startswith("def "):
-            j += 1  # (decorators)
-        if j >= len(lines):
-            return None
-        indent = len(lines[j]) - len(lines[j].lstrip())
-        end = j + 1
-        while end < len(lines) and (not lines[end].strip() or len(lines[end]) - len(lines[end].lstrip()) > indent):
-            end += 1
-        src, first = textwrap.dedent("".join(lines[j:end])), j + 1
+        src, first = found
     try:
         tree = ast.parse(src)
         fdef = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == code.co_name)

@@ -57,9 +57,8 @@ def ks_index(name: str, axis: int = 0) -> int:
     return len(KS_GLOBAL) + axis * len(KS_AXIS) + KS_AXIS.index(name)
 
 
-#: the kernel state a run starts from, per axis: these entries (in the order
-#: :class:`mjbench.kernel.running.Stepper` writes their values), the rest zero; their indices in axis
-#: 0's block (axis a: + a·len(KS_AXIS))
+#: the kernel state a run starts from, per axis: these entries (:class:`mjbench.kernel.running.Stepper`
+#: gives each its value by name), the rest zero; their indices in axis 0's block (axis a: + a·len(KS_AXIS))
 KS_START = ("q", "qd", "qd_prev", "I", "dm", "dmd", "qm", "qdm", "w_max", "w_min", "w_t_max", "w_t_min", "I_max",
             "I_min", "I_t_max", "I_t_min", "Vb_max", "Vb_min", "tq_max", "tq_min", "Vb_t_max", "Vb_t_min",
             "tq_t_max", "tq_t_min")

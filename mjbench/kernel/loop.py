@@ -345,23 +345,33 @@ def _loop(n0, n1, K, X):
     return n
 
 
-def _source() -> str:
-    """:func:`_loop`'s source read from this file: its ``def`` line and every following line that is
-    blank or indented (what ``inspect.getsource`` gives, without tokenizing the file: ≈ 10 ms)."""
-    with open(__file__, encoding="utf-8") as f:
-        lines = f.read().splitlines(keepends=True)
-    first = _loop.__code__.co_firstlineno - 1
-    end = first + 1
-    while end < len(lines) and (not lines[end].strip() or lines[end][0] in " \t"):
+def def_source(filename: str, line: int):
+    """(the text of the function whose ``def``, or its first decorator, is at 1-based ``line`` of
+    ``filename``: its ``def`` line and every following line that is blank or indented deeper, dedented;
+    the 1-based line of that ``def``), or None if the file cannot be read.  What ``inspect.getsource``
+    gives, without tokenizing the file (≈ 10 ms); also :mod:`.inline`'s reader of the laws."""
+    try:
+        with open(filename, encoding="utf-8") as f:
+            lines = f.read().splitlines(keepends=True)
+    except (OSError, UnicodeDecodeError):
+        return None
+    j = line - 1
+    while j < len(lines) and not lines[j].lstrip().startswith("def "):
+        j += 1  # (decorators)
+    if j >= len(lines):
+        return None
+    indent = len(lines[j]) - len(lines[j].lstrip())
+    end = j + 1
+    while end < len(lines) and (not lines[end].strip() or len(lines[end]) - len(lines[end].lstrip()) > indent):
         end += 1
     while not lines[end - 1].strip():
         end -= 1
-    return textwrap.dedent("".join(lines[first:end]))
+    return textwrap.dedent("".join(lines[j:end])), j + 1
 
 
 #: the template's source as loaded (the compiled loop is generated from exactly the code CPython
 #: runs, even if the file changes on disk while this process lives)
-TEMPLATE = _source()
+TEMPLATE = def_source(__file__, _loop.__code__.co_firstlineno)[0]
 
 
 __all__ = ["MAX_SPEED", "MAX_CURRENT", "TEMPLATE"]

@@ -80,9 +80,12 @@ class Stepper:
             q, qd, dm, dmd = (float(v) for v in qo[4 * a:4 * a + 4])
             w = float(X.drive[a].z) * (qd + dmd)
             i0 = I0[a]
-            ks[_KS_START + a * len(LY.KS_AXIS)] = (q, qd, qd, i0, dm, dmd, q, qd, w, w, 0.0, 0.0, i0, i0, 0.0,
-                                                          0.0, -math.inf, math.inf, -math.inf, math.inf, math.nan,
-                                                          math.nan, math.nan, math.nan)
+            start = {"q": q, "qd": qd, "qd_prev": qd, "I": i0, "dm": dm, "dmd": dmd, "qm": q, "qdm": qd,
+                     "w_max": w, "w_min": w, "w_t_max": 0.0, "w_t_min": 0.0, "I_max": i0, "I_min": i0,
+                     "I_t_max": 0.0, "I_t_min": 0.0, "Vb_max": -math.inf, "Vb_min": math.inf, "tq_max": -math.inf,
+                     "tq_min": math.inf, "Vb_t_max": math.nan, "Vb_t_min": math.nan, "tq_t_max": math.nan,
+                     "tq_t_min": math.nan}
+            ks[_KS_START + a * len(LY.KS_AXIS)] = [start[n] for n in LY.KS_START]
         self.div = np.zeros(len(LY.DIV_FIELDS))
         self.y = pr.signals0.copy()
         self.tau = np.zeros(nax)
@@ -92,7 +95,7 @@ class Stepper:
     def _bind(self, python: bool):
         """The run's arrays as the loop reads them: the arrays themselves (compiled), memoryviews of the
         record and the kernel state, and lists of the signals, torques and plant outputs, which the
-        CPython loop reads and writes at every step (copied back after each chunk: :meth:`_sync`)."""
+        CPython loop reads and writes at every step (copied back after each chunk: :meth:`_python_chunk`)."""
         view = memoryview if python else (lambda a: a)
         box = (lambda a: a.tolist()) if python else (lambda a: a)
         self.run = Run(self.h, self.nsteps, self.decim, self.every, view(self.ks), view(self.out), view(self.stats),

@@ -364,14 +364,14 @@ class MultiCompiled(_Compiled):
 
 # ============================================================================ the grid table
 #: a grid table's parameters: coefficient rows, one per cell, so one evaluation reads one contiguous
-#: block — 1 input: (cells, k·4), a channel's 4 coefficients side by side; 2 inputs: (cells, 16·LANES),
-#: coefficient m = 4a + b of every channel side by side (m·LANES + channel), the simulation's channels
-#: padded to :data:`LANES` —, the channels the simulation reads (the first ``kloop``), per input: the
-#: first node, 1/h, the number of cells, periodic (1) or not (0); the number of inputs
-GridTableP = namedtuple("GridTableP", "rows kloop x0 inv_h ncell periodic n")
-#: a 2-input table's compiled channels: the simulation's (M̄, the Christoffel symbols, ḡ: 11; + D̄: 14)
-#: padded to 16 — numba (LLVM) vectorises the evaluation across the channels, 4 per AVX register,
-#: only for a loop of at least 16 trips (a shorter one needing run-time alias checks stays scalar)
+#: block — 1 input: (cells, k·4), a channel's 4 coefficients side by side; 2 inputs: (cells, 16·L),
+#: coefficient m = 4a + b of every channel side by side (m·L + channel), the simulation's channels
+#: padded to L = 4·nvec lanes (at most :data:`LANES`) —, the channels the simulation reads (the first ``kloop``), per input: the
+#: first node, 1/h, the number of cells, periodic (1) or not (0); the number of inputs; 2 inputs: the
+#: 4-lane registers a coefficient's channels fill (lanes = 4·nvec; 1 input: 0)
+GridTableP = namedtuple("GridTableP", "rows kloop x0 inv_h ncell periodic n nvec")
+#: a 2-input table's compiled channels at most: the simulation's (M̄, the Christoffel symbols, ḡ: 11;
+#: + D̄: 14), padded to whole 4-wide SIMD registers (12 or 16 lanes: :func:`bicubic_lanes`)
 LANES = 16
 
 
@@ -418,17 +418,22 @@ class GridTable:
             self.coef = np.ascontiguousarray(np.transpose(coef, (0, 2, 1)))  # [cell, ch, 4·a + b]
         self.k = k
         self.kloop = int(k if kloop is None else kloop)
-        #: the slots the compiled evaluation writes (2 inputs: :data:`LANES`, the padding zeros)
+        #: the slots the compiled evaluation writes (2 inputs: the channels padded to whole 4-lane
+        #: registers, the padding zeros)
         self.slots = self.kloop
+        nvec = 0
         if self.n == 2:
             if self.kloop > LANES:
                 raise ParameterError(f"a 2-input table of {self.kloop} channels: at most {LANES} are evaluated")
-            rows = np.zeros((cells, 16, LANES))
+            nvec = (self.kloop + 3) // 4
+            lanes = 4 * nvec
+            rows = np.zeros((cells, 16, lanes))
             rows[:, :, :self.kloop] = coef[:, :, :self.kloop]
-            rows = rows.reshape(cells, 16 * LANES)  # [i·C1 + j, 16·(4·a + b) + ch]
-            self.slots = LANES
+            rows = rows.reshape(cells, 16 * lanes)  # [i·C1 + j, lanes·(4·a + b) + ch]
+            self.slots = lanes
         self.P = GridTableP(np.ascontiguousarray(rows), self.kloop, np.array(self.x0), 1.0 / np.array(self.h),
-                            np.array(self.ncell, dtype=np.int64), np.array(self.periodic, dtype=np.int64), self.n)
+                            np.array(self.ncell, dtype=np.int64), np.array(self.periodic, dtype=np.int64), self.n,
+                            nvec)
 
     def _cells(self, q, d):
         u = (np.asarray(q, float) - self.x0[d]) / self.h[d]
@@ -506,32 +511,42 @@ def grid1_eval(q, T, out, o):
 
 @C.law
 def grid2_eval(q0, q1, T, out, o):
-    """The simulation's channels of a 2-input grid table at (q0, q1) into out[o:o+LANES] (the first
-    ``T.kloop``; the rest 0.  NaN outside its ranges): Horner in the second input's coordinate for
-    each power of the first, then in the first's.  One cell's coefficients are one contiguous row,
-    coefficient by coefficient with the channels side by side, so the loop over the channels runs
-    4 at a time in SIMD registers (the same operations per channel: the same bits as channel by
-    channel).  The channels go through the view ``out[o:]`` (index c ≥ 0: numba's negative-index
-    wraparound of ``out[o + c]`` made the compiled stores per-lane scatters)."""
+    """The simulation's channels of a 2-input grid table at (q0, q1) into out[o:o+4·T.nvec] (the
+    first ``T.kloop``; the rest 0.  NaN outside its ranges): :func:`bicubic_lanes` on the cell's row."""
     i, s = grid_cell(q0, 0, T)
     j, t = grid_cell(q1, 1, T)
-    R = T.rows
-    w = out[o:]
     if i < 0 or j < 0:
         for c in range(T.kloop):
-            w[c] = math.nan
+            out[o + c] = math.nan
         return
-    r = i * T.ncell[1] + j
-    for c in range(16):  # LANES
-        a0 = ((R[r, c] * t + R[r, 16 + c]) * t + R[r, 32 + c]) * t + R[r, 48 + c]
-        a1 = ((R[r, 64 + c] * t + R[r, 80 + c]) * t + R[r, 96 + c]) * t + R[r, 112 + c]
-        a2 = ((R[r, 128 + c] * t + R[r, 144 + c]) * t + R[r, 160 + c]) * t + R[r, 176 + c]
-        a3 = ((R[r, 192 + c] * t + R[r, 208 + c]) * t + R[r, 224 + c]) * t + R[r, 240 + c]
-        w[c] = ((a0 * s + a1) * s + a2) * s + a3
+    if o < 0 or o + 4 * T.nvec > out.shape[0]:  # (the compiled evaluation writes without bounds checks)
+        raise IndexError("grid2_eval: the table's channels do not fit the output array")
+    bicubic_lanes(T.rows, i * T.ncell[1] + j, s, t, out, o, T.nvec)
 
 
-__all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "grid_cell", "LANES",
-           "TABLE_TARGET"]
+@C.bridge("bicubic_lanes")
+def bicubic_lanes(R, r, s, t, out, o, nvec):
+    """The L = 4·nvec channels of row ``r`` of a 2-input table at the cell coordinates (s, t) into
+    out[o:o+L]: Horner in t for each power of s, then in s.  The row holds the 16 coefficients one
+    after the other, each with its L channels side by side (R[r, L·m + c]).
+
+    Compiled, :func:`mjbench.compiled._numba.bicubic_lanes` evaluates 4 channels at a time in SIMD
+    registers: the same multiplications and additions per channel in the same order (the same bits),
+    written as one short loop over the registers.  LLVM's own vectorisation of this loop needed 16
+    channels (a loop of 12 stayed scalar) and unrolled them into ≈ 1 KB of code per evaluation, four
+    times per RK4 step: the co-step's code then no longer fits the decoded-instruction cache, and the
+    loop ran at the speed of instruction fetch (docs/performance.md §8)."""
+    L = 4 * nvec
+    for c in range(L):
+        a0 = ((R[r, c] * t + R[r, L + c]) * t + R[r, 2 * L + c]) * t + R[r, 3 * L + c]
+        a1 = ((R[r, 4 * L + c] * t + R[r, 5 * L + c]) * t + R[r, 6 * L + c]) * t + R[r, 7 * L + c]
+        a2 = ((R[r, 8 * L + c] * t + R[r, 9 * L + c]) * t + R[r, 10 * L + c]) * t + R[r, 11 * L + c]
+        a3 = ((R[r, 12 * L + c] * t + R[r, 13 * L + c]) * t + R[r, 14 * L + c]) * t + R[r, 15 * L + c]
+        out[o + c] = ((a0 * s + a1) * s + a2) * s + a3
+
+
+__all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "bicubic_lanes", "grid_cell",
+           "LANES", "TABLE_TARGET"]
 
 
 # ============================================================================ the model law
@@ -586,7 +601,7 @@ def multi_model(S, iy, t, P, W, iw):
 @C.law
 def two_model(q0, q1, v0, v1, t, P, W, ic):
     """The reduced model of a linkage with two inputs at q = (q0, q1), q̇ = (v0, v1): (M̄₀₀, M̄₀₁, M̄₁₁,
-    bias₀, bias₁), the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇; the table's channels go to W[ic:ic+LANES]
+    bias₀, bias₁), the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇; the table's channels go to W[ic:ic+4·nvec]
     (scratch).  :func:`multi_model`'s loops written out for n = 2 (the same operations in the same
     order), and the model law of the two-input RK4 (:func:`mjbench.backends.reduced.rk4_two`)."""
     grid2_eval(q0, q1, P.table, W, ic)
