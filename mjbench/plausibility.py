@@ -121,7 +121,7 @@ def reduced_vs_mujoco_n(mech, options=None, n: int = MODEL_ANGLES, seed: int = 0
         q, qd = Q[k], Qd[k]
         Gm = gamma(q)
         Gd = (gamma(q + eps * qd) @ qd - gamma(q - eps * qd) @ qd) / (2 * eps)
-        data.qpos[:] = mech.initial_qpos(model, q)
+        data.qpos[:] = mech.rigid_qpos(model, q)
         data.qvel[:] = Gm @ qd
         mujoco.mj_forward(model, data)
         mujoco.mj_fullM(model, data, M)
@@ -155,7 +155,7 @@ def reduced_vs_mujoco(mech, options=None, n: int = MODEL_ANGLES) -> dict:
     model at ``n`` input angles over one period — cheap (a few ms) and independent of any
     controller or trajectory, so a controller cannot hide a wrong J(q) (issue 26, item 8).
 
-    At each angle q the chain is assembled (``initial_qpos``) and Γ = ∂qpos/∂q the velocity of every
+    At each angle q the chain is assembled, rigid (``rigid_qpos``) and Γ = ∂qpos/∂q the velocity of every
     joint per unit input speed (``initial_qvel`` at q̇ = 1).  Projected on Γ (constraint forces do no
     work along it), MuJoCo's M·q̈ + bias = forces gives
 
@@ -234,7 +234,7 @@ def _mujoco_state(mech, model, data):
     M = np.zeros((nv, nv))
 
     def state(q, velocity):
-        data.qpos[:] = mech.initial_qpos(model, float(q))
+        data.qpos[:] = mech.rigid_qpos(model, float(q))
         data.qvel[:] = 0.0
         mech.model_at_pose(model, data)
         mujoco.mj_forward(model, data)

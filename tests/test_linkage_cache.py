@@ -1,5 +1,6 @@
 """A built linkage is kept in the user cache: a second command reads it back (the same bits) instead
-of assembling it again; a corrupted entry is rebuilt and said; an unwritable cache leaves nothing."""
+of assembling it again — one input or several (the five-bar's grid tables) —; a corrupted entry is
+rebuilt and said; an unwritable cache leaves nothing."""
 import json
 import os
 import pickle
@@ -45,6 +46,42 @@ def test_a_built_linkage_is_read_back_with_the_same_bits(tmp_path):
     assert first["digest"] == second["digest"] == fresh["digest"]
     assert first["info"] == second["info"] == fresh["info"]
     assert not list((tmp_path / "cache" / "linkages").glob(".*.tmp"))
+
+
+MULTI = """
+import json, sys, hashlib
+import numpy as np
+from mjbench import scenario as S
+from mjbench.mechanisms.linkage import model
+if {fresh}:
+    model.DISK_FOLDER = None
+m = S.make_mechanism(S.load("fivebar"))
+c = m.c
+digest = hashlib.sha256()
+for a in (c.z_ref, c.table_n.P.rows, c.table_n.coef):
+    digest.update(np.ascontiguousarray(a).tobytes())
+print(json.dumps({{"digest": digest.hexdigest(), "scipy": "scipy.optimize" in sys.modules, "key": m.content_key(),
+                  "info": {{k: str(v) for k, v in c.table_info.items()}}}}))
+"""
+
+
+def test_a_machine_with_several_inputs_is_read_back_with_the_same_bits(tmp_path):
+    """The five-bar's assembly, grid and 2-input tables: built by the first command, read back by the
+    second (no least squares, no grid solve), the same bits as a build without the
+    cache, and the same tables' key."""
+    env = {"MJBENCH_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run(fresh=False):
+        p = subprocess.run([sys.executable, "-c", MULTI.format(fresh=fresh)], capture_output=True, text=True,
+                           timeout=600, env={**os.environ, "MUJOCO_GL": "egl", **env})
+        assert p.returncode == 0, p.stderr[-3000:]
+        return json.loads(p.stdout.strip().splitlines()[-1])
+
+    first, second, fresh = run(), run(), run(fresh=True)
+    assert first["scipy"] and not second["scipy"]
+    assert len(list((tmp_path / "cache" / "linkages").glob("*.pickle"))) == 1
+    assert first["digest"] == second["digest"] == fresh["digest"]
+    assert first["info"] == second["info"] == fresh["info"] and first["key"] == second["key"] == fresh["key"]
 
 
 def test_a_corrupted_entry_is_rebuilt_and_said(tmp_path):

@@ -404,6 +404,23 @@ def _scaled(mech, eps):
     return w
 
 
+@pytest.mark.parametrize("name", S.builtin_names())
+def test_every_shipped_machine_passes_its_own_model_check(name):
+    """The check every both-backends run makes (metrics.json "plausibility"/"model"), on every shipped
+    scenario: the reduced model and MuJoCo's agree within the tolerance, or the check says why it
+    does not apply (the elastic platforms' internal coordinates).  It caught the cam's check comparing
+    the rigid model with MuJoCo's pose settled into its soft constraints (E_p' off by 1.8e-5)."""
+    from mjbench import plausibility as P
+
+    scn = S.load(name)
+    r = P.reduced_vs_mujoco(S.make_mechanism(scn), scn.multibody_options())
+    if not r["applicable"]:
+        assert "internal (elastic) coordinates" in r["note"]
+        return
+    errs = {k: v for k, v in r.items() if k.endswith("_rel_err")}
+    assert r["models_agree"] and errs and max(errs.values()) <= r["tolerance"], (r.get("note"), errs)
+
+
 def test_model_check_flags_a_wrong_j_that_a_controller_hides():
     from mjbench import plausibility as P
 

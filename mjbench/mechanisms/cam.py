@@ -408,6 +408,15 @@ class Cam(Mechanism):
             qpos[ig] = min(r.get(int(mujoco.mjtConstraint.mjCNSTR_LIMIT_JOINT), -1e-12), -1e-12)
         return qpos
 
+    def rigid_qpos(self, model, q):
+        """The follower exactly on the cam at cam angle q (lift y(θ), no deflection of the soft
+        cam-lift equality or of the follower_gap limit): the pose of the reduced model, where the model
+        check compares the two (:meth:`initial_qpos` settles it ≈ 5e-6 rad into the constraints, and the
+        spring's torque there differs by k·5e-6 rad: 1.8e-5 of the shipped cam's largest E_p')."""
+        qpos = self.joint_states(model, [float(q)])[0][0]
+        qpos[model.joint("follower_gap").qposadr[0]] = -1e-12  # in contact, as initial_qpos
+        return qpos
+
     @staticmethod
     def _row_sol(model, data, row):
         """(solref, solimp) of a constraint row (the cam-lift equality or the follower_gap limit)."""

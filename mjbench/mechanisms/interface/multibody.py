@@ -69,6 +69,13 @@ class MultibodyModel(abc.ABC):
             return None
         return tuple((3 * a + j, 3 * c + j) for a, c in pairs for j in range(3))
 
+    def rigid_qpos(self, model, q):
+        """``qpos`` at input q (several inputs: the vector) as the rigid mechanism has it — the pose the
+        reduced model describes, where MuJoCo's model is compared with it (``mjbench.plausibility``).
+        Default :meth:`initial_qpos`; a mechanism whose start pose is settled into MuJoCo's soft
+        constraints (a cam: the deflection under the spring's load) returns the undeflected pose."""
+        return self.initial_qpos(model, q)
+
     def model_at_pose(self, model, data) -> None:
         """Bring a model whose constraints are updated every step (:attr:`edits_model`: a cam's
         per-step equality) to the pose in ``data.qpos`` before it is evaluated outside a run

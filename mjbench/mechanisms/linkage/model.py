@@ -103,23 +103,32 @@ DISK_FOLDER: str | None = "linkages"
 
 
 def compiled(p: LinkageParams) -> _Compiled:
-    """The compiled, built linkage of a description: cached in memory by its content, and on disk in
-    the user cache by its content and the code's version (:func:`mjbench.compiled.cache.code_version`),
-    so a second command does not assemble it again (nor import ``scipy.optimize`` for it)."""
+    """The compiled, built linkage of a description (:func:`built`)."""
+    return built(p, _Compiled, _CACHE)
+
+
+def built(p, cls, memory: dict, limit: int = 32, kind: str = ""):
+    """``cls(p).build()``, cached in ``memory`` by the description's content and on disk in the user
+    cache by its content, the class and the code's version (:func:`mjbench.compiled.cache.code_version`),
+    so a second command does not assemble and tabulate it again (nor import ``scipy.optimize`` for it).
+    ``kind``: the built object gets ``content_key`` = "kind:<hash of the description>" (its tables' key)."""
     text = p.model_dump_json()
     key = hashlib.sha1(text.encode()).hexdigest()
-    hit = _CACHE.get(key)
+    hit = memory.get(key)
     if hit is None:
-        if len(_CACHE) > 32:
-            _CACHE.clear()
-        disk = hashlib.sha256(f"{text}\n{cache.code_version()}".encode()).hexdigest()[:40] if DISK_FOLDER else ""
+        if len(memory) > limit:
+            memory.clear()
+        disk = (hashlib.sha256(f"{cls.__qualname__}\n{text}\n{cache.code_version()}".encode()).hexdigest()[:40]
+                if DISK_FOLDER else "")
         if disk:
             hit = cache.load_object(DISK_FOLDER, disk, f"built linkage {p.name!r}")
-            if not isinstance(hit, _Compiled) or hit.p != p:
+            if type(hit) is not cls or hit.p != p:
                 hit = None
         if hit is None:
-            hit = _Compiled(p).build()
+            hit = cls(p).build()
+            if kind:
+                hit.content_key = f"{kind}:{key}"
             if disk:
                 cache.store_object(DISK_FOLDER, disk, hit)
-        _CACHE[key] = hit
+        memory[key] = hit
     return hit

@@ -7,28 +7,21 @@ input joint a tree joint carrying its drive's reflected inertia).
 """
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 
 from ... import compiled as C
 from ...errors import GeometryError, ParameterError
 from .mechanism import Linkage
+from .model import built
 from .multi import MultiCompiled, MultiModelP, multi_model, two_model
 from .topology import _ref
 _CACHE: dict = {}
 
 
 def compiled_multi(p) -> MultiCompiled:
-    """The built multi-input description (cached by content)."""
-    key = hashlib.sha1(p.model_dump_json().encode()).hexdigest()
-    hit = _CACHE.get(key)
-    if hit is None:
-        if len(_CACHE) > 16:
-            _CACHE.clear()
-        hit = _CACHE[key] = MultiCompiled(p).build()
-        hit.content_key = f"multi-linkage:{key}"
-    return hit
+    """The built multi-input description, cached in memory and in the user cache like a one-input
+    linkage (:func:`.model.built`): a second command reads its grid tables back."""
+    return built(p, MultiCompiled, _CACHE, limit=16, kind="multi-linkage")
 
 
 class MultiLinkage(Linkage):
