@@ -58,6 +58,9 @@ GAP_TOL = 1e-6
 #: contact (the follower_gap limit) time constant in co-steps unless ``contact_solref`` says
 #: otherwise: 3h, as every loop closure (docs/higher_pairs.md §2.3 measures 1 ms and 20 ms)
 CONTACT_TIMECONST_STEPS = 3.0
+#: a description's geometry checks and jump speed (:func:`checks`, :func:`jump_speed`), by its content:
+#: a command builds its machine more than once (the checks before the run, the run), a sweep once a row
+_DERIVED: dict = {}
 
 #: what the follower's quantities are in, by motion: (lift, spring rate, force, damping) kinds
 _KINDS = {"translating": ("length", "lin_stiffness", "force", "lin_damping"),
@@ -191,8 +194,15 @@ class Cam(Mechanism):
         self.M = float(p.follower_mass if p.follower == "translating" else p.follower_inertia)
         self.load = FollowerLoad(self.M, p.spring_rate, p.spring_preload, p.follower_load, p.follower_damping)
         self.J_cam = float(p.cam_inertia)
-        self.check = checks(self.fol, _Shifted(self.program, self.phase), max_pressure_angle=p.max_pressure_angle)
-        self.jump = jump_speed(self.load, self.program)
+        key = p.model_dump_json()
+        hit = _DERIVED.get(key)
+        if hit is None:  # (7200 samples of the program and a root search: ≈ 0.5 s, once per description)
+            if len(_DERIVED) > 32:
+                _DERIVED.clear()
+            hit = _DERIVED[key] = (checks(self.fol, _Shifted(self.program, self.phase),
+                                          max_pressure_angle=p.max_pressure_angle),
+                                   jump_speed(self.load, self.program))
+        self.check, self.jump = dict(hit[0]), dict(hit[1])
         self.P = CamModelP(self.program.P, self.phase, self.J_cam, self.M, self.load.k, self.load.F0, self.load.FL,
                            self.load.c)
 
