@@ -40,9 +40,12 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+from collections import namedtuple
 
 import numpy as np
 
+from . import compiled as C
+from .compiled import law
 from .control import Controller
 
 from .errors import ParameterError
@@ -73,9 +76,27 @@ MIN_PERIOD_SAMPLES = 8
 
 
 # ============================================================================ excitation
+#: the excitation's parameters: the disturbance sequence d (one value per control sample), the control period T [s]
+ExcitationP = namedtuple("ExcitationP", "d T")
+
+
+@law(outputs=("u",))
+def excitation(t, u, P, S):
+    """u + d[k] at control sample k = round(t/T) (nothing added past the sequence's end): the disturbance
+    added to the controller's output ``u``, before the kernel's clip and delay."""
+    k = int(round(t / P.T))
+    if k < len(P.d):
+        return u + P.d[k]
+    return u + 0.0
+
+
 class Excited(Controller):
     """The mode's controller plus a disturbance sequence: u = C(t, y) + d[k] at control sample k
-    (the kernel then limits, delays and applies u as for any controller)."""
+    (the kernel then limits, delays and applies u as for any controller).
+
+    Compiled form: the controller's own form with :func:`excitation` as its child ``"then"`` (a control
+    slot of its own, run right after the controller on its axis): a machine whose parts all compile
+    is measured on the compiled loop.  A controller without a law runs both in CPython (``__call__``)."""
 
     type_name = "excited"
 
@@ -84,20 +105,28 @@ class Excited(Controller):
         if not float(getattr(inner, "period", 0.0) or 0.0):
             inner.period = float(T)  # sampled every co-step, with its parameters for that period
         inner.reset()
-        self.inner, self.d, self.T = inner, np.asarray(d, dtype=float), float(T)
+        self.inner, self.d, self.T = inner, np.ascontiguousarray(d, dtype=float).reshape(-1), float(T)
         self.period = float(T)
         self.kp_ramp = False
+        self._xP = ExcitationP(self.d, self.T)
 
     @classmethod
     def from_params(cls, params, drive=None, mechanism=None, scenario=None):  # pragma: no cover - not a mode
         raise ParameterError("the frequency-response excitation is not a scenario mode")
 
+    def form(self, T: float, machine):
+        fn = getattr(self.inner, "form", None)
+        f = fn(T, machine) if fn is not None else None
+        if f is None:
+            return None
+        then = C.Form(excitation, self._xP, what="frequency-response excitation")
+        return dataclasses.replace(f, children={**f.children, "then": then})
+
     def reset(self):
         self.inner.reset()
 
     def __call__(self, t, y):
-        k = int(round(t / self.T))
-        return float(self.inner(t, y)) + (float(self.d[k]) if k < len(self.d) else 0.0)
+        return float(excitation(t, float(self.inner(t, y)), self._xP, C.NO_STATE))
 
 
 def multisine(N: int, lines, amplitude: float) -> np.ndarray:

@@ -58,6 +58,36 @@ def test_the_estimate_sees_a_wrong_model():
     assert frest.compare(res["P"], Gl, np.ones(len(Gl), bool))["max_mag_diff"] > 0.05
 
 
+@pytest.mark.parametrize("name, mode", [("incerti-belt", None), ("press-slidercrank", None)])
+def test_excitation_runs_compiled_with_the_bits_of_the_python_controller(name, mode):
+    """The excited controller's compiled form (its law, then :func:`frest.excitation` in a control slot
+    of its own) gives the bits of the CPython loop and of the controller called as a Python object
+    (``__call__``: u = C(t, y) + d[k], the path every controller without a law takes); the disturbance
+    reaches the record (u − C differs from the run without it by d, within the clip)."""
+    import dataclasses
+
+    from mjbench.backends import simulate
+
+    m = S.make_machine(S.load(name), mode)
+    T = float(m.controller.period or 1e-3)
+    d = np.random.default_rng(7).normal(size=400) * 0.3
+
+    class AsObject(frest.Excited):
+        form = None  # no compiled form: the kernel wraps __call__ (CPython)
+
+    runs = {}
+    for label, cls, loop in (("object", AsObject, None), ("python", frest.Excited, "python"),
+                             ("compiled", frest.Excited, "compiled")):
+        runs[label] = simulate(dataclasses.replace(m, controller=cls(m.controller, d, T)), "reduced", 0.3,
+                               record_dt=T, loop=loop)
+    assert runs["object"].meta["loop"] == "python" and runs["compiled"].meta["loop"] == "compiled"
+    np.testing.assert_array_equal(runs["python"].data, runs["object"].data)
+    np.testing.assert_array_equal(runs["compiled"].data, runs["object"].data)
+    base = simulate(dataclasses.replace(m, controller=frest.Excited(m.controller, [], T)), "reduced", 0.3,
+                    record_dt=T, loop="compiled")
+    assert np.max(np.abs(runs["compiled"].voltage - base.voltage)) > 0.1  # the excitation acts
+
+
 def test_stepped_sine_agrees_with_multisine():
     scn = S.load("incerti-bezier")
     kw = dict(backend="reduced", band=(50.0, 800.0), n_lines=3, settle=1.5, periods=2)

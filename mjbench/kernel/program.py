@@ -179,17 +179,26 @@ class Program:
         """Compose a run of ``machine`` on ``plant`` at step h with the controllers sampled every
         ``every`` steps: every component contributes its form (``form(...)`` methods)."""
         drives = machine.drives
-        ctrls = machine.controllers
-        pr = cls(len(drives), len(ctrls))
+        pr = cls(len(drives), 0)
         parts: dict = {}
         train_cols = []
         for a, drive in enumerate(drives):
             train_cols.append(pr._axis(a, drive, plant, h, every, parts))
-        for c, (ctrl, axis) in enumerate(ctrls):
-            cf = controller_form(ctrl, h, every, machine)
+        cforms = [(ctrl, axis, controller_form(ctrl, h, every, machine)) for ctrl, axis in machine.controllers]
+        # a controller's child "then": a law in a control slot of its own, run right after the controller on
+        # its axis (it reads and writes the axis's signals: frest's excitation adds d[k] to u)
+        pr.nctrl = sum(1 + ("then" in cf.children) for _, _, cf in cforms)
+        c = 0
+        for ctrl, axis, cf in cforms:
             pr.wire(f"CTRL_{c}", cf, axis, SIG.CONTROLLER_OUTPUTS,
                     f"controller {getattr(ctrl, 'type_name', '') or type(ctrl).__name__!r}")
             parts[f"ctrl_{c}"] = cf
+            c += 1
+            then = cf.children.get("then")
+            if then is not None:
+                pr.wire(f"CTRL_{c}", then, axis, SIG.CONTROLLER_OUTPUTS, then.what or "controller's next law")
+                parts[f"ctrl_{c}"] = then
+                c += 1
             refs = {}
             ref = cf.children.get("reference")
             if ref is not None:
