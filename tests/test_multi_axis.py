@@ -133,6 +133,29 @@ def test_computed_torque_and_pid_compile_to_the_cpython_bits():
             np.testing.assert_array_equal(py.data, cc.data)
 
 
+def test_a_run_that_evaluates_the_tabulated_model_compiles_from_its_first_co_step(monkeypatch):
+    """A component's form (or a model it evaluates) may declare the co-steps from which compiling pays
+    (``flags["min_steps"]``); the composition takes the least.  The five-bar's 2-input model table costs
+    ≈ 85 µs a call in CPython: the computed-torque controller that evaluates it makes even a short
+    MuJoCo run compile, where the PID's MuJoCo run keeps the plant's threshold."""
+    from mjbench import kernel
+    from mjbench.backends import multibody
+    from mjbench.compiled import jit
+
+    pytest.importorskip("numba")
+    monkeypatch.setattr(jit, "loaded", lambda: False)  # as in a fresh process
+    scn = S.load("fivebar")
+    for mode, want in (("ct", 0), ("pid", multibody.MIN_COMPILED_STEPS)):
+        mc = S.make_machine(scn, mode)
+        plant = multibody.MultibodyPlant(mc, scn.multibody_options())
+        plant.start()
+        h = float(plant.h)
+        pr = kernel.Program.build(plant, mc, h, kernel.control_every(mc.controller, h))
+        assert pr.min_steps == want
+        mode_, why = kernel.choose_loop(pr, 10_000)
+        assert (mode_ == "compiled") == (want == 0), why
+
+
 def _desc(**kw):
     d = dict(type="linkage", name="arm", ground={"O": (0.0, 0.0)},
              links={"upper": dict(mass=1.0, inertia=0.01, points={"O": (0, 0), "B": (0.3, 0)}),

@@ -150,7 +150,6 @@ class ReducedPlant:
                                  "tabulated model (reduced.method = 'rk4', reduced.model = 'table', no record_joints)")
         model = self._mech.model_form()
         self._meta_from(model)
-        flags = {**flags, "min_steps": 0}  # (its CPython evaluation costs ≈ 1 ms per co-step: compile at once)
         n = self._n
         k = int(model.flags.get("channels", 0))
         size = multi_state_size(n, k)

@@ -3,8 +3,10 @@ specialised, :mod:`.pyloop`) or the compiled one (:func:`mjbench.compiled.jit.lo
 
 **When compiled** (:func:`choose_loop`): numba installed and every component compiles, and the
 job is large enough to pay numba's start-up (≈ 0.35 s of CPU to import numba and load a cached
-kernel, against ≈ 2–3 µs saved per co-step: :data:`mjbench.kernel.program.MIN_STEPS`), or numba
-is already loaded, or ``MJBENCH_JIT=1``.  ``MJBENCH_JIT=0`` always runs CPython; ``MJBENCH_JIT=check``
+kernel, against ≈ 2–3 µs saved per co-step: :data:`mjbench.kernel.program.MIN_STEPS`, or the plant's
+own threshold, or less when a component's form declares one: ``flags["min_steps"]``, e.g. a
+multi-input model table whose CPython evaluation costs ≈ 85 µs a call), or numba is already loaded,
+or ``MJBENCH_JIT=1``.  ``MJBENCH_JIT=0`` always runs CPython; ``MJBENCH_JIT=check``
 runs the compiled loop with every array access bounds-checked (a law writing past its state is
 then an error naming it, never a crash).  The reason for the choice is recorded (``meta["loop"]``,
 ``meta["loop_reason"]``).

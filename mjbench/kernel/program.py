@@ -127,6 +127,17 @@ def _ident(form) -> tuple:
     return (id(form.law), tuple(_ident(f) for f in form.fn_args))
 
 
+def _nested(pr) -> list:
+    """Every form of a composition: its slots' and wired laws' forms and, nested, their function arguments."""
+    stack = list(pr.slots.values()) + [f for f, _ in pr.wired.values()]
+    out = []
+    while stack:
+        g = stack.pop()
+        out.append(g)
+        stack.extend(g.fn_args)
+    return out
+
+
 class Program:
     """One run composed: the form in each slot, the flags and layout constants, the parameters and
     states, the record's columns.
@@ -224,7 +235,10 @@ class Program:
         pr.flags["HAS_CLOSURE"] = "closure" in pf.laws
         pr.flags["HAS_UNSTABLE"] = "unstable" in pf.laws
         pr.flags["NEXTRA"] = int(pf.flags.get("nextra", 0))
-        pr.min_steps = int(pf.flags.get("min_steps", MIN_STEPS))
+        # co-steps from which compiling pays: the plant's, or less when any component's law (or a model it
+        # evaluates) declares that its CPython evaluation costs more (a multi-input model's table)
+        pr.min_steps = min([int(pf.flags.get("min_steps", MIN_STEPS))]
+                           + [int(g.flags["min_steps"]) for g in _nested(pr) if "min_steps" in g.flags])
         pr.read = pf.laws["read"]
         parts["plant"] = pf
         pr.forms = parts
