@@ -184,21 +184,34 @@ def kp_ramp_limit(machine, h: float, n_angles: int = 24, t_max: float = 1e4, spe
     ct = _ct()
     cases = [(q, op, P[list(MEAS), ["V"]]) for q, op, P in plant_family(machine, h, n_angles, 0.0, speed)]
 
+    def radius(k, t):
+        q, op, Pfb = cases[k]
+        C = _reachable(controller_counterpart(machine, dataclasses.replace(op, t=t), h,
+                                              angle=_angle_mode(None, op))[["V"], list(MEAS)])
+        return float(np.max(np.abs(ct.feedback(Pfb, C, sign=1).poles())))
+
     def rho(t):
         worst, at = 0.0, None
-        for q, op, Pfb in cases:
-            C = _reachable(controller_counterpart(machine, dataclasses.replace(op, t=t), h,
-                                                  angle=_angle_mode(None, op))[["V"], list(MEAS)])
-            r = float(np.max(np.abs(ct.feedback(Pfb, C, sign=1).poles())))
+        for k, (q, _, _) in enumerate(cases):
+            r = radius(k, t)
             if r > worst:
                 worst, at = r, q
         return worst, at
 
+    order = list(range(len(cases)))
+
+    def stable(t):  # rho(t) < 1: the angle found unstable last is tried first, and the first unstable one decides
+        for i, k in enumerate(order):
+            if radius(k, t) >= 1.0:
+                order.insert(0, order.pop(i))
+                return False
+        return True
+
     def bisect(lo, hi):  # rho(lo) and rho(hi) on opposite sides of 1
-        s_lo = rho(lo)[0] < 1.0
+        s_lo = stable(lo)
         for _ in range(60):
             mid = 0.5 * (lo + hi)
-            if (rho(mid)[0] < 1.0) == s_lo:
+            if stable(mid) == s_lo:
                 lo = mid
             else:
                 hi = mid
@@ -209,16 +222,16 @@ def kp_ramp_limit(machine, h: float, n_angles: int = 24, t_max: float = 1e4, spe
     out = {"n_angles": int(n_angles), "t_stable_from_s": None, "t_s": None, "kp_eff": None, "at_q_rad": None}
     # a stable instant: the first of 1, 2, 4 ... s where every frozen angle is stable
     t_ok = 1.0
-    while rho(t_ok)[0] >= 1.0:
+    while not stable(t_ok):
         t_ok *= 2.0
         if t_ok > t_max:
             return out
-    if rho(1e-6)[0] >= 1.0:  # unstable at the start of the ramp (small K_p·t): where it becomes stable
+    if not stable(1e-6):  # unstable at the start of the ramp (small K_p·t): where it becomes stable
         out["t_stable_from_s"] = bisect(1e-6, t_ok)[1]
     else:
         out["t_stable_from_s"] = 0.0
     hi = 2.0 * t_ok
-    while rho(hi)[0] < 1.0:
+    while stable(hi):
         t_ok, hi = hi, 2.0 * hi
         if hi > t_max:
             return out
