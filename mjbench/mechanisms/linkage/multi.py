@@ -373,6 +373,23 @@ GridTableP = namedtuple("GridTableP", "rows kloop x0 inv_h ncell periodic n nvec
 #: a 2-input table's compiled channels at most: the simulation's (M̄, the Christoffel symbols, ḡ: 11;
 #: + D̄: 14), padded to whole 4-wide SIMD registers (12 or 16 lanes: :func:`bicubic_lanes`)
 LANES = 16
+#: the slots after a 2-input table's lanes where :func:`grid2_eval` keeps the cell it evaluated last
+CELL_SLOTS = 2
+
+
+def _aligned(a, align: int = 64):
+    """A C-contiguous float64 copy of ``a`` whose data start on an ``align``-byte boundary (``a``
+    itself if it does): a 2-input table's rows are 16·4·nvec·8 bytes, a whole number of cache lines,
+    so each 4-lane load of :func:`bicubic_lanes` then lies within one line (NumPy aligns to 16 bytes:
+    half the loads would straddle two; ≈ 2 % of the five-bar's reduced co-step)."""
+    a = np.ascontiguousarray(a, dtype=float)
+    if a.ctypes.data % align == 0:
+        return a
+    buf = np.empty(a.size + align // 8, dtype=float)
+    k = (-buf.ctypes.data % align) // 8
+    out = buf[k:k + a.size].reshape(a.shape)
+    out[...] = a
+    return out
 
 
 class GridTable:
@@ -418,8 +435,9 @@ class GridTable:
             self.coef = np.ascontiguousarray(np.transpose(coef, (0, 2, 1)))  # [cell, ch, 4·a + b]
         self.k = k
         self.kloop = int(k if kloop is None else kloop)
-        #: the slots the compiled evaluation writes (2 inputs: the channels padded to whole 4-lane
-        #: registers, the padding zeros)
+        #: the slots the compiled evaluation writes its channels to (2 inputs: the channels padded to
+        #: whole 4-lane registers, the padding zeros); ``scratch``: all it uses (2 inputs: and the
+        #: last cell, :data:`CELL_SLOTS`)
         self.slots = self.kloop
         nvec = 0
         if self.n == 2:
@@ -431,9 +449,15 @@ class GridTable:
             rows[:, :, :self.kloop] = coef[:, :, :self.kloop]
             rows = rows.reshape(cells, 16 * lanes)  # [i·C1 + j, lanes·(4·a + b) + ch]
             self.slots = lanes
-        self.P = GridTableP(np.ascontiguousarray(rows), self.kloop, np.array(self.x0), 1.0 / np.array(self.h),
+        self.scratch = self.slots + (CELL_SLOTS if self.n == 2 else 0)
+        self.P = GridTableP(_aligned(rows), self.kloop, np.array(self.x0), 1.0 / np.array(self.h),
                             np.array(self.ncell, dtype=np.int64), np.array(self.periodic, dtype=np.int64), self.n,
                             nvec)
+
+    def __setstate__(self, state):
+        """(Read back from the user cache: the rows aligned again, :func:`_aligned`.)"""
+        self.__dict__.update(state)
+        self.P = self.P._replace(rows=_aligned(self.P.rows))
 
     def _cells(self, q, d):
         u = (np.asarray(q, float) - self.x0[d]) / self.h[d]
@@ -512,15 +536,33 @@ def grid1_eval(q, T, out, o):
 @C.law
 def grid2_eval(q0, q1, T, out, o):
     """The simulation's channels of a 2-input grid table at (q0, q1) into out[o:o+4·T.nvec] (the
-    first ``T.kloop``; the rest 0.  NaN outside its ranges): :func:`bicubic_lanes` on the cell's row."""
+    first ``T.kloop``; the rest 0.  NaN outside its ranges): :func:`bicubic_lanes` on the cell's row.
+
+    The cell (i, j) of the last evaluation inside the ranges is kept, as floats, in the two slots
+    after the lanes, out[o+4·nvec : o+4·nvec+2] (:data:`CELL_SLOTS`; the table's ``scratch`` counts
+    them; any values are safe: a cell outside the table is not used).  While (q0, q1) stays in that
+    cell — nearly every RK4 stage of a run — its row is known before the point is: the coefficients'
+    loads no longer wait for the floor and index arithmetic of :func:`grid_cell`, which were ≈ 15 % of
+    the five-bar's reduced co-step (docs/performance.md §8).  The cell coordinates are the same
+    differences u − i as :func:`grid_cell`'s (i = ⌊u⌋ exactly): the same bits."""
+    L = 4 * T.nvec
+    if o < 0 or o + L + CELL_SLOTS > out.shape[0]:  # (the compiled evaluation writes without bounds checks)
+        raise IndexError("grid2_eval: the table's channels do not fit the output array")
+    fi = out[o + L]
+    fj = out[o + L + 1]
+    s = (q0 - T.x0[0]) * T.inv_h[0] - fi
+    t = (q1 - T.x0[1]) * T.inv_h[1] - fj
+    if 0.0 <= s < 1.0 and 0.0 <= t < 1.0 and 0.0 <= fi < T.ncell[0] and 0.0 <= fj < T.ncell[1]:
+        bicubic_lanes(T.rows, int(fi) * T.ncell[1] + int(fj), s, t, out, o, T.nvec)
+        return
     i, s = grid_cell(q0, 0, T)
     j, t = grid_cell(q1, 1, T)
     if i < 0 or j < 0:
         for c in range(T.kloop):
             out[o + c] = math.nan
         return
-    if o < 0 or o + 4 * T.nvec > out.shape[0]:  # (the compiled evaluation writes without bounds checks)
-        raise IndexError("grid2_eval: the table's channels do not fit the output array")
+    out[o + L] = float(i)
+    out[o + L + 1] = float(j)
     bicubic_lanes(T.rows, i * T.ncell[1] + j, s, t, out, o, T.nvec)
 
 
@@ -546,7 +588,7 @@ def bicubic_lanes(R, r, s, t, out, o, nvec):
 
 
 __all__ = ["MultiCompiled", "GridTable", "GridTableP", "grid1_eval", "grid2_eval", "bicubic_lanes", "grid_cell",
-           "LANES", "TABLE_TARGET"]
+           "LANES", "CELL_SLOTS", "TABLE_TARGET"]
 
 
 # ============================================================================ the model law

@@ -119,7 +119,7 @@ class MultiLinkage(Linkage):
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
                                        "table_rel_error_g": self.table_info.get("rel_error_g")},
-                             "channels": tab.slots,
+                             "channels": tab.scratch,
                              # its CPython evaluation (the bicubic table's lanes, ≈ 85 µs a call) costs more
                              # than numba's start-up within the first co-steps: a run that evaluates it compiles
                              "min_steps": 0})
