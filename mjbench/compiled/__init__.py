@@ -209,6 +209,19 @@ def isfinite(x):
     return not (math.isnan(x) or math.isinf(x))
 
 
+@law
+def track(a, i, x, t):
+    """The running extremes of a signal at a[i:i+4] — largest value, its time, smallest value, its
+    time — with the value x at time t (a strictly larger or smaller value moves them: the first time
+    an extreme is reached is kept)."""
+    if x > a[i]:
+        a[i] = x
+        a[i + 1] = t
+    if x < a[i + 2]:
+        a[i + 2] = x
+        a[i + 3] = t
+
+
 class _ArrayMath:
     """``math`` for :func:`array_twin`: the same functions, elementwise over NumPy arrays."""
 
@@ -244,4 +257,4 @@ def vectorize(fn: Callable, *args):
 
 
 __all__ = ["law", "bridge", "Form", "python_form", "NoParams", "NO_PARAMS", "NO_STATE", "sgn", "clip",
-           "isfinite", "vectorize", "array_twin", "python_view", "LAWS"]
+           "isfinite", "track", "vectorize", "array_twin", "python_view", "LAWS"]

@@ -347,7 +347,7 @@ def _build(program, loop_source: str, check: bool = False):
     flags = program.flags
     header = ["import math", "import numba", "from numba.extending import register_jitable",
               "from mjbench.kernel.loop import MAX_SPEED, MAX_CURRENT",
-              "from mjbench.compiled import clip, isfinite", ""]
+              "from mjbench.compiled import clip, isfinite, track", ""]
     header += [f"{f} = {flags[f]!r}" for f in sorted(flags)]
     inmemory = {}
     mods = set()

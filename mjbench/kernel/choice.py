@@ -32,7 +32,7 @@ _PY_LOOPS: dict = {}
 
 def loop_env() -> dict:
     """What every loop module holds besides a composition's slots and constants."""
-    return {"math": math, "clip": C.clip, "isfinite": C.isfinite, "MAX_SPEED": LP.MAX_SPEED,
+    return {"math": math, "clip": C.clip, "isfinite": C.isfinite, "track": C.track, "MAX_SPEED": LP.MAX_SPEED,
             "MAX_CURRENT": LP.MAX_CURRENT}
 
 

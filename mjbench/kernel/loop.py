@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import textwrap
 
-from ..compiled import clip, isfinite  # noqa: F401 - globals of the loop
+from ..compiled import clip, isfinite, track  # noqa: F401 - globals of the loop
 
 MAX_SPEED = 1e4  #: rad/s: beyond this an input speed is a diverged simulation, not physics
 MAX_CURRENT = 1e5  #: A
@@ -191,22 +191,8 @@ def _loop(n0, n1, K, X):
             sb = k * nst
             for _a in AXES:
                 e = sb + SA_a
-                st[e] = ks[KA_a + KS_W_MAX]
-                st[e + 1] = ks[KA_a + KS_W_T_MAX]
-                st[e + 2] = ks[KA_a + KS_W_MIN]
-                st[e + 3] = ks[KA_a + KS_W_T_MIN]
-                st[e + 4] = ks[KA_a + KS_I_MAX]
-                st[e + 5] = ks[KA_a + KS_I_T_MAX]
-                st[e + 6] = ks[KA_a + KS_I_MIN]
-                st[e + 7] = ks[KA_a + KS_I_T_MIN]
-                st[e + 8] = ks[KA_a + KS_VB_MAX]
-                st[e + 9] = ks[KA_a + KS_VB_T_MAX]
-                st[e + 10] = ks[KA_a + KS_VB_MIN]
-                st[e + 11] = ks[KA_a + KS_VB_T_MIN]
-                st[e + 12] = ks[KA_a + KS_TQ_MAX]
-                st[e + 13] = ks[KA_a + KS_TQ_T_MAX]
-                st[e + 14] = ks[KA_a + KS_TQ_MIN]
-                st[e + 15] = ks[KA_a + KS_TQ_T_MIN]
+                for j in range(NSTAT_AXIS):  # (the extremes' layout in ks is the statistics row's)
+                    st[e + j] = ks[KA_a + KS_W_MAX + j]
                 # the next interval starts at this sample (its state belongs to both; the applied
                 # voltage and torque to the steps after it only)
                 ks[KA_a + KS_W_MAX] = w_a
@@ -264,30 +250,10 @@ def _loop(n0, n1, K, X):
             q_a = q1_a
             qd_a = qd1_a
             w1_a = z_a * (qd_a + dmd_a)
-            if w1_a > ks[KA_a + KS_W_MAX]:
-                ks[KA_a + KS_W_MAX] = w1_a
-                ks[KA_a + KS_W_T_MAX] = t1
-            if w1_a < ks[KA_a + KS_W_MIN]:
-                ks[KA_a + KS_W_MIN] = w1_a
-                ks[KA_a + KS_W_T_MIN] = t1
-            if I_a > ks[KA_a + KS_I_MAX]:
-                ks[KA_a + KS_I_MAX] = I_a
-                ks[KA_a + KS_I_T_MAX] = t1
-            if I_a < ks[KA_a + KS_I_MIN]:
-                ks[KA_a + KS_I_MIN] = I_a
-                ks[KA_a + KS_I_T_MIN] = t1
-            if Vb_a > ks[KA_a + KS_VB_MAX]:
-                ks[KA_a + KS_VB_MAX] = Vb_a
-                ks[KA_a + KS_VB_T_MAX] = t
-            if Vb_a < ks[KA_a + KS_VB_MIN]:
-                ks[KA_a + KS_VB_MIN] = Vb_a
-                ks[KA_a + KS_VB_T_MIN] = t
-            if tq_a > ks[KA_a + KS_TQ_MAX]:
-                ks[KA_a + KS_TQ_MAX] = tq_a
-                ks[KA_a + KS_TQ_T_MAX] = t
-            if tq_a < ks[KA_a + KS_TQ_MIN]:
-                ks[KA_a + KS_TQ_MIN] = tq_a
-                ks[KA_a + KS_TQ_T_MIN] = t
+            track(ks, KA_a + KS_W_MAX, w1_a, t1)  # (the speed and current at the step's end,
+            track(ks, KA_a + KS_I_MAX, I_a, t1)  # the voltage and torque applied over it)
+            track(ks, KA_a + KS_VB_MAX, Vb_a, t)
+            track(ks, KA_a + KS_TQ_MAX, tq_a, t)
         at_ctrl += 1
         if at_ctrl == every:
             at_ctrl = 0
