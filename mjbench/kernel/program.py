@@ -71,6 +71,8 @@ def _absent(*args):  # a slot no run calls (its flag is off)
 
 
 _ABSENT = C.Form(_absent)
+#: the state of an absent slot (never called, so never written: one array for every run)
+_NO_STATE = np.zeros(0)
 
 
 _BLANK: dict = {}
@@ -159,6 +161,7 @@ class Program:
         self.columns: tuple = ()
         self.stat_columns: tuple = ()
         self.u_lim = [(-math.inf, math.inf)] * naxes
+        self.every = 1  # the control sample in co-steps (:meth:`build`'s)
 
     # ------------------------------------------------------------------ assembly
     def use(self, slot: str, form, why: str = ""):
@@ -191,6 +194,7 @@ class Program:
         ``every`` steps: every component contributes its form (``form(...)`` methods)."""
         drives = machine.drives
         pr = cls(len(drives), 0)
+        pr.every = every
         parts: dict = {}
         train_cols = []
         for a, drive in enumerate(drives):
@@ -253,6 +257,8 @@ class Program:
         lay, consts = _LAYOUTS[key]
         pr.layout = lay
         pr.columns, pr.stat_columns = lay.columns, lay.stats
+        # (the key names the layout instead of its ≈ 70 constants, which follow from it)
+        pr._keyed_flags = (key, tuple(pr.flags.items()))
         pr.flags.update(consts)
         return pr
 
@@ -315,12 +321,17 @@ class Program:
         """The composition: the slot laws' function objects (each slot's law and, nested, its function
         arguments' laws, by identity: the laws of a cached loop are kept alive, so their ids stay
         unique), the control laws' wirings and the flags.  Runs with the same key share one loop;
-        computed once (the slots do not change after :meth:`build`)."""
+        computed once (the slots do not change after :meth:`build`).
+
+        The slots and flags are listed in their dicts' order: every program starts from the same blank
+        dicts (:func:`_blank`) and binds them in :meth:`build`'s order, so equal compositions list them
+        alike (a different order could only cost a second loop, never a wrong one).  The flags are the
+        components' own and the record layout's key: the layout's constants follow from it."""
         k = self.__dict__.get("_key")
         if k is None:
-            k = _Key((self.naxes, self.nctrl, tuple((s, _ident(self.slots[s])) for s in sorted(self.slots)),
-                      tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())),
-                      tuple(sorted(self.flags.items()))))
+            flags = self.__dict__.get("_keyed_flags") or tuple(sorted(self.flags.items()))
+            k = _Key((self.naxes, self.nctrl, tuple((s, _ident(f)) for s, f in self.slots.items()),
+                      tuple((s, _ident(f), w) for s, (f, w) in sorted(self.wired.items())), flags))
             if len(_KEYS) > 256:
                 _KEYS.clear()
             k = self._key = _KEYS.setdefault(k, k)
@@ -373,7 +384,7 @@ class Program:
             return view(f[name].P) if name in f else C.NO_PARAMS
 
         def S(name):  # (CPython: a memoryview — a law may hand its state to a law writing through slices)
-            return view(f[name].state() if name in f else np.zeros(0))
+            return view(f[name].state() if name in f else _NO_STATE)
 
         ax = range(self.naxes)
         return Parts(tuple(view(p) for p in self.drive_P), tuple(P(f"sense_{a}") for a in ax),

@@ -47,14 +47,15 @@ class Stepper:
     measurement) drives its own with :meth:`advance`.
 
     ``out``/``stats``: the flat record and statistics to fill, default allocated; ``mode``:
-    "python", "compiled" or "check" (:func:`choose_loop`)."""
+    "python", "compiled" or "check" (:func:`choose_loop`); ``every``: the control sample in co-steps
+    (default the machine's, :func:`~.checks.machine_every`)."""
 
     def __init__(self, plant, machine, h: float, nsteps: int, decim: int, mode: str = "python", program=None,
-                 out=None, fn=None, stats=None, strict: bool = False):
+                 out=None, fn=None, stats=None, strict: bool = False, every: int | None = None):
         self.plant, self.machine, self.h, self.nsteps, self.decim, self.mode = plant, machine, h, nsteps, decim, mode
         self.strict = strict  # the compiled loop was asked for: a law numba refuses is an error, not a fallback
         self.fallback = ""
-        self.every = CK.machine_every(machine, h)
+        self.every = int(every) if every is not None else CK.machine_every(machine, h)
         if program is None:
             plant.start()
             program = Program.build(plant, machine, h, self.every)
@@ -254,13 +255,17 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
     strict = jit_mode(loop) in ("compiled", "check")
     nthreads = min(N, threads or os.cpu_count() or 1) if mode != "python" and N > 1 else 1
     CK.check_record(nsteps, decim, ncol + nstat, nthreads if consume is not None else N, h, record_dt)
-    data = None if consume is not None else np.full((N, nrec * ncol), np.nan)
-    stats = None if consume is not None else np.full((N, nrec * nstat), np.nan)
+    # The loop writes every column of each row it records (the plant's own columns: its law, so those
+    # start as NaN); the rows after a run's end are set to NaN when it ends (:func:`_blank_tail`).
+    blank = bool(progs[0].flags["NEXTRA"])
+    fresh = (lambda shape: np.full(shape, np.nan)) if blank else np.empty
+    data = None if consume is not None else fresh((N, nrec * ncol))
+    stats = None if consume is not None else fresh((N, nrec * nstat))
     fns = {}
     for pr in progs:
         if pr.loop_key(mode) not in fns:
             fns[pr.loop_key(mode)] = loop_function(pr, mode)
-    meta = _job_meta(plants[0], machines[0], h, decim, mode, why)
+    meta = _job_meta(plants[0], machines[0], h, decim, progs[0].every, mode, why)
     nrows = np.zeros(N, dtype=int)
     diverged = np.zeros(N, dtype=bool)
     t_div = np.full(N, np.nan)
@@ -274,13 +279,15 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
         pr = progs[i]
         if data is None:
             if not hasattr(local, "rec"):
-                local.rec = np.empty(nrec * ncol), np.empty(nrec * nstat)
-            for a in local.rec:
-                a.fill(np.nan)
+                local.rec = np.full(nrec * ncol, np.nan), np.full(nrec * nstat, np.nan)
+            elif blank:
+                for a in local.rec:
+                    a.fill(np.nan)
         out, sts = local.rec if data is None else (data[i], stats[i])
         st = Stepper(plants[i], machines[i], h, nsteps, decim, mode, pr, out, fns[pr.loop_key(mode)], sts,
-                     strict=strict)
+                     strict=strict, every=pr.every)
         _run_one(st, prog, mode != "python", stop)
+        _blank_tail(st)
         if st.fallback:
             meta["loop"], meta["loop_reason"] = "python", st.fallback
         nrows[i], diverged[i] = st.nrows, st.diverged
@@ -307,6 +314,14 @@ def run_many(plants, machines, t_end: float, record_dt: float = 1e-3, progress=N
                  meta, None if stats is None else stats.reshape(N, nrec, nstat), scols)
     rec.results = results if consume is not None else None
     return rec
+
+
+def _blank_tail(st: Stepper) -> None:
+    """NaN in the record's and the statistics' rows after the run's last recorded one (a diverged or
+    stopped run; a reused record's rows from its previous run)."""
+    k = st.nrows
+    st.out[k * st.ncol:] = np.nan
+    st.stats[k * st.nstat:] = np.nan
 
 
 def _programs(plants, machines, h: float) -> list:
@@ -340,10 +355,10 @@ def _job_loop(progs, steps: int, loop: str | None) -> tuple:
     return mode, why
 
 
-def _job_meta(plant, machine, h: float, decim: int, mode: str, why: str) -> dict:
+def _job_meta(plant, machine, h: float, decim: int, every: int, mode: str, why: str) -> dict:
     """The job's meta: steps, control period, the plant's meta, the loop and the drive train."""
     drives = machine.drives
-    meta = {"dt": h, "record_dt": decim * h, "control_period": CK.machine_every(machine, h) * h,
+    meta = {"dt": h, "record_dt": decim * h, "control_period": every * h,
             "z": float(drives[0].z), **plant.meta, "loop": "compiled" if mode == "check" else mode,
             "loop_reason": why}
     if len(drives) > 1:

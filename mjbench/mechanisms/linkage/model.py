@@ -113,11 +113,11 @@ def built(p, cls, memory: dict, limit: int = 32, kind: str = ""):
     so a second command does not assemble and tabulate it again (nor import ``scipy.optimize`` for it).
     ``kind``: the built object gets ``content_key`` = "kind:<hash of the description>" (its tables' key)."""
     text = p.model_dump_json()
-    key = hashlib.sha1(text.encode()).hexdigest()
-    hit = memory.get(key)
+    hit = memory.get(text)  # (by the text itself: its hash is needed only for a new description)
     if hit is None:
         if len(memory) > limit:
             memory.clear()
+        key = hashlib.sha1(text.encode()).hexdigest()
         disk = (hashlib.sha256(f"{cls.__qualname__}\n{text}\n{cache.code_version()}".encode()).hexdigest()[:40]
                 if DISK_FOLDER else "")
         if disk:
@@ -130,5 +130,5 @@ def built(p, cls, memory: dict, limit: int = 32, kind: str = ""):
                 hit.content_key = f"{kind}:{key}"
             if disk:
                 cache.store_object(DISK_FOLDER, disk, hit)
-        memory[key] = hit
+        memory[text] = hit
     return hit
