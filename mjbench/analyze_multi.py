@@ -641,7 +641,10 @@ def summary_text(res: dict) -> str:
     lines = [f"{what} ({res['mechanism']}, {len(res['axes'])} axes: {', '.join(res['axes'])}): "
              f"reduced model {res['reduced_model']}"]
     ti = res.get("table_info") or {}
-    if ti:
+    if ti.get("model") == "solve":
+        lines.append(f"  reduced model solved at every evaluation (Newton on the loop constraints, residual ≤ "
+                     f"{ti.get('newton_tol', float('nan')):.0e}; reduced_model = 'solve')")
+    elif ti:
         lines.append(f"  reduced-model table {ti.get('nodes')} nodes: error M̄ {ti.get('rel_error_M', float('nan')):.2g}, "
                      f"c̄ {ti.get('rel_error_c', float('nan')):.2g}, ḡ {ti.get('rel_error_g', float('nan')):.2g} (relative)")
     idn = res.get("inverse_dynamics")

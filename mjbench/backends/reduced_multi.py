@@ -10,7 +10,10 @@ from __future__ import annotations
 
 from collections import namedtuple
 
+import math
+
 from .. import compiled as C
+from ..compiled.linalg import lu_factor, lu_solve
 
 #: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
 #: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
@@ -26,8 +29,8 @@ def multi_work(n: int) -> int:
 
 def multi_state_size(n: int, channels: int) -> int:
     """Length of :func:`rk4_multi`'s state: :func:`multi_work`, the model's M̄ and bias (n² + n), its
-    channels, the linear solve's matrix and right-hand side (n² + n)."""
-    return multi_work(n) + n * n + n + channels + n * n + n
+    channels, the linear solve's matrix, right-hand side and pivots (n² + 2n)."""
+    return multi_work(n) + n * n + n + channels + n * n + 2 * n
 
 
 @C.law
@@ -35,7 +38,7 @@ def multi_accel(MODEL, t, S, iy, ia, TAU, P):
     """Accelerations q̈ (n) at the state S[iy:iy+2n] into S[ia:ia+n]: MODEL writes M̄ and the bias,
     then (M̄ + diag J_eq) q̈ = τ − c·q̇ − bias: one or two inputs in closed form (Cramer's rule; the
     matrix is symmetric positive definite, the determinant its two eigenvalues' product), more by
-    Gaussian elimination with partial pivoting."""
+    LU factorisation with partial pivoting (:mod:`mjbench.compiled.linalg`)."""
     n = P.n
     iw = P.iw
     MODEL(S, iy, t, P.model, S, iw)
@@ -54,38 +57,19 @@ def multi_accel(MODEL, t, S, iy, ia, TAU, P):
         return
     iA = ib + n + P.nch
     ir = iA + n * n
+    ip = ir + n
     for i in range(n):
         for j in range(n):
             S[iA + i * n + j] = S[iw + i * n + j]
         S[iA + i * n + i] += P.Ja[i]
         S[ir + i] = TAU[i] - P.c[i] * S[iy + n + i] - S[ib + i]
-    for c in range(n):
-        piv = c
-        big = abs(S[iA + c * n + c])
-        for r in range(c + 1, n):
-            v = abs(S[iA + r * n + c])
-            if v > big:
-                big = v
-                piv = r
-        if piv != c:
-            for j in range(n):
-                tmp = S[iA + c * n + j]
-                S[iA + c * n + j] = S[iA + piv * n + j]
-                S[iA + piv * n + j] = tmp
-            tmp = S[ir + c]
-            S[ir + c] = S[ir + piv]
-            S[ir + piv] = tmp
-        d = S[iA + c * n + c]
-        for r in range(c + 1, n):
-            f = S[iA + r * n + c] / d
-            for j in range(c, n):
-                S[iA + r * n + j] -= f * S[iA + c * n + j]
-            S[ir + r] -= f * S[ir + c]
-    for i in range(n - 1, -1, -1):
-        acc = S[ir + i]
-        for j in range(i + 1, n):
-            acc -= S[iA + i * n + j] * S[ia + j]
-        S[ia + i] = acc / S[iA + i * n + i]
+    if lu_factor(S, iA, ip, n):
+        lu_solve(S, iA, ip, n, ir)
+        for i in range(n):
+            S[ia + i] = S[ir + i]
+    else:  # (M̄ + J_eq is positive definite: only NaN gets here)
+        for i in range(n):
+            S[ia + i] = math.nan
 
 
 @C.law

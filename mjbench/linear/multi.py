@@ -129,8 +129,9 @@ def _check_drives(machine):
 
 
 def _model(mech, drives, q, qd):
-    """(M̄ + J_eq (n, n), the bias c̄ + ḡ + D̄q̇ + z²λq̇ (n,)) from the table the simulation reads."""
-    M, G, g, D = unpack(mech.c.table_n(np.atleast_2d(q)), mech.n_inputs)
+    """(M̄ + J_eq (n, n), the bias c̄ + ḡ + D̄q̇ + z²λq̇ (n,)) as the simulation evaluates them (the table, or
+    the loops solved)."""
+    M, G, g, D = unpack(mech.c.model_channels(np.atleast_2d(q)), mech.n_inputs)
     Ja = np.array([float(d.J_eq) for d in drives])
     c = np.array([float(d.crank_damping) for d in drives])
     qd2 = np.atleast_2d(qd)

@@ -240,6 +240,9 @@ class LinkageParams(Strict):
     gears: list[GearSpec] = Field(default_factory=list, description="gear pairs, belts, racks (docs/higher_pairs.md §1)")
     trace: str | None = Field(None, description='"link.point" traced in videos (default: the first load point)')
     table_nodes: int | None = Field(None, ge=64, le=65536, description="grid of the reduced-model table (default: automatic)")
+    reduced_model: Literal["table", "solve"] | None = Field(
+        None, description="several inputs: the reduced model in the loop — 'table' (1 or 2 inputs; their default) "
+                          "or 'solve' (the loops solved by Newton at every evaluation; the default beyond 2 inputs)")
 
     @field_validator("links")
     @classmethod
@@ -256,6 +259,9 @@ class LinkageParams(Strict):
         if (self.input is None) == (self.inputs is None):
             raise PydanticCustomError("mjbench_value", "give input = \"JOINT\" (one motor) or inputs = [\"J1\", "
                                       "\"J2\", …] (one motor per joint), not both")
+        if self.inputs is None and self.reduced_model is not None:
+            raise PydanticCustomError("mjbench_value", "reduced_model: a machine with several inputs (inputs = [...]) "
+                                      "only; one input's model is always tabulated")
         if self.inputs is not None:
             if not self.inputs or len(set(self.inputs)) != len(self.inputs):
                 raise PydanticCustomError("mjbench_value", "inputs = {i}: name each driven joint once",

@@ -32,6 +32,7 @@ from ..linkage_kin import TWO_PI, SolveError
 from .kinematics import _deg
 from .model import _Compiled
 from .multi_kin import MultiPlanarSystem
+from .multi_solve import NEWTON_TOL, solve_params
 from .topology import GROUND, _ref, _rot2
 
 TABLE_NODES = (32, 64, 128, 256, 512)  #: nodes per input (a full turn; proportionally fewer over a range)
@@ -102,8 +103,22 @@ class MultiCompiled(_Compiled):
                                 f"{res * self.L:.3g} m")
         self.z_ref = z
         self._grid()
-        self._tables_n()
+        self.model_kind = p.reduced_model or ("table" if self.ninputs <= 2 else "solve")
+        if self.model_kind == "table":
+            if self.ninputs > 2:
+                raise GeometryError(f"linkage {p.name!r}: reduced_model = 'table' takes 1 or 2 inputs ({self.ninputs} "
+                                    f"here): use reduced_model = 'solve' (the loops solved each step)")
+            self._tables_n()
+        else:  # the loops solved at every evaluation (multi_solve.py): no table
+            self.solve_P = solve_params(self)
+            self.table_n = None
+            self.table_info = {"model": "solve", "newton_tol": NEWTON_TOL}
         return self
+
+    def model_channels(self, Q):
+        """The reduced model's channels (B, k) at inputs Q (B, n) as the simulation evaluates them: from
+        the table, or solved exactly (``reduced_model = 'solve'``: the simulation solves the loops too)."""
+        return self.table_n(Q) if self.table_n is not None else self.exact_model(Q)
 
     def _assemble_free(self, z0):
         """The joints closed near z0 with every input free (the mobility is counted there)."""

@@ -14,6 +14,7 @@ from ...errors import GeometryError, ParameterError
 from .mechanism import Linkage
 from .model import built
 from .multi import MultiCompiled, MultiModelP, multi_model, two_model
+from .multi_solve import NEWTON_TOL, scratch_size, solve_model, solve_two
 from .topology import _ref
 _CACHE: dict = {}
 
@@ -90,12 +91,12 @@ class MultiLinkage(Linkage):
 
     def reduced_table(self, q):
         """The same from the table (what the reduced backend integrates)."""
-        return unpack(self.c.table_n(np.atleast_2d(q)), self.n_inputs)
+        return unpack(self.c.model_channels(np.atleast_2d(q)), self.n_inputs)
 
     def potential_energy(self, q):
         """E_p(q) [J] (gravity, springs) at inputs q (…, n), from the table."""
         q = np.asarray(q, float)
-        v = self.c.table_n(q.reshape(-1, self.n_inputs))[:, -1]
+        v = self.c.model_channels(q.reshape(-1, self.n_inputs))[:, -1]
         return v.reshape(q.shape[:-1]) if q.ndim > 1 else float(v[0])
 
     def kinetic_energy(self, q, qd):
@@ -110,11 +111,19 @@ class MultiLinkage(Linkage):
         return False
 
     def model_form(self):
-        """The n-input model law on the grid table: :func:`.multi.multi_model`, for two inputs the scalar
-        :func:`.multi.two_model` (the reduced plant's two-input RK4 calls it so)."""
-        tab = self.c.table_n
+        """The n-input model law: on the grid table :func:`.multi.multi_model`, for two inputs the scalar
+        :func:`.multi.two_model` (the reduced plant's two-input RK4 calls it so); with
+        ``reduced_model = 'solve'`` :func:`.multi_solve.solve_model` (two inputs: :func:`.multi_solve.solve_two`),
+        the loops solved at every evaluation."""
+        c = self.c
+        if c.table_n is None:
+            law = solve_two if self.n_inputs == 2 else solve_model
+            P = c.solve_P
+            return C.Form(law, P, flags={"table": {"model": "solve", "newton_tol": NEWTON_TOL},
+                                         "channels": scratch_size(P.n, P.nz), "min_steps": 0})
+        tab = c.table_n
         law = two_model if self.n_inputs == 2 else multi_model
-        return C.Form(law, MultiModelP(self.n_inputs, tab.P, bool(self.c.has_damping())),
+        return C.Form(law, MultiModelP(self.n_inputs, tab.P, bool(c.has_damping())),
                       flags={"table": {"model": "table", "table_nodes": self.table_info.get("nodes"),
                                        "table_rel_error_M": self.table_info.get("rel_error_M"),
                                        "table_rel_error_c": self.table_info.get("rel_error_c"),
