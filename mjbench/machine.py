@@ -91,8 +91,14 @@ class Machine:
         _check_parts(self)
         # the drive train's mechanical elements (compliant gear, friction) belong to the plant's model
         train = getattr(self.drive, "train", None) if n == 1 else None
-        if n > 1 and any(getattr(d, "train", None) is not None for d in self.drives):
-            raise ParameterError("drive-train elements ([drive.pwm], encoder, gear …) are one-axis only so far")
+        if n > 1:  # the electrical elements are per axis in the kernel; the mechanical ones change the plant
+            for lab, d in zip(self.axis_labels, self.drives):
+                tr = getattr(d, "train", None)
+                if tr is not None and tr.mechanical:
+                    raise ParameterError(f"drives.{lab}: a compliant gear ([drive.gear] stiffness, backlash) or dry "
+                                         f"friction ([drive.friction]) is one-axis only so far (it is built into a "
+                                         f"one-input mechanism's model); PWM, encoder, sensor, current loop and gear "
+                                         f"efficiency work per axis")
         if train is not None:
             self.mechanism = train.wrap(self.mechanism, self.drive)
 

@@ -364,9 +364,15 @@ def _job_meta(plant, machine, h: float, decim: int, every: int, mode: str, why: 
     if len(drives) > 1:
         meta["axes"] = list(machine.axis_labels)
         meta["z_axes"] = [float(d.z) for d in drives]
-    train = getattr(drives[0], "train", None) if len(drives) == 1 else None
-    if train is not None:
-        meta["drivetrain"] = train.describe()
+    if len(drives) == 1:
+        train = getattr(drives[0], "train", None)
+        if train is not None:
+            meta["drivetrain"] = train.describe()
+    else:
+        trains = {lab: d.train.describe() for lab, d in zip(machine.axis_labels, drives)
+                  if getattr(d, "train", None) is not None}
+        if trains:
+            meta["drivetrain"] = trains  # (per axis, by label)
     return meta
 
 
