@@ -256,8 +256,9 @@ def make_machine(scn: Scenario, mode: str | None = None):
         ctrl = CONTROLLERS.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
     else:
         ctrl = []
+        own = scn.mode_axes.get(mode, {})  # [modes.NAME.axes.JOINT]: an axis's keys over the mode's
         for k, d in enumerate(drives):
-            c = CONTROLLERS.build(scn.modes[mode], drive=d, mechanism=mech, scenario=scn)
+            c = CONTROLLERS.build(own.get(mech.input_joints[k], scn.modes[mode]), drive=d, mechanism=mech, scenario=scn)
             ref = getattr(c, "reference", None)
             if hasattr(ref, "for_axis"):  # the joint trajectories of every axis: this axis's
                 c.reference = ref.for_axis(k)

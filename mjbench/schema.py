@@ -215,6 +215,9 @@ class Scenario(Strict):
     path: PathParams | None = None
     drives: dict[str, Any] = Field(default_factory=dict, description="per-axis drives of a machine with several "
                                    "inputs: [drives.JOINT] keys over [drive]")
+    mode_axes: dict[str, dict[str, Any]] = Field(default_factory=dict, description="per-axis controllers of a mode "
+                                                  "on a machine with several inputs: [modes.NAME.axes.JOINT] keys over "
+                                                  "[modes.NAME] (the validated Params, by mode and joint)")
     optimize: OptimizeParams | None = None
     check: CheckParams | None = None
     paper: dict[str, Any] = Field(default_factory=dict, description="the paper's reported figures (free form)")
@@ -278,6 +281,14 @@ class Scenario(Strict):
                 out[name] = jsonable(v.model_dump(mode="python"))
             elif name == "modes":
                 out[name] = {k: jsonable(m.model_dump(mode="python")) for k, m in v.items()}
+                for k, ax in self.mode_axes.items():  # (each axis's whole table: re-loads to the same)
+                    if k in out[name] and ax:
+                        out[name][k]["axes"] = {j: jsonable(p.model_dump(mode="python")) for j, p in ax.items()}
+            elif name == "mode_axes":
+                continue
+            elif name == "drives":  # (the axes' drives: Params by joint)
+                if v:
+                    out[name] = {k: jsonable(d.model_dump(mode="python")) for k, d in v.items()}
             else:
                 out[name] = jsonable(v)
         return out

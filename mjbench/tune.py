@@ -204,6 +204,14 @@ class Problem:
         self.mode = find_mode(scn, ctype)
         self.base_params = scn.modes[self.mode]  # the scenario's own controller (baseline)
         self.tuned_params = self.base_params.model_copy(update=fixed)
+        self._fixed = dict(fixed)
+        # [modes.NAME.axes.JOINT]: an axis keeps its own keys, but the searched gains are one set for every axis
+        axes_raw = ((scn.raw.get("modes") or {}).get(self.mode) or {}).get("axes") or {}
+        for joint, table in axes_raw.items():
+            clash = sorted(set(table) & set(self.params)) if isinstance(table, dict) else []
+            if clash:
+                raise ParameterError(f"tune: modes.{self.mode}.axes.{joint} sets {', '.join(clash)}: tune searches one "
+                                     f"set of {', '.join(self.params)} for every axis; remove the axis's own value")
         self.controller, self.objective = controller, objective
         self.x0 = np.array([float(getattr(self.tuned_params, p)) for p in self.params])
         self.window = scn.metrics.chi_window
@@ -281,14 +289,18 @@ class Problem:
     def _multi_machine(self, params, mech, drives):
         """A machine with several motors and the controller ``params``: one controller for all axes
         (a class that says ``multi_axis``), else one per axis with that axis's joint trajectory
-        (the same gains on every axis: the scenario has one table per mode)."""
+        (the searched gains on every axis, over an axis's own ``[modes.NAME.axes.JOINT]`` keys)."""
         scn, init = self.scn, self.scn.initial
         if getattr(CONTROLLERS.get(params.type), "multi_axis", False):
             ctrl = CONTROLLERS.build(params, drive=drives[0], mechanism=mech, scenario=scn)
         else:
             ctrl = []
+            own = scn.mode_axes.get(self.mode, {})  # an axis's own keys, the searched gains over them
+            tuned = {p: getattr(params, p) for p in (*self.params, *self._fixed)}
             for k, d in enumerate(drives):
-                c = CONTROLLERS.build(params, drive=d, mechanism=mech, scenario=scn)
+                ax = own.get(mech.input_joints[k])
+                c = CONTROLLERS.build(params if ax is None else ax.model_copy(update=tuned), drive=d, mechanism=mech,
+                                      scenario=scn)
                 ref = getattr(c, "reference", None)
                 if hasattr(ref, "for_axis"):
                     c.reference = ref.for_axis(k)

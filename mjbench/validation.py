@@ -41,10 +41,11 @@ def validate(raw: dict, source: str = "", overrides=()) -> Scenario:
     mech = _mechanism(raw, problems)
     drive = _drive(raw, problems)
     axis_drives = _axis_drives(raw, mech, problems)
-    mraw_all, modes = _modes(raw, problems)
+    mraw_all, modes, mode_axes = _modes(raw, mech, problems)
     scn = _generic_tables(raw, mech, drive, problems)
     if scn is not None:
         scn.modes = modes
+        scn.mode_axes = mode_axes
         problems += _cross_checks(scn, raw, mraw_all, mech, drive)
         _initial_from_stated_pose(scn, mech, raw)
     if problems:
@@ -138,9 +139,10 @@ def _axis_drives(raw: dict, mech, problems: list) -> dict:
     return out
 
 
-def _modes(raw: dict, problems: list) -> tuple[dict, dict]:
-    """The ``[modes.NAME]`` tables through the controller registry → (raw tables, {name: Params})."""
-    modes = {}
+def _modes(raw: dict, mech, problems: list) -> tuple[dict, dict, dict]:
+    """The ``[modes.NAME]`` tables through the controller registry → (raw tables, {name: Params},
+    {name: {joint: Params}} of the ``[modes.NAME.axes.JOINT]`` tables)."""
+    modes, axes = {}, {}
     mraw_all = raw.get("modes", {})
     if not isinstance(mraw_all, dict):
         problems.append(f"modes: must be a table of [modes.NAME] tables, got {mraw_all!r}")
@@ -149,17 +151,54 @@ def _modes(raw: dict, problems: list) -> tuple[dict, dict]:
         if not isinstance(table, dict):
             problems.append(f"modes.{name}: must be a table, got {table!r}")
             continue
-        typ = table.get("type")
-        cls = CR.params_class(typ, table)
+        base = {k: v for k, v in table.items() if k != "axes"}
+        typ = base.get("type")
+        cls = CR.params_class(typ, base)
         if cls is None:
             problems.append(f"modes.{name}.type: {'required value is missing' if typ is None else repr(typ) + ' is not a known controller'}; "
                             f"choose one of {', '.join(CR.names())}")
             continue
         try:
-            modes[name] = cls.model_validate(table)
+            modes[name] = cls.model_validate(base)
         except ValidationError as e:
             problems += format_errors(e, ("modes", name), cls)
-    return mraw_all, modes
+        if "axes" in table:
+            axes[name] = _mode_axes(name, base, table["axes"], cls, mech, problems)
+    return mraw_all, modes, axes
+
+
+def _mode_axes(name: str, base: dict, tables, cls, mech, problems: list) -> dict:
+    """``[modes.NAME.axes.JOINT]`` of a machine with several inputs: an axis's own controller of the
+    mode, its keys over the mode's (gains, set-point, reference) → {joint: Params}."""
+    where = f"modes.{name}.axes"
+    if not isinstance(tables, dict):
+        problems.append(f"{where}: must be a table of [{where}.JOINT] tables, got {tables!r}")
+        return {}
+    inputs = list(getattr(mech, "inputs", None) or []) if mech is not None else []
+    if mech is not None and not inputs:
+        problems.append(f"{where}: per-axis tables are for a mechanism with several inputs (inputs = [...]); "
+                        f"this one has one")
+        return {}
+    if getattr(CR.get(base.get("type")), "multi_axis", False):
+        problems.append(f"{where}: {base.get('type')!r} is one controller for all axes: it takes no per-axis tables")
+        return {}
+    out = {}
+    for joint, table in tables.items():
+        if inputs and joint not in inputs:
+            problems.append(f"{where}.{joint}: not an input joint; the inputs are {', '.join(inputs)}")
+            continue
+        if not isinstance(table, dict):
+            problems.append(f"{where}.{joint}: must be a table, got {table!r}")
+            continue
+        if table.get("type", base.get("type")) != base.get("type"):
+            problems.append(f"{where}.{joint}.type: an axis runs its mode's controller ({base.get('type')!r}); "
+                            f"define another mode for another controller")
+            continue
+        try:
+            out[joint] = cls.model_validate({**base, **table})
+        except ValidationError as e:
+            problems += format_errors(e, ("modes", name, "axes", joint), cls)
+    return out
 
 
 def _generic_tables(raw: dict, mech, drive, problems: list):
