@@ -69,3 +69,21 @@ def test_tune_keeps_an_axis_own_keys_but_searches_one_set_of_gains():
 
     with pytest.raises(MjbenchError, match=r"tune: modes.pid.axes.C sets kp: tune searches one set of kp, ki"):
         Problem(S.load(ARM3R, OWN), "pid", objective="ee_rms")
+
+
+def test_a_sweep_row_sets_an_axis_key_or_the_modes_key_under_the_axes_own():
+    """The sweep's rows (mjbench/sweep/rows.py): an axis's key, or the mode's key that every axis
+    without its own value follows — the scenario the whole validation gives."""
+    from mjbench.sweep.rows import RowScenarios
+
+    scn = S.load(ARM3R, OWN)
+    rows = RowScenarios(scn, ["modes.pid.axes.C.kp"])
+    for v in (0.3, 0.7):
+        r = rows({"modes.pid.axes.C.kp": v})
+        assert r.mode_axes["pid"]["C"].kp == v and r.mode_axes["pid"]["C"].omega_crank == -2.0
+        assert r.modes["pid"].kp == 1.0 and r.mode_axes["pid"]["B"].kp == 1.0
+    rows = RowScenarios(scn, ["modes.pid.ki"])
+    for v in (20.0, 30.0):
+        r = rows({"modes.pid.ki": v})
+        assert r.modes["pid"].ki == r.mode_axes["pid"]["B"].ki == r.mode_axes["pid"]["C"].ki == v
+        assert r.mode_axes["pid"]["C"].kp == 0.5 and r.mode_axes["pid"]["B"].omega_crank == 0.0

@@ -191,3 +191,16 @@ def test_what_the_solved_model_does_not_take_is_one_line():
     spring = 'mechanism.springs=[{between = ["ground.A", "dist1.C"], stiffness = 10.0, length = 0.3}]'
     with pytest.raises(GeometryError, match=r"reduced_model = 'solve' takes no springs or gears"):
         S.make_mechanism(S.load("fivebar", ['mechanism.reduced_model="solve"', spring]))
+
+
+@pytest.mark.parametrize("model,match", [
+    ("table", r"Likely cause: axis A left its input_ranges\[0\] = \[95°, 160°\] \(the table of the reduced model "
+              r"ends there; last recorded at t = 0\.04\d* s: A = 160\.\d°"),
+    ("solve", r"Likely cause: the linkage reached inputs where its loops cannot be solved .* just after t = 0\.11\d* s"),
+])
+def test_a_reduced_run_that_leaves_the_model_says_where(model, match):
+    """The five-bar driven open loop at full voltage leaves its table's ranges (the table) or turns
+    until its loops cannot close (the solve): the divergence names the axis, the range and the time."""
+    scn = S.load("fivebar", [f'mechanism.reduced_model="{model}"', 'modes.open={type="open", voltage=24.0}'])
+    with pytest.raises(MjbenchError, match=match):
+        simulate(S.make_machine(scn, "open"), "reduced", 0.2, record_dt=1e-3, loop="python")

@@ -203,10 +203,33 @@ class Stepper:
         the controller's own hint (``divergence_hint``, e.g. the K_p·t ramp)."""
         d = self.div
         cause = CK.diagnose(self.machine, self.h)
+        if not cause and backend == "reduced":  # (the reduced model's own limits: its table, its solve)
+            cause = self._mechanism_hint()
         if not cause:
             hint_fn = getattr(self.machine.controller, "divergence_hint", None)
             cause = hint_fn(float(d[1]), self.h) if hint_fn is not None else ""
         return CK.divergence_message(backend, *d[1:6], cause)
+
+    def _mechanism_hint(self) -> str:
+        """The mechanism's own likely cause (``divergence_hint(t, q)``, e.g. a linkage with several inputs
+        that left the inputs' table or reached a configuration its loops cannot take) at the last
+        recorded sample whose inputs are finite; '' if it has none."""
+        fn = getattr(self.machine.mechanism, "divergence_hint", None)
+        n = self.nrows
+        if fn is None or n <= 0:
+            return ""
+        labels = self.machine.axis_labels if self.program.naxes > 1 else ()
+        names = [f"{a}:crank_angle_rad" for a in labels] if labels else ["crank_angle_rad"]
+        try:
+            cols = [self.columns.index(c) for c in names] + [self.columns.index("t_s")]
+        except ValueError:
+            return ""
+        rows = self.out[:n * self.ncol].reshape(n, self.ncol)[:, cols]
+        ok = np.flatnonzero(np.all(np.isfinite(rows), axis=1))
+        if not len(ok):
+            return ""
+        last = rows[ok[-1]]
+        return fn(float(last[-1]), last[:-1])
 
 
 def _per_axis(v, n):

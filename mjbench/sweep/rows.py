@@ -95,7 +95,9 @@ class RowScenarios:
     def __init__(self, scn, keys):
         self.scn, self.keys = scn, list(keys)
         self.paths = {k: _resolve(scn, k) for k in self.keys}
-        self.fast = None if not any(p.startswith(WHOLE_VALIDATION) for p in self.paths.values()) else False
+        # (an axis's own mode table, [modes.NAME.axes.JOINT], is merged over its mode's at validation)
+        self.fast = None if not any(p.startswith(WHOLE_VALIDATION) or (p.startswith("modes.") and ".axes." in p)
+                                    for p in self.paths.values()) else False
         self._values = {}
 
     def __call__(self, row: dict):

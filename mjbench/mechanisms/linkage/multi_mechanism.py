@@ -7,6 +7,8 @@ input joint a tree joint carrying its drive's reflected inertia).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ... import compiled as C
@@ -132,6 +134,21 @@ class MultiLinkage(Linkage):
                              # its CPython evaluation (the bicubic table's lanes, ≈ 85 µs a call) costs more
                              # than numba's start-up within the first co-steps: a run that evaluates it compiles
                              "min_steps": 0})
+
+    def divergence_hint(self, t: float, q) -> str:
+        """The likely cause of a reduced run that diverged, from its last recorded inputs q (n) at t:
+        an input beyond the table's range, or inputs just ahead where the loops cannot be solved."""
+        c = self.c
+        lab = ", ".join(f"{a} = {math.degrees(float(x)):.4g}°" for a, x in zip(self.input_joints, q))
+        if c.table_n is not None:
+            for k, (lo, hi, per) in enumerate(c.ranges()):
+                if not per and not lo - 1e-9 <= float(q[k]) <= hi + 1e-9:
+                    return (f" Likely cause: axis {self.input_joints[k]} left its input_ranges[{k}] = "
+                            f"[{math.degrees(lo):.4g}°, {math.degrees(hi):.4g}°] (the table of the reduced model ends "
+                            f"there; last recorded at t = {t:.4g} s: {lab}): keep the motion inside or widen the range")
+            return ""
+        return (f" Likely cause: the linkage reached inputs where its loops cannot be solved (a singular "
+                f"configuration, or the loops cannot close) just after t = {t:.4g} s ({lab})")
 
     def has_multibody_load(self) -> bool:
         return False
