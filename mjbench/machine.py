@@ -18,6 +18,7 @@ import numpy as np
 
 from .drive import DCMotorDrive
 from .drives import Drive
+from .drivetrain.axes import with_axes_friction
 from .errors import OneAxisOnly, ParameterError, one_axis_only  # noqa: F401 - (one_axis_only: re-exported)
 from .mechanisms.base import Mechanism
 
@@ -91,14 +92,8 @@ class Machine:
         _check_parts(self)
         # the drive train's mechanical elements (compliant gear, friction) belong to the plant's model
         train = getattr(self.drive, "train", None) if n == 1 else None
-        if n > 1:  # the electrical elements are per axis in the kernel; the mechanical ones change the plant
-            for lab, d in zip(self.axis_labels, self.drives):
-                tr = getattr(d, "train", None)
-                if tr is not None and tr.mechanical:
-                    raise ParameterError(f"drives.{lab}: a compliant gear ([drive.gear] stiffness, backlash) or dry "
-                                         f"friction ([drive.friction]) is one-axis only so far (it is built into a "
-                                         f"one-input mechanism's model); PWM, encoder, sensor, current loop and gear "
-                                         f"efficiency work per axis")
+        if n > 1:  # the electrical elements are per axis in the kernel; the motors' friction joins the plant
+            self.mechanism = with_axes_friction(self.mechanism, self.drives, self.axis_labels)
         if train is not None:
             self.mechanism = train.wrap(self.mechanism, self.drive)
 

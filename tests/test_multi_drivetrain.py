@@ -63,7 +63,64 @@ def test_both_backends_agree_with_the_elements_per_axis(runs):
         assert np.max(np.abs(m[f"{a}:crank_speed_rad_s"] - w)) <= 1e-6 * np.max(np.abs(w))
 
 
-@pytest.mark.parametrize("elem", ['drive.gear={backlash="0.1 deg"}', "drive.friction={coulomb=0.01}"])
-def test_mechanical_elements_of_several_axes_are_one_line(elem):
-    with pytest.raises(MjbenchError, match=r"drives.A: a compliant gear .* or dry friction .* is one-axis only"):
+@pytest.mark.parametrize("elem,match", [
+    ('drive.gear={backlash="0.1 deg"}', r"drives.A: a compliant gear .* is one-axis only so far"),
+    ("drive.friction={coulomb=0.01, breakaway=0.02, stribeck_speed=1.0}", r"drives.A: a Stribeck drop .* is one-axis"),
+    ("drive.friction.joints.B={coulomb=0.01}", r"drives.A: friction on the mechanism's joints .* is one-axis only"),
+])
+def test_what_stays_one_axis_in_the_drive_train_is_one_line(elem, match):
+    with pytest.raises(MjbenchError, match=match):
         S.make_machine(S.load("fivebar", [elem]), "pid")
+
+
+# ---------------------------------------------------------------- the motors' Coulomb friction per axis
+FC = 0.05  # [N·m] on each motor shaft
+R_A, KM_A, Z_A, LAM_A = 0.4, 0.08, 50.0, 2e-5  # arm2r's [drive] (the shoulder A)
+
+
+def _arm_open(frac):
+    """arm2r in a horizontal plane, the shoulder's motor at frac × its breakaway voltage R·F_C/k_m, the
+    elbow's at 0 V (a mode's table per axis)."""
+    v = frac * FC * R_A / KM_A
+    return S.load("arm2r", [f"drive.friction={{coulomb={FC}}}", "mechanism.gravity=[0.0, 0.0]",
+                            f'modes.open={{type="open", voltage={v!r}}}', "modes.open.axes.B.voltage=0.0"])
+
+
+@pytest.mark.parametrize("backend", ["reduced", "multibody"])
+def test_an_axis_below_its_breakaway_voltage_sticks(backend):
+    """k_m·V/R < F_C: the motor cannot break away.  MuJoCo's friction constraint holds it; the reduced
+    model's regularised law −F_C·tanh(z·q̇/v_ε) lets it creep at ≈ (v_ε/z)·artanh(k_m·I/F_C)."""
+    scn = _arm_open(0.8)
+    m = S.make_machine(scn, "open")
+    tr = simulate(m, backend, 0.3, record_dt=1e-3, loop="python")
+    w = np.abs(tr["A:crank_speed_rad_s"][-1])
+    if backend == "multibody":
+        assert w <= 1e-4, w
+    else:
+        T = m.mechanism.model_form().P.T
+        creep = T[0, 5] / T[0, 4] * math.atanh(KM_A * tr["A:current_A"][-1] / FC)
+        assert w <= 1.05 * creep and creep < 5e-3, (w, creep)
+
+
+def test_above_it_the_axis_slides_at_the_closed_form_speed_on_both_backends():
+    """k_m·V/R > F_C: the shoulder slides at the steady speed where k_m·I = F_C + λ·ω_m and
+    V = R·I + k_m·ω_m, ω = ω_m/z (the elbow's motor, at 0 V, holds it)."""
+    scn = _arm_open(1.5)
+    v = 1.5 * FC * R_A / KM_A
+    want = (v - R_A * FC / KM_A) / (KM_A + R_A * LAM_A / KM_A) / Z_A
+    for b in ("reduced", "multibody"):
+        tr = simulate(S.make_machine(scn, "open"), b, 0.3, record_dt=1e-3, loop="python")
+        assert tr["A:crank_speed_rad_s"][-1] == pytest.approx(want, rel=1e-6), b
+        assert np.max(np.abs(tr["B:crank_speed_rad_s"])) < 0.05 * want, b
+
+
+def test_the_fivebar_with_motor_friction_agrees_between_the_backends():
+    """Under PID along the path (rest between segments: the regularised stick against MuJoCo's
+    constraint, measured 1.3e-3 of the peak speed over 1 s)."""
+    pytest.importorskip("numba")
+    scn = S.load("fivebar", ["drive.friction={coulomb=0.02}"])
+    r, m = (simulate(S.make_machine(scn, "pid"), b, 0.6, record_dt=1e-3) for b in ("reduced", "multibody"))
+    assert "friction" in S.make_machine(scn, "pid").mechanism.describe()["drivetrain"]["E"]
+    for a in ("A", "E"):
+        w = m[f"{a}:crank_speed_rad_s"]
+        assert np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - w)) <= 2e-3 * np.max(np.abs(w)), a

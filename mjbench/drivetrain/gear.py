@@ -173,10 +173,17 @@ def friction_terms(v, T):
     dry friction, module docstring; T: one row per term, TERM_COLUMNS)."""
     out = 0.0
     for i in range(len(T)):
-        u = T[i, 4] * v
-        out = out - T[i, 3] * friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 5]) \
-            - T[i, 6] * v
+        out = friction_term(out, v, T, i)
     return out
+
+
+@C.law
+def friction_term(out, v, T, i):
+    """``out`` with the friction of term (row) i of T at the speed v subtracted: out − g_F·F(|g_v·v|)·
+    tanh(g_v·v/v_ε) − visc·v (:func:`friction_terms`' step; a machine with several motors: one row
+    per axis, :mod:`mjbench.drivetrain.axes`)."""
+    u = T[i, 4] * v
+    return out - T[i, 3] * friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 5]) - T[i, 6] * v
 
 
 @C.law
