@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from .plotstyle import BACKEND as BACKEND_STYLE
+from .plotstyle import backend_style
 from .plotstyle import SETPOINT, context, suptitle
 from .trajectory import atomic_write
 
@@ -50,7 +50,7 @@ def _fig4(runs, path, setpoint, title, chi):
     for j, mode in enumerate(modes):
         col = axes[:, j]
         for backend, tr in runs[mode].items():
-            st = BACKEND_STYLE.get(backend, dict(label=backend))
+            st = backend_style(backend, "z_axes" in tr.meta)  # (an axis of a machine with several motors)
             col[0].plot(tr.t, tr.omega, **st)
             col[1].plot(tr.t, tr.voltage, **st)
             col[2].plot(tr.t, tr.current, **st)

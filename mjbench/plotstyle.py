@@ -84,8 +84,13 @@ def label(quantity: str, unit: str) -> str:
     return f"{quantity} [{unit}]" if unit else quantity
 
 
-def backend_style(backend: str, **extra) -> dict:
-    return {**BACKEND.get(backend, dict(label=backend)), **extra}
+def backend_style(backend: str, several_axes: bool = False, **extra) -> dict:
+    """The line style of ``backend`` (``extra`` over it); the reduced model of a machine with several
+    motors is M̄(q), not J(α)."""
+    st = {**BACKEND.get(backend, dict(label=backend)), **extra}
+    if several_axes and "label" in st:
+        st["label"] = st["label"].replace("J(α)", "M̄(q)")
+    return st
 
 
 def setpoint(ax, value, text="set-point", unit="rad/s"):

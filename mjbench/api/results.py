@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import ParameterError
-from ..plotstyle import BACKEND, finish, new
+from ..plotstyle import backend_style, finish, new
 from ..plausibility import warnings_of
 from ..runner import summary_text
 from .. import runner
@@ -356,7 +356,7 @@ def plot_runs(runs: Sequence[Run], columns: Sequence[str], title: str = "") -> F
     fig, axes = new(len(columns), 1, sharex=True, figsize=(7, 1.0 + 2.0 * len(columns)), squeeze=False)
     for ax, (c, cols) in zip(axes[:, 0], panels):
         for r in runs:
-            style = BACKEND.get(r.backend, dict(label=r.backend))
+            style = backend_style(r.backend, len(cols) > 1)
             for k, col in enumerate(cols):
                 kw = dict(style)
                 if len(cols) > 1:  # one colour per axis, the backend's line style
