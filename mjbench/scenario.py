@@ -248,23 +248,29 @@ def make_machine(scn: Scenario, mode: str | None = None):
         drive = make_drive(scn)
         ctrl = CONTROLLERS.build(scn.modes[mode], drive=drive, mechanism=mech, scenario=scn)
         return Machine(mech, drive, ctrl, q0=init.q0, qd0=init.qd0, I0=init.I0)
-    # several inputs: a drive per input ([drives.JOINT] over [drive]); one controller per axis with
-    # its axis's reference, or one controller for all axes (a class that says multi_axis)
+    # several inputs: a drive per input ([drives.JOINT] over [drive])
     drives = [(scn.drives.get(name) or scn.drive).build() for name in mech.input_joints]
-    cls = CONTROLLERS.get(scn.modes[mode].type)
-    if getattr(cls, "multi_axis", False):
-        ctrl = CONTROLLERS.build(scn.modes[mode], drive=drives[0], mechanism=mech, scenario=scn)
+    return multi_machine(scn, mech, drives, scn.modes[mode], scn.mode_axes.get(mode, {}))
+
+
+def multi_machine(scn: Scenario, mech, drives, params, own=None):
+    """A machine with several motors: one controller of ``params`` for all axes (a class that says
+    ``multi_axis``), else one per axis with its axis's reference, built from that axis's own table
+    ``own[joint]`` ([modes.NAME.axes.JOINT], keys over the mode's) or else ``params``."""
+    init = scn.initial
+    own = own or {}
+    if getattr(CONTROLLERS.get(params.type), "multi_axis", False):
+        ctrl = CONTROLLERS.build(params, drive=drives[0], mechanism=mech, scenario=scn)
     else:
         ctrl = []
-        own = scn.mode_axes.get(mode, {})  # [modes.NAME.axes.JOINT]: an axis's keys over the mode's
         for k, d in enumerate(drives):
-            c = CONTROLLERS.build(own.get(mech.input_joints[k], scn.modes[mode]), drive=d, mechanism=mech, scenario=scn)
+            c = CONTROLLERS.build(own.get(mech.input_joints[k], params), drive=d, mechanism=mech, scenario=scn)
             ref = getattr(c, "reference", None)
             if hasattr(ref, "for_axis"):  # the joint trajectories of every axis: this axis's
                 c.reference = ref.for_axis(k)
             ctrl.append(c)
     q0 = init.q0 if np.ndim(init.q0) else mech.stated_inputs
-    return Machine(mech, drives, ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
+    return Machine(mech, list(drives), ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
 
 
 def get(scn: Scenario, key: str, default=None):

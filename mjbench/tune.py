@@ -287,26 +287,11 @@ class Problem:
         return Machine(mech, drive, ctrl, q0=scn.initial.q0, qd0=scn.initial.qd0, I0=scn.initial.I0)
 
     def _multi_machine(self, params, mech, drives):
-        """A machine with several motors and the controller ``params``: one controller for all axes
-        (a class that says ``multi_axis``), else one per axis with that axis's joint trajectory
-        (the searched gains on every axis, over an axis's own ``[modes.NAME.axes.JOINT]`` keys)."""
-        scn, init = self.scn, self.scn.initial
-        if getattr(CONTROLLERS.get(params.type), "multi_axis", False):
-            ctrl = CONTROLLERS.build(params, drive=drives[0], mechanism=mech, scenario=scn)
-        else:
-            ctrl = []
-            own = scn.mode_axes.get(self.mode, {})  # an axis's own keys, the searched gains over them
-            tuned = {p: getattr(params, p) for p in (*self.params, *self._fixed)}
-            for k, d in enumerate(drives):
-                ax = own.get(mech.input_joints[k])
-                c = CONTROLLERS.build(params if ax is None else ax.model_copy(update=tuned), drive=d, mechanism=mech,
-                                      scenario=scn)
-                ref = getattr(c, "reference", None)
-                if hasattr(ref, "for_axis"):
-                    c.reference = ref.for_axis(k)
-                ctrl.append(c)
-        q0 = init.q0 if np.ndim(init.q0) else mech.stated_inputs
-        return Machine(mech, list(drives), ctrl, q0=q0, qd0=init.qd0, I0=init.I0)
+        """A machine with several motors and the controller ``params`` (:func:`mjbench.scenario.multi_machine`):
+        the searched gains on every axis, over an axis's own ``[modes.NAME.axes.JOINT]`` keys."""
+        tuned = {p: getattr(params, p) for p in (*self.params, *self._fixed)}
+        own = {j: ax.model_copy(update=tuned) for j, ax in self.scn.mode_axes.get(self.mode, {}).items()}
+        return S.multi_machine(self.scn, mech, drives, params, own)
 
     def metrics(self, tr):
         if self.multi:  # the worst axis's peaks; the end effector's distance from its path
