@@ -186,7 +186,8 @@ def inverse_dynamics_vs_mujoco(mech, drives, options, Q, Qd, Qdd, tau_drive, n=I
     import mujoco
 
     idx = np.unique(np.linspace(0, len(Q) - 1, min(int(n), len(Q))).round().astype(int))
-    _, model = build_model(Machine(mech, list(drives), None), options)
+    # (a compliant gear is taken rigid: along a prescribed motion the drive delivers τ + J_eq·q̈ + z²λ·q̇)
+    _, model = build_model(Machine(mech, list(drives), None), options, rigid_gears=True)
     data = mujoco.MjData(model)
     eps = 1e-6
     q, qd, qdd = Q[idx], Qd[idx], Qdd[idx]

@@ -18,7 +18,7 @@ import numpy as np
 
 from .drive import DCMotorDrive
 from .drives import Drive
-from .drivetrain.axes import with_axes_friction
+from .drivetrain.axes import with_axes_train
 from .errors import OneAxisOnly, ParameterError, one_axis_only  # noqa: F401 - (one_axis_only: re-exported)
 from .mechanisms.base import Mechanism
 
@@ -92,8 +92,8 @@ class Machine:
         _check_parts(self)
         # the drive train's mechanical elements (compliant gear, friction) belong to the plant's model
         train = getattr(self.drive, "train", None) if n == 1 else None
-        if n > 1:  # the electrical elements are per axis in the kernel; the motors' friction joins the plant
-            self.mechanism = with_axes_friction(self.mechanism, self.drives, self.axis_labels)
+        if n > 1:  # the electrical elements are per axis in the kernel; gears and friction join the plant
+            self.mechanism = with_axes_train(self.mechanism, self.drives, self.axis_labels)
         if train is not None:
             self.mechanism = train.wrap(self.mechanism, self.drive)
 

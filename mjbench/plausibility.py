@@ -92,6 +92,7 @@ def reduced_vs_mujoco_n(mech, options=None, n: int = MODEL_ANGLES, seed: int = 0
     Errors relative to max|M̄| (M̄), and to max(|b|, max|M̄|·1 rad/s²) (bias, inverse dynamics)."""
     import mujoco
 
+    mech = mech.mechanism_alone()  # (the mechanism's own model: no motor hinges, no friction)
     nin = int(mech.n_inputs)
     out = {"n_points": int(n), "tolerance": MODEL_TOLERANCE_N,
            "method": "M̄ = Γᵀ M Γ (mj_fullM); bias Γᵀ(qfrc_bias − qfrc_passive + M Γ̇q̇); inverse dynamics "

@@ -64,8 +64,6 @@ def test_both_backends_agree_with_the_elements_per_axis(runs):
 
 
 @pytest.mark.parametrize("elem,match", [
-    ('drive.gear={backlash="0.1 deg"}', r"drives.A: a compliant gear .* is one-axis only so far"),
-    ("drive.friction={coulomb=0.01, breakaway=0.02, stribeck_speed=1.0}", r"drives.A: a Stribeck drop .* is one-axis"),
     ("drive.friction.joints.B={coulomb=0.01}", r"drives.A: friction on the mechanism's joints .* is one-axis only"),
 ])
 def test_what_stays_one_axis_in_the_drive_train_is_one_line(elem, match):
@@ -124,3 +122,37 @@ def test_the_fivebar_with_motor_friction_agrees_between_the_backends():
     for a in ("A", "E"):
         w = m[f"{a}:crank_speed_rad_s"]
         assert np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - w)) <= 2e-3 * np.max(np.abs(w)), a
+
+
+# ---------------------------------------------------------------- a Stribeck drop per axis
+FS, VS = 0.08, 20.0  # breakaway [N·m] and Stribeck speed [rad/s] on the shoulder's motor (F_C = FC)
+
+
+def _stribeck(frac, gear):
+    v = frac * FS * R_A / KM_A
+    sets = [f"drives.A.friction={{coulomb={FC}, breakaway={FS}, stribeck_speed={VS}}}", "mechanism.gravity=[0.0, 0.0]",
+            f'modes.open={{type="open", voltage={v!r}}}', "modes.open.axes.B.voltage=0.0"]
+    return S.load("arm2r", sets + (["drives.A.gear={stiffness=1e5}"] if gear else [])), v
+
+
+@pytest.mark.parametrize("gear", [False, True], ids=["rigid", "compliant"])
+def test_a_stribeck_axis_sticks_below_its_breakaway_and_slides_at_the_closed_form_speed(gear):
+    """F_C < k_m·V/R < F_S: the motor cannot break away (it would slide with Coulomb friction alone);
+    at 1.5 × the breakaway voltage it slides at the speed where k_m·I = F(ω_m) + λ·ω_m, V = R·I + k_m·ω_m,
+    F(ω) = F_C + (F_S − F_C)·exp(−(ω/v_S)²) (brentq) — with a rigid gear (the friction on the input
+    joint) and behind a compliant one (on the motor's own hinge / coordinate), both backends."""
+    from scipy.optimize import brentq
+
+    scn, _ = _stribeck(0.8, gear)
+    assert FC * R_A / KM_A < 0.8 * FS * R_A / KM_A  # above the Coulomb level
+    for b, tol in (("multibody", 5e-4), ("reduced", 1e-2)):  # (MuJoCo's soft constraint; the regularised law)
+        tr = simulate(S.make_machine(scn, "open"), b, 0.3, record_dt=1e-3, loop="python")
+        assert abs(tr["A:crank_speed_rad_s"][-1]) <= tol, b
+    scn, v = _stribeck(1.5, gear)
+    wm = brentq(lambda w: KM_A * (v - KM_A * w) / R_A - FC - (FS - FC) * math.exp(-(w / VS) ** 2) - LAM_A * w,
+                1e-9, v / KM_A)
+    for b in ("reduced", "multibody"):
+        m = S.make_machine(scn, "open")
+        tr = simulate(m, b, 0.3, record_dt=1e-3, loop="python")
+        assert tr["A:crank_speed_rad_s"][-1] == pytest.approx(wm / Z_A, rel=1e-6), b
+        assert m.mechanism.describe()["drivetrain"]["A"]["friction"]["breakaway_Nm"] == FS

@@ -50,20 +50,25 @@ def accuracy_note(integrator: str) -> str:
             f"{a['closure_m']:.2g} m (RK4 {r['closure_m']:.2g} m)")
 
 
-def build_model(machine, options=None, native_dcmotor=False):
+def build_model(machine, options=None, native_dcmotor=False, rigid_gears=False):
     """Compile the machine's MuJoCo model (reflected drive inertia and viscous friction on the
-    input joint).  With ``native_dcmotor`` the drive is MuJoCo's ``<dcmotor>`` actuator instead."""
+    input joint).  With ``native_dcmotor`` the drive is MuJoCo's ``<dcmotor>`` actuator instead; with
+    ``rigid_gears`` the mechanism alone (``mechanism_alone``: a compliant gear of a machine with several
+    motors taken rigid, the analyses along a prescribed motion)."""
     o = {k: v for k, v in {**DEFAULT_OPTIONS, **(options or {})}.items() if k != "record_joints"}
     mech, drive = machine.mechanism, machine.drive
+    if rigid_gears:
+        mech = mech.mechanism_alone()
     drives = machine.drives
     if native_dcmotor:
         if len(drives) > 1:
             raise ParameterError("the native <dcmotor> cross-check is one-axis only")
         spec = mech.build_spec(armature=float(drive.J_b), options=o)
         _add_dcmotor(spec, drive, mech.input_joint)
-    elif len(drives) > 1:  # one drive per input joint: its reflected inertia and viscous friction
+    elif len(drives) > 1:  # one drive per input joint: its reflected inertia and viscous friction (on the
+        # joint its torque acts on: a compliant gear's motor hinge)
         spec = mech.build_spec(armature=tuple(float(d.J_eq) for d in drives), options=o)
-        for name, d in zip(input_joints(mech), drives):
+        for name, d in zip(mech.drive_joints, drives):
             j = spec.joint(name)
             j.damping = [float(j.damping[0]) + float(d.crank_damping), 0.0, 0.0]
     else:
@@ -125,9 +130,8 @@ class MultibodyPlant:
         names = input_joints(mech)
         self._qa = np.array([int(m.joint(nm).qposadr[0]) for nm in names], dtype=np.int64)
         self._va = np.array([int(m.joint(nm).dofadr[0]) for nm in names], dtype=np.int64)
-        # where each drive's torque acts (a compliant gear, one axis: the motor's own hinge)
-        dj = (drive_joint(mech),) if len(names) == 1 else names
-        self._vd = np.array([int(m.joint(nm).dofadr[0]) for nm in dj], dtype=np.int64)
+        # where each drive's torque acts (a compliant gear: the motor's own hinge)
+        self._vd = np.array([int(m.joint(nm).dofadr[0]) for nm in mech.drive_joints], dtype=np.int64)
         # [simulation] record_joints: every hinge/slide's qpos and qvel after the internal coordinates
         self._joints = joint_list(m) if o.get("record_joints") else []
         self.extra_columns = _extra_names(mech) + column_names(self._joints)
@@ -152,11 +156,11 @@ class MultibodyPlant:
         step = _mj_step_address() or 0
         load = mech.load_form(m, d)
         closure = mech.closure_form(m, d)
-        motor = mech.motor_index(m)  # compliant gear: (qpos, qvel) of the motor's own hinge
+        motor = np.array(mech.motor_indices(m), dtype=np.int64).reshape(-1, 2)  # compliant gears: motor hinges
         internal = mech.internal_index(m) if mech.internal else np.zeros((0, 5))
         jq, jv = addresses(self._joints)
         P = MujocoP(step, m._address, d._address, d.qpos, d.qvel, d.qfrc_applied, self._qa, self._va,
-                    self._vd, -1 if motor is None else int(motor[0]), -1 if motor is None else int(motor[1]),
+                    self._vd, np.ascontiguousarray(motor[:, 0]), np.ascontiguousarray(motor[:, 1]),
                     d.warning.number, int(mujoco.mjtWarning.mjWARN_BADQACC),
                     np.ascontiguousarray(internal[:, :4], dtype=np.int64) if internal is not None else None,
                     np.ascontiguousarray(internal[:, 4], dtype=float) if internal is not None else None,
@@ -188,8 +192,8 @@ class MultibodyPlant:
 
 
 #: the MuJoCo plant's parameters: mj_step's address, model and data addresses, live views of
-#: qpos, qvel, qfrc_applied, the input joint's qpos/dof and the drive's dof, the motor hinge of a
-#: compliant gear (−1: none), the warning counters and the bad-qacc index, the internal coordinates
+#: qpos, qvel, qfrc_applied, each input joint's qpos/dof and each drive's dof, each axis's motor hinge
+#: behind a compliant gear (qpos, dof; −1: none), the warning counters and the bad-qacc index, the internal coordinates
 #: (rows qpos a, qpos b, dof a, dof b; x = q_a − c·q_b), the loads' and the closure's parameters, the
 #: recorded joints' qpos and dof addresses (``record_joints``; empty: none)
 MujocoP = namedtuple("MujocoP", "step m d qpos qvel qfrc qa va vd qm vm warn bad xi xc load closure jq jv")
@@ -206,10 +210,12 @@ def mj_step_at(fn, m, d):
 
 
 @C.law
-def _motor_offset(P, q, qd):
-    if P.qm < 0:
+def _motor_offset(P, a, q, qd):
+    """Axis a's motor offset from its input (δ, δ̇): 0 unless the axis has a compliant gear."""
+    qm = P.qm[a]
+    if qm < 0:
         return 0.0, 0.0
-    return P.qpos[P.qm] - q, P.qvel[P.vm] - qd
+    return P.qpos[qm] - q, P.qvel[P.vm[a]] - qd
 
 
 @C.law
@@ -219,7 +225,7 @@ def mujoco_read(P, S, QO):
     for a in range(len(P.qa)):
         q = P.qpos[P.qa[a]]
         qd = P.qvel[P.va[a]]
-        dm, dmd = _motor_offset(P, q, qd)
+        dm, dmd = _motor_offset(P, a, q, qd)
         QO[4 * a] = q
         QO[4 * a + 1] = qd
         QO[4 * a + 2] = dm
@@ -260,10 +266,10 @@ def python_step(P, model, data, load=None):
     lines.append("    mj_step(model, data)")
     for a, (qa, va) in enumerate(zip(P.qa, P.va)):
         lines += [f"    q = qpos[{int(qa)}]", f"    qd = qvel[{int(va)}]"]
-        if P.qm < 0:
+        if P.qm[a] < 0:
             lines += ["    dm = 0.0", "    dmd = 0.0"]
         else:
-            lines += [f"    dm = qpos[{int(P.qm)}] - q", f"    dmd = qvel[{int(P.vm)}] - qd"]
+            lines += [f"    dm = qpos[{int(P.qm[a])}] - q", f"    dmd = qvel[{int(P.vm[a])}] - qd"]
         lines += [f"    QO[{4 * a}] = q", f"    QO[{4 * a + 1}] = qd", f"    QO[{4 * a + 2}] = dm", f"    QO[{4 * a + 3}] = dmd"]
     src = "\n".join(lines) + "\n"
     exec(compile(src, "<mjbench MuJoCo step twin>", "exec"), env)  # noqa: S102 - our own generated source

@@ -44,7 +44,8 @@ from ..errors import ParameterError, SimulationDiverged
 from ..mechanisms.interface.forms import rigid_accel  # noqa: F401 - the law's old home
 from ..trajectory import Trajectory
 from .multibody import _extra_names
-from .reduced_multi import MultiP, multi_read, multi_state_size, multi_work, rk4_multi, rk4_two
+from .reduced_multi import (GearPlantP, MultiP, axes_gear_read, axes_gear_write, gear_state_size, gear_work,
+                            multi_read, multi_state_size, multi_work, rk4_axes_gear, rk4_multi, rk4_two, two_as_multi)
 from .table import composing
 from .joints import reduced_table
 from .multibody import build_model
@@ -152,6 +153,17 @@ class ReducedPlant:
         self._meta_from(model)
         n = self._n
         k = int(model.flags.get("channels", 0))
+        gear = self._mech.axes_gear()
+        if gear is not None:  # compliant gears: each such motor a coordinate of its own (rk4_axes_gear)
+            if n == 2:
+                model = C.Form(two_as_multi, model.P, fn_args=(model,), flags=dict(model.flags))
+            S0 = np.zeros(gear_state_size(n, k))
+            S0[:n] = self.q
+            S0[n:2 * n] = self.qd
+            P = GearPlantP(self.h, n, np.ascontiguousarray(self._Ja), np.ascontiguousarray(self._c), gear, model.P,
+                           gear_work(n), k)
+            return C.Form(rk4_axes_gear, P, S0, laws={"read": axes_gear_read, "write": axes_gear_write},
+                          flags=flags, fn_args=(model,))
         size = multi_state_size(n, k)
         S0 = np.zeros(size)
         S0[:n] = self.q

@@ -14,6 +14,7 @@ import math
 
 from .. import compiled as C
 from ..compiled.linalg import lu_factor, lu_solve
+from ..drivetrain.gear import friction_term, mesh_torque_law
 
 #: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
 #: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
@@ -184,3 +185,155 @@ def rk4_two(MODEL, TAU, t, P, S, QO):
     QO[5] = w1
     QO[6] = 0.0
     QO[7] = 0.0
+
+
+# ============================================================================ compliant gears per axis
+#: the plant of a machine with several motors and a compliant gear on some axes
+#: (:mod:`mjbench.drivetrain.axes`): step, number of inputs, the drives' J_eq and z²λ (arrays n), the
+#: axes' gears (:class:`mjbench.drivetrain.axes.AxesGearP`), the model law's parameters (multi
+#: interface), the work space's offset in the state, the number of the model's scratch channels
+GearPlantP = namedtuple("GearPlantP", "h n Ja c gear model iw nch")
+
+
+def gear_work(n: int) -> int:
+    """Offset of :func:`rk4_axes_gear`'s model work space in its state: y = (q, q̇, δ, δ̇) (4n), the stage
+    state (4n), four stage accelerations (q̈, δ̈: 2n each), three stage velocities (q̇, δ̇: 2n each)."""
+    return 22 * n
+
+
+def gear_state_size(n: int, channels: int) -> int:
+    """Length of :func:`rk4_axes_gear`'s state: :func:`gear_work`, the model's M̄ and bias (n² + n), its
+    channels, the linear solve's matrix, right-hand side, pivots and the mesh torques (n² + 3n)."""
+    return gear_work(n) + n * n + n + channels + n * n + 3 * n
+
+
+@C.law
+def two_as_multi(MODEL, S, iy, t, P, W, iw):
+    """A two-input model law with the scalar interface (:func:`accel_two`'s MODEL) called with the
+    n-input one: M̄ (row-major) and the bias into W[iw:iw+6], its scratch after them."""
+    m00, m01, m11, b0, b1 = MODEL(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, iw + 6)
+    W[iw] = m00
+    W[iw + 1] = m01
+    W[iw + 2] = m01
+    W[iw + 3] = m11
+    W[iw + 4] = b0
+    W[iw + 5] = b1
+
+
+@C.law
+def axes_gear_accel(MODEL, t, S, iy, ia, TAU, P):
+    """Accelerations (q̈ into S[ia:ia+n], δ̈ into S[ia+n:ia+2n]) at the state y = (q, q̇, δ, δ̇) at S[iy:]
+    of n inputs, axis k behind a compliant gear when P.gear.comp[k] (docs/drivetrain.md §7):
+
+        (M̄ + diag J_k) q̈ = r,   r_k = T_g,k − bias_k (compliant; J_k = J_b,k: the crank side),
+                                  r_k = τ_k − c_k·q̇_k − bias_k (rigid; J_k = J_eq,k),
+        J_mo,k·θ̈_m,k = τ_k − c_k·θ̇_m,k − T_g,k + the motor's friction,   δ̈_k = θ̈_m,k − q̈_k,
+
+    T_g,k = :func:`mesh_torque_law` (δ_k, δ̇_k) the mesh torque, θ_m,k = q_k + δ_k the motor at the output
+    (the one-motor law :func:`mjbench.drivetrain.gear.compliant_accel`, per axis); a rigid axis's δ
+    stays 0.  The linear solve by LU factorisation with partial pivoting."""
+    n = P.n
+    iw = P.iw
+    G = P.gear
+    MODEL(S, iy, t, P.model, S, iw)
+    ib = iw + n * n
+    iA = ib + n + P.nch
+    ir = iA + n * n
+    ip = ir + n
+    ig = ip + n
+    for i in range(n):
+        for j in range(n):
+            S[iA + i * n + j] = S[iw + i * n + j]
+    for k in range(n):
+        if G.comp[k]:
+            tg = mesh_torque_law(S[iy + 2 * n + k], S[iy + 3 * n + k], G.k[k], G.c[k], G.hb[k])
+            S[ig + k] = tg
+            S[iA + k * n + k] += G.Jb[k]
+            S[ir + k] = tg - S[ib + k]
+        else:
+            S[iA + k * n + k] += P.Ja[k]
+            S[ir + k] = TAU[k] - P.c[k] * S[iy + n + k] - S[ib + k]
+    if lu_factor(S, iA, ip, n):
+        lu_solve(S, iA, ip, n, ir)
+        for i in range(n):
+            S[ia + i] = S[ir + i]
+    else:  # (M̄ + diag J is positive definite: only NaN gets here)
+        for i in range(n):
+            S[ia + i] = math.nan
+    for k in range(n):
+        if G.comp[k]:
+            wm = S[iy + n + k] + S[iy + 3 * n + k]
+            tm = TAU[k] - P.c[k] * wm - S[ig + k]
+            if G.friction:
+                tm = friction_term(tm, wm, G.T, k)
+            S[ia + n + k] = tm / G.Jm[k] - S[ia + k]
+        else:
+            S[ia + n + k] = 0.0
+
+
+@C.law
+def rk4_axes_gear(MODEL, TAU, t, P, S, QO):
+    """One classical RK4 step of n inputs with compliant gears (:func:`axes_gear_accel`), the axes'
+    torques TAU held; the state S[0:4n] = (q, q̇, δ, δ̇); (q_a, q̇_a, δ_a, δ̇_a) of every axis into QO."""
+    n = P.n
+    n2 = 2 * n
+    h = P.h
+    h2 = 0.5 * h
+    h6 = h / 6.0
+    ys = 4 * n
+    a1 = 8 * n
+    a2 = a1 + n2
+    a3 = a2 + n2
+    a4 = a3 + n2
+    u2 = a4 + n2
+    u3 = u2 + n2
+    u4 = u3 + n2
+    axes_gear_accel(MODEL, t, S, 0, a1, TAU, P)
+    for j in range(n2):
+        p = j + (j // n) * n  # the position coordinates q (j < n) and δ (j ≥ n); their rates n further
+        S[u2 + j] = S[p + n] + h2 * S[a1 + j]
+        S[ys + p] = S[p] + h2 * S[p + n]
+        S[ys + p + n] = S[u2 + j]
+    axes_gear_accel(MODEL, t + h2, S, ys, a2, TAU, P)
+    for j in range(n2):
+        p = j + (j // n) * n
+        S[u3 + j] = S[p + n] + h2 * S[a2 + j]
+        S[ys + p] = S[p] + h2 * S[u2 + j]
+        S[ys + p + n] = S[u3 + j]
+    axes_gear_accel(MODEL, t + h2, S, ys, a3, TAU, P)
+    for j in range(n2):
+        p = j + (j // n) * n
+        S[u4 + j] = S[p + n] + h * S[a3 + j]
+        S[ys + p] = S[p] + h * S[u3 + j]
+        S[ys + p + n] = S[u4 + j]
+    axes_gear_accel(MODEL, t + h, S, ys, a4, TAU, P)
+    for j in range(n2):
+        p = j + (j // n) * n
+        x = S[p]
+        v = S[p + n]
+        S[p] = x + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
+        S[p + n] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    axes_gear_read(P, S, QO)
+
+
+@C.law
+def axes_gear_read(P, S, QO):
+    """(q_a, q̇_a, δ_a, δ̇_a) of every axis into QO (δ = 0 on a rigid axis)."""
+    n = P.n
+    for a in range(n):
+        QO[4 * a] = S[a]
+        QO[4 * a + 1] = S[n + a]
+        QO[4 * a + 2] = S[2 * n + a]
+        QO[4 * a + 3] = S[3 * n + a]
+
+
+@C.law
+def axes_gear_write(out, b, P, S):
+    """The compliant axes' deflections δ, then their rates δ̇ into ``out[b:]`` (the mechanism's
+    internal coordinates ``gear_deflection_<axis>``)."""
+    n = P.n
+    idx = P.gear.axes
+    m = len(idx)
+    for i in range(m):
+        out[b + i] = S[2 * n + idx[i]]
+        out[b + m + i] = S[3 * n + idx[i]]

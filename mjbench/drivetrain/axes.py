@@ -1,18 +1,35 @@
-"""Dry friction on the motor shafts of a machine with several motors (``[drive.friction]`` per axis,
-docs/linkages.md §8.2): each axis's Coulomb friction F_C, seen through its rigid gearbox, in both
-models of the machine.
+"""The mechanical drive-train elements of a machine with several motors (``[drive.gear]``,
+``[drive.friction]`` per axis, docs/linkages.md §8.2), in both models of the machine.
 
-* **Multibody**: MuJoCo ``frictionloss`` z·F_C on the axis's input joint, ``solref_friction =
-  (2h, 1)`` — as for one motor (docs/drivetrain.md §4).
-* **Reduced**: the mechanism's model law with −z·F_C·tanh(z·q̇ₖ/v_ε) added to axis k's generalised
-  force at every evaluation (:func:`friction_two`, :func:`friction_multi`; the law
-  :func:`.gear.friction_terms` of one motor), v_ε = 2h·F_C·z²/J_k, J_k the smallest inertia the
-  axis sees with the other axes free, 1/[(M̄ + J_eq)⁻¹]ₖₖ over the input ranges (the one-motor
-  stability bound of the regularisation's slope, per axis).
+**Compliant gear** (backlash β, mesh stiffness k, contact damping c on an axis; the one-motor law
+of :mod:`.gear`, axis by axis): the axis's motor becomes a coordinate of its own, θ_m = q + δ at
+the output, carrying J_mo = J_eq − J_b and the drive's viscous z²λ; the input joint keeps J_b; the
+mesh torque T_g(δ, δ̇) (:func:`.gear.mesh_torque_law`) couples them.  Default k: the motor
+inertia against the lighter output side resonates at ``mesh_frequency`` — the output side being
+the axis's smallest inertia with the other axes free, min 1/[(M̄ + diag J)⁻¹]ₖₖ over the input
+ranges (J: J_b on a compliant axis, J_eq on a rigid one).
 
-What stays one-axis (one line, naming the axis): a compliant gear (backlash, stiffness: the motor
-becomes a coordinate of its own), a Stribeck drop (breakaway > coulomb: MuJoCo's friction level is
-edited at every step) and friction on the mechanism's joints (``[drive.friction.joints]``).
+* **Multibody**: per compliant axis a hinge ``drive_motor_<joint>`` on a massless rotor carrying
+  J_mo (its armature) and z²λ, and a fixed tendon ``gear_mesh_<joint>`` = θ_m − q with a
+  dead-band spring (``springlength = [−β/2, β/2]``, ``stiffness = k``); the drive's torque acts on
+  the motor hinge; the contact damping is the tendon's ``damping``, switched on while in contact
+  by the load law :func:`axes_load` (state at the step's start; always on if β = 0).
+* **Reduced**: the n-input plant integrates (q, q̇, δ, δ̇) by RK4
+  (:func:`mjbench.backends.reduced_multi.rk4_axes_gear`, the parameters :class:`AxesGearP`).
+
+**Dry friction on a motor shaft** F(v) = F_C + (F_S − F_C)·exp(−(v/v_S)²) (the one-motor law,
+:func:`.gear.friction_level`; F_S = F_C without a Stribeck drop): MuJoCo ``frictionloss`` z·F on the
+joint the axis's torque acts on (the input joint, or the motor hinge behind a compliant gear),
+``solref_friction = (2h, 1)``, its level set at every step to z·F(|z·v|) at the step's start when
+F_S > F_C (:func:`axes_load`) — as for one motor (docs/drivetrain.md §4).  Reduced:
+−z·F(|z·v|)·tanh(z·v/v_ε) added to the axis's generalised force — a rigid axis's through the
+mechanism's model law at every evaluation (:func:`friction_two`, :func:`friction_multi`), v the
+input's speed and v_ε = 2h·F_S·z²/J_k with J_k the axis's smallest inertia as above plus its J_eq
+(the one-motor stability bound of the regularisation's slope, per axis); a compliant axis's on its
+motor, v = θ̇_m, J_k = J_mo.
+
+What stays one-axis (one line, naming the axis): friction on the mechanism's joints
+(``[drive.friction.joints]``).
 """
 from __future__ import annotations
 
@@ -24,13 +41,30 @@ import numpy as np
 
 from .. import compiled as C
 from ..errors import ParameterError
-from .gear import TERM_COLUMNS, friction_term
+from .gear import TERM_COLUMNS, _law, friction_level, friction_term, no_load
 
 #: the friction of every axis (T: (n, TERM_COLUMNS) — one term, a row, per axis) and the mechanism's
 #: own model law's parameters
 AxesFrictionP = namedtuple("AxesFrictionP", "T inner")
+#: the axes' compliant gears (arrays n, one entry per axis): whether the axis's gear is compliant
+#: (int), mesh stiffness k [N·m/rad], contact damping c [N·m·s/rad], half the play β/2 [rad] (all at
+#: the output), the crank-side inertia J_b and the motor's J_mo = J_eq − J_b [kg·m²]; the motors'
+#: friction terms (n rows, TERM_COLUMNS, on the motor coordinate; ``friction``: whether any); the
+#: compliant axes' indices (the recorded deflections' order)
+AxesGearP = namedtuple("AxesGearP", "comp k c hb Jb Jm T friction axes")
+#: the per-step model edits of a machine with several motors: the tendon damping switched per step
+#: (arrays over the axes with play and damping: the motor's and the input's qpos, the tendon, c, β/2),
+#: the friction level of each axis with a Stribeck drop (its dof, rows F_C, F_S, v_S, g_F, g_v);
+#: qpos, qvel, tendon_damping and dof_frictionloss live; the inner loads' parameters
+AxesLoadP = namedtuple("AxesLoadP", "qpos qvel qm qc tendon c hb tdamp sdof sterms floss inner")
+MOTOR_JOINT = "drive_motor_{}"       #: an axis's motor hinge (its input joint's name filled in)
+MESH_TENDON = "gear_mesh_{}"         #: an axis's mesh tendon θ_m − q
+DEFLECTION = "gear_deflection_{}"    #: an axis's internal coordinate δ = θ_m − q (its label filled in)
 #: configurations sampled for each axis's smallest inertia
 INERTIA_SAMPLES = 1024
+#: the largest ω·h of a compliant gear's mesh mode a run accepts (RK4's stability limit on an undamped
+#: mode is 2√2 ≈ 2.83; the margin covers the estimate of the lightest output side)
+MESH_OMEGA_H = 2.5
 
 
 @C.law
@@ -50,29 +84,75 @@ def friction_multi(MODEL, S, iy, t, P, W, iw):
         W[iw + n * n + k] -= friction_term(0.0, S[iy + n + k], P.T, k)
 
 
-class AxesFrictionMixin:
-    """The mechanism of a machine with several motors with its axes' motor friction (module
-    docstring): a copy of the mechanism whose class also derives from this one (:func:`with_axes_friction`)."""
+@C.law
+def axes_load(INNER, t, P):
+    """The MuJoCo loads of a machine with several motors' drive trains, before each step: the inner
+    mechanism's loads, then the per-step model edits from the state at the step's start (the one-motor
+    edits of :func:`.gear.driven_load`, per axis) — each mesh's contact damping on while in contact
+    (|δ| > β/2), each Stribeck axis's friction level g_F·F(|g_v·v|) on its dof."""
+    INNER(t, P.inner)
+    for i in range(len(P.tendon)):
+        d = P.qpos[P.qm[i]] - P.qpos[P.qc[i]]
+        P.tdamp[P.tendon[i]] = P.c[i] if abs(d) > P.hb[i] else 0.0
+    W = P.sterms
+    for i in range(len(P.sdof)):
+        dof = P.sdof[i]
+        P.floss[dof] = W[i, 3] * friction_level(abs(W[i, 4] * P.qvel[dof]), W[i, 0], W[i, 1], W[i, 2])
 
-    _axes_friction: tuple = ()  #: per axis (label, z, F_C, J_eq)
+
+class AxesTrainMixin:
+    """The mechanism of a machine with several motors with its axes' mechanical drive-train elements
+    (module docstring): a copy of the mechanism whose class also derives from this one
+    (:func:`with_axes_train`)."""
+
+    #: per axis, its :class:`Axis`
+    _axes: tuple = ()
     _h = 1e-4
 
     def set_step(self, h):
-        """The co-simulation step the regularisation is sized for."""
+        """The co-simulation step the friction's regularisation is sized for (and the meshes checked
+        against, :meth:`_check_mesh`)."""
         self._h = float(h)
+        self._check_mesh(self._h)
 
-    def _terms(self) -> np.ndarray:
-        fr = self._axes_friction
-        J = self._axis_inertia()
-        rows = []
-        for k, (_, z, fc, _) in enumerate(fr):
-            veps = 2.0 * self._h * fc * z * z / J[k] if fc > 0 else 1.0
-            rows.append([fc, fc, math.inf, z, z, max(veps, 1e-12), 0.0])
-        return np.ascontiguousarray(np.array(rows, dtype=float).reshape(len(fr), len(TERM_COLUMNS)))
+    def _check_mesh(self, h: float) -> None:
+        """ParameterError naming the axis when a mesh resonates too fast for RK4 at step h: ω = √(k·(1/J_mo
+        + 1/J_c)) (J_c: the axis's lightest output side) beyond ω·h = :data:`MESH_OMEGA_H` (RK4 is
+        stable up to ω·h ≈ 2.8 on an undamped mode; both backends integrate by RK4 at h)."""
+        mesh = self._mesh()
+        J = self._axis_inertia() if self._compliant else None
+        for k in self._compliant:
+            ax = self._axes[k]
+            lab = ax.label
+            w = math.sqrt(mesh[k][0] * (1.0 / (ax.J_eq - ax.J_b) + 1.0 / float(J[k])))
+            if w * h > MESH_OMEGA_H:
+                raise ParameterError(f"drives.{lab}: the gear's mesh (stiffness {mesh[k][0]:.4g} N·m/rad) resonates at "
+                                     f"{w / (2 * math.pi):.4g} Hz against the motor; RK4 at dt = {h:g} s follows it up "
+                                     f"to {MESH_OMEGA_H / h / (2 * math.pi):.4g} Hz: lower the stiffness (or "
+                                     f"mesh_frequency) or make simulation.dt <= {MESH_OMEGA_H / w:.2g} s")
+
+    # ------------------------------------------------------------------ the axes
+    @property
+    def _compliant(self) -> list:
+        return [k for k, a in enumerate(self._axes) if a.gear is not None]
+
+    @property
+    def internal(self) -> tuple:
+        """The compliant axes' deflections δ = θ_m − q (recorded as ``gear_deflection_<axis>_rad``)."""
+        return tuple(DEFLECTION.format(self._axes[k].label) for k in self._compliant)
+
+    @property
+    def drive_joints(self) -> tuple:
+        return tuple(MOTOR_JOINT.format(a.joint) if a.gear is not None else a.joint for a in self._axes)
+
+    def _side(self) -> np.ndarray:
+        """The inertia each input joint carries besides the mechanism's: J_b behind a compliant gear,
+        J_eq behind a rigid one."""
+        return np.array([a.J_b if a.gear is not None else a.J_eq for a in self._axes], dtype=float)
 
     def _axis_inertia(self) -> np.ndarray:
-        """Each axis's smallest inertia with the other axes free, 1/[(M̄ + J_eq)⁻¹]ₖₖ, over the coarse
-        grid of the input ranges (at most :data:`INERTIA_SAMPLES` configurations)."""
+        """Each axis's smallest inertia with the other axes free, 1/[(M̄ + diag J)⁻¹]ₖₖ (J: :meth:`_side`),
+        over the coarse grid of the input ranges (at most :data:`INERTIA_SAMPLES` configurations)."""
         got = self.__dict__.get("_inertia")
         if got is not None:
             return got
@@ -82,65 +162,243 @@ class AxesFrictionMixin:
         else:
             Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, len(nodes))
             Q = Q[:: max(1, len(Q) // INERTIA_SAMPLES)]
-        M = self.reduced_n(Q)[0] + np.diag([ja for *_, ja in self._axes_friction])[None]
+        M = self.reduced_n(Q)[0] + np.diag(self._side())[None]
         out = 1.0 / np.max(np.diagonal(np.linalg.inv(M), axis1=1, axis2=2), axis=0)
         self._inertia = out
         return out
 
+    def _mesh(self) -> list:
+        """Per axis (k, c, β) of its compliant gear (module docstring; None on a rigid axis)."""
+        got = self.__dict__.get("_mesh_kc")
+        if got is not None:
+            return got
+        J = self._axis_inertia() if self._compliant else None
+        out = []
+        for k, a in enumerate(self._axes):
+            g = a.gear
+            if g is None:
+                out.append(None)
+                continue
+            jm, jc = a.J_eq - a.J_b, float(J[k])
+            jr = jm * jc / (jm + jc)
+            w = 2.0 * math.pi * float(g.mesh_frequency)
+            kk = float(g.stiffness) if g.stiffness is not None else jr * w * w
+            cc = float(g.damping) if g.damping is not None else 2.0 * float(g.damping_ratio) * math.sqrt(kk * jr)
+            out.append((kk, cc, float(g.backlash)))
+        self._mesh_kc = out
+        return out
+
+    def _terms(self, motor: bool) -> np.ndarray:
+        """The friction rows (TERM_COLUMNS), one per axis: of the rigid axes (``motor`` False: in the
+        model law) or of the compliant axes' motors (``motor`` True); zero rows elsewhere."""
+        rows = []
+        J = None
+        for k, a in enumerate(self._axes):
+            z = a.z
+            if a.fs > 0 and (a.gear is not None) == motor:
+                if motor:
+                    jk = a.J_eq - a.J_b
+                else:
+                    J = self._axis_inertia() if J is None else J
+                    jk = float(J[k])
+                veps = 2.0 * self._h * a.fs * z * z / jk  # (the slope at the breakaway level: the one-motor v_ε)
+                rows.append([a.fc, a.fs, a.vs, z, z, max(veps, 1e-12), 0.0])
+            else:
+                rows.append([0.0, 0.0, math.inf, z, z, 1.0, 0.0])
+        return np.ascontiguousarray(np.array(rows, dtype=float).reshape(len(self._axes), len(TERM_COLUMNS)))
+
+    # ------------------------------------------------------------------ reduced model
     def model_form(self):
         inner = super().model_form()
+        if not any(a.fs > 0 and a.gear is None for a in self._axes):
+            return inner
         law = friction_two if self.n_inputs == 2 else friction_multi
-        return C.Form(law, AxesFrictionP(self._terms(), inner.P), fn_args=(inner,), flags=dict(inner.flags))
+        return C.Form(law, AxesFrictionP(self._terms(False), inner.P), fn_args=(inner,), flags=dict(inner.flags))
 
+    def axes_gear(self):
+        comp = self._compliant
+        if not comp:
+            return None
+        mesh = [m or (0.0, 0.0, 0.0) for m in self._mesh()]
+        T = self._terms(True)
+        return AxesGearP(np.array([int(a.gear is not None) for a in self._axes], dtype=np.int64),
+                         np.array([m[0] for m in mesh]), np.array([m[1] for m in mesh]),
+                         np.array([0.5 * m[2] for m in mesh]),
+                         np.array([a.J_b for a in self._axes], dtype=float),
+                         np.array([a.J_eq - a.J_b if a.gear is not None else 1.0 for a in self._axes], dtype=float),
+                         T, bool(np.any(T[:, 0] > 0)), np.array(comp, dtype=np.int64))
+
+    def mechanism_alone(self):
+        out = copy.copy(self)
+        out.__class__ = self._alone
+        return out
+
+    # ------------------------------------------------------------------ multibody model
     def build_spec(self, armature=0.0, options=None):
+        import mujoco
+
         spec = super().build_spec(armature, options)
         h = float(dict(options or {}).get("timestep", 1e-4))
-        for joint, (_, z, fc, _) in zip(self.input_joints, self._axes_friction):
-            if fc > 0:
-                j = spec.joint(joint)
-                j.frictionloss = float(z * fc)
-                j.solref_friction = [2.0 * h, 1.0]
+        self._check_mesh(h)
+        arm = np.broadcast_to(np.asarray(armature, dtype=float), (len(self._axes),))
+        mesh = self._mesh()
+        for k, a in enumerate(self._axes):
+            joint, jb, g = a.joint, a.J_b, a.gear
+            jf = spec.joint(joint)
+            if g is not None:  # the motor on a hinge of its own, the input joint keeps J_b (as for one motor)
+                kk, cc, beta = mesh[k]
+                jm = float(arm[k]) - jb
+                jf.armature = float(jf.armature) - jm
+                rotor = spec.worldbody.add_body(name=f"drive_motor_rotor_{joint}", pos=[0.0, 0.0, 0.0])
+                rotor.mass = 1e-9
+                rotor.ipos = [0.0, 0.0, 0.0]
+                rotor.inertia = [1e-12, 1e-12, 1e-12]
+                rotor.explicitinertial = True
+                jf = rotor.add_joint(name=MOTOR_JOINT.format(joint), type=mujoco.mjtJoint.mjJNT_HINGE,
+                                     axis=[float(a) for a in spec.joint(joint).axis])
+                jf.armature = jm
+                t = spec.add_tendon(name=MESH_TENDON.format(joint))
+                t.wrap_joint(MOTOR_JOINT.format(joint), 1.0)
+                t.wrap_joint(joint, -1.0)
+                t.stiffness = [kk, 0.0, 0.0]
+                t.springlength = [-0.5 * beta, 0.5 * beta]
+                t.damping = [cc if beta == 0.0 else 0.0, 0.0, 0.0]
+            if a.fs > 0:  # (at rest: the breakaway level; a Stribeck axis's is edited every step, load_form)
+                jf.frictionloss = float(a.z * a.fs)
+                jf.solref_friction = [2.0 * h, 1.0]
         return spec
+
+    def initial_qpos(self, model, q0, x0=None) -> np.ndarray:
+        qpos = super().initial_qpos(model, q0, None)
+        q = np.broadcast_to(np.asarray(q0, dtype=float), (len(self._axes),))
+        for k in self._compliant:
+            qpos[model.joint(MOTOR_JOINT.format(self._axes[k].joint)).qposadr[0]] = q[k]
+        return qpos
+
+    def initial_qvel(self, model, q0, qd0, x0=None, xd0=None) -> np.ndarray:
+        qvel = super().initial_qvel(model, q0, qd0, None, None)
+        qd = np.broadcast_to(np.asarray(qd0, dtype=float), (len(self._axes),))
+        for k in self._compliant:
+            qvel[model.joint(MOTOR_JOINT.format(self._axes[k].joint)).dofadr[0]] = qd[k]
+        return qvel
+
+    def _rows(self, model) -> list:
+        """Per compliant axis (motor qpos, input qpos, motor dof, input dof, tendon id)."""
+        out = []
+        for k in self._compliant:
+            joint = self._axes[k].joint
+            jm, jc = model.joint(MOTOR_JOINT.format(joint)), model.joint(joint)
+            out.append((int(jm.qposadr[0]), int(jc.qposadr[0]), int(jm.dofadr[0]), int(jc.dofadr[0]),
+                        int(model.tendon(MESH_TENDON.format(joint)).id)))
+        return out
+
+    def motor_indices(self, model) -> tuple:
+        rows = iter(self._rows(model))
+        return tuple((r[0], r[2]) for r in (next(rows) if a.gear is not None else (-1, -1, -1, -1, -1)
+                                           for a in self._axes))
+
+    def internal_state(self, model, qpos, qvel):
+        rows = self._rows(model)
+        return (tuple(qpos[..., a] - qpos[..., b] for a, b, _, _, _ in rows),
+                tuple(qvel[..., c] - qvel[..., d] for _, _, c, d, _ in rows))
+
+    def internal_index(self, model):
+        """Each compliant axis's deflection δ = θ_m − q as a row (qpos a, qpos b, dof a, dof b, 1)."""
+        return np.array([[a, b, c, d, 1.0] for a, b, c, d, _ in self._rows(model)], dtype=float).reshape(-1, 5)
+
+    def _toggles(self) -> list:
+        """The compliant axes whose mesh damping is switched per step (play and damping)."""
+        mesh = self._mesh()
+        return [k for k in self._compliant if mesh[k][2] > 0 and mesh[k][1] > 0]
+
+    def _stribeck(self) -> list:
+        """The axes whose motor friction has a Stribeck drop (its level edited per step in MuJoCo)."""
+        return [k for k, a in enumerate(self._axes) if a.fs > a.fc]
+
+    def has_multibody_load(self) -> bool:
+        return bool(self._toggles() or self._stribeck()) or super().has_multibody_load()
+
+    def load_form(self, model, data):
+        """The per-step model edits (:func:`axes_load`) around the inner mechanism's loads, through live
+        views of ``model.tendon_damping`` and ``model.dof_frictionloss``."""
+        if not self.has_multibody_load():
+            return None
+        inner = super().load_form(model, data) if super().has_multibody_load() else C.Form(no_load)
+        tog = self._toggles()
+        rows = dict(zip(self._compliant, self._rows(model)))
+        mesh = self._mesh()
+        drive = self.drive_joints
+        st = self._stribeck()
+        P = AxesLoadP(data.qpos, data.qvel, np.array([rows[k][0] for k in tog], dtype=np.int64),
+                      np.array([rows[k][1] for k in tog], dtype=np.int64),
+                      np.array([rows[k][4] for k in tog], dtype=np.int64),
+                      np.array([mesh[k][1] for k in tog], dtype=float),
+                      np.array([0.5 * mesh[k][2] for k in tog], dtype=float), model.tendon_damping,
+                      np.array([int(model.joint(drive[k]).dofadr[0]) for k in st], dtype=np.int64),
+                      np.array([[self._axes[k].fc, self._axes[k].fs, self._axes[k].vs, self._axes[k].z,
+                                 self._axes[k].z] for k in st], dtype=float).reshape(-1, 5),
+                      model.dof_frictionloss, inner.P)
+        return C.Form(axes_load, P, fn_args=(inner,), flags=dict(inner.flags))
 
     def describe(self) -> dict:
         d = dict(super().describe())
-        d["drivetrain"] = {lab: {"friction": {"coulomb_Nm": fc, "z": z}} for lab, z, fc, _ in self._axes_friction}
+        mesh = self._mesh()
+        edits = set(self._toggles()) | set(self._stribeck())
+        dt = {}
+        for k, a in enumerate(self._axes):
+            e = {}
+            if a.fs > 0:
+                e["friction"] = {"coulomb_Nm": a.fc, "breakaway_Nm": a.fs,
+                                 "stribeck_speed_rad_s": a.vs if math.isfinite(a.vs) else None, "z": a.z}
+            if a.gear is not None:
+                e["gear"] = {**a.gear.describe(), "stiffness_used_Nm_rad": mesh[k][0],
+                             "damping_used_Nms_rad": mesh[k][1]}
+            if k in edits:
+                e["instance"] = id(self)  # per-step model edits: one compiled model per simulation in a batch
+            if e:
+                dt[a.label] = e
+        d["drivetrain"] = dt
         return d
 
 
+#: one axis of a machine with several motors: its label and input joint, gear ratio z, the motor's
+#: friction F_C, F_S [N·m at the motor shaft], v_S [rad/s of the motor] (v_S = inf: no Stribeck drop),
+#: the drive's J_eq and crank-side J_b [kg·m²], its compliant gear (:class:`.gear.Gear`) or None
+Axis = namedtuple("Axis", "label joint z fc fs vs J_eq J_b gear")
 _CLASSES: dict = {}
 
 
-def with_axes_friction(mech, drives, labels):
-    """``mech`` (several inputs) with its axes' motor friction, or ``mech`` itself when no axis has
-    any; ParameterError naming the axis for what stays one-axis (module docstring)."""
+def with_axes_train(mech, drives, labels):
+    """``mech`` (several inputs) with its axes' compliant gears and motor friction, or ``mech`` itself
+    when no axis has any; ParameterError naming the axis for what stays one-axis (module docstring)."""
     axes = []
-    for lab, d in zip(labels, drives):
+    for lab, joint, d in zip(labels, mech.input_joints, drives):
         tr = getattr(d, "train", None)
         fr = tr.friction if tr is not None else None
-        if tr is not None and tr.compliant:
-            raise ParameterError(f"drives.{lab}: a compliant gear ([drive.gear] backlash, stiffness) is one-axis only "
-                                 f"so far (the motor becomes a coordinate of its own); PWM, encoder, sensor, current "
-                                 f"loop, gear efficiency and Coulomb friction work per axis")
+        gear = tr.gear if (tr is not None and tr.compliant) else None
         if fr is not None and fr.joints:
             raise ParameterError(f"drives.{lab}: friction on the mechanism's joints ([drive.friction.joints]) is "
-                                 f"one-axis only so far; the motor's own [drive.friction] coulomb works per axis")
-        if fr is not None and fr.breakaway > fr.coulomb:
-            raise ParameterError(f"drives.{lab}: a Stribeck drop (drive.friction.breakaway > coulomb) is one-axis only "
-                                 f"so far; give the axis's coulomb alone")
-        fc = float(fr.coulomb) if fr is not None else 0.0
-        axes.append((lab, float(d.z), fc, float(d.J_eq)))
-    if not any(fc > 0 for _, _, fc, _ in axes):
+                                 f"one-axis only so far; the motor's own [drive.friction] works per axis")
+        if gear is not None and not float(d.J_eq) - float(d.J_b) > 0:  # (a DC motor: trains are its own)
+            raise ParameterError(f"drives.{lab}: a compliant gear (backlash or stiffness) needs a motor inertia "
+                                 f"J_m + J_a > 0 (the motor becomes its own coordinate)")
+        fc, fs, vs = _law({"coulomb": fr.coulomb, "breakaway": fr.breakaway, "stribeck_speed": fr.stribeck_speed}) \
+            if fr is not None else (0.0, 0.0, math.inf)
+        axes.append(Axis(lab, joint, float(d.z), fc, fs, vs, float(d.J_eq),
+                         float(d.J_b) if gear is not None else 0.0, gear))
+    if not any(a.fs > 0 or a.gear is not None for a in axes):
         return mech
     base = type(mech)
     cls = _CLASSES.get(base)
     if cls is None:
-        cls = _CLASSES[base] = type(f"{base.__name__}WithAxesFriction", (AxesFrictionMixin, base), {})
+        cls = _CLASSES[base] = type(f"{base.__name__}WithAxesTrain", (AxesTrainMixin, base), {"_alone": base})
     out = copy.copy(mech)
     out.__class__ = cls
-    out._axes_friction = tuple(axes)
-    out.__dict__.pop("_inertia", None)
+    out._axes = tuple(axes)
+    for key in ("_inertia", "_mesh_kc"):
+        out.__dict__.pop(key, None)
     return out
 
 
-__all__ = ["AxesFrictionP", "friction_two", "friction_multi", "with_axes_friction", "AxesFrictionMixin"]
+__all__ = ["AxesFrictionP", "AxesGearP", "AxesLoadP", "Axis", "friction_two", "friction_multi", "axes_load",
+           "with_axes_train", "AxesTrainMixin"]

@@ -131,6 +131,26 @@ class CompiledForms(abc.ABC):
         """(qpos, dof) of the motor's own hinge when the drive acts through a compliant gear, else None."""
         return None
 
+    def motor_indices(self, model) -> tuple:
+        """Per axis, (qpos, dof) of the motor's own hinge, (−1, −1) where the drive acts on the input
+        joint itself (one axis: :meth:`motor_index`; several axes with compliant gears:
+        :mod:`mjbench.drivetrain.axes`)."""
+        if self.n_inputs == 1:
+            m = self.motor_index(model)
+            return ((-1, -1),) if m is None else ((int(m[0]), int(m[1])),)
+        return ((-1, -1),) * self.n_inputs
+
+    def axes_gear(self):
+        """The compliant gears of a machine with several motors (:class:`mjbench.drivetrain.axes.AxesGearP`:
+        the reduced plant integrates each motor as a coordinate of its own), or None (default: every
+        axis's gear is rigid)."""
+        return None
+
+    def mechanism_alone(self):
+        """The mechanism without the drive train's mechanical elements: what the model check
+        compares with MuJoCo (default itself)."""
+        return self
+
     def internal_index(self, model):
         """The internal coordinates in the MuJoCo model as rows (qpos a, qpos b, dof a, dof b, c):
         x = q_a − c·q_b (an (n, 5) array), or None if they are not of that form (a Python adapter of

@@ -31,6 +31,14 @@ class MultibodyModel(abc.ABC):
         return (self.input_joint,)
 
     @property
+    def drive_joints(self) -> tuple:
+        """The joints the drives' torques act on, one per axis: the input joints, or a motor's own
+        hinge behind a compliant gear (:mod:`mjbench.drivetrain.gear`, :mod:`mjbench.drivetrain.axes`)."""
+        if len(self.input_joints) == 1:
+            return (getattr(self, "drive_joint", self.input_joint),)
+        return tuple(self.input_joints)
+
+    @property
     def n_inputs(self) -> int:
         """Number of driven inputs (axes)."""
         return len(self.input_joints)
