@@ -17,21 +17,7 @@ from mjbench import scenario as S
 from mjbench.backends import simulate
 from mjbench.errors import MjbenchError
 
-# the 2R arm of mjbench/scenarios/arm2r.toml (tests/test_multi_axis.py has the same closed form)
-M1, L1, C1, I1 = 1.2, 0.30, 0.15, 9.0e-3
-M2B, L2, C2B, I2B, MT = 0.8, 0.25, 0.125, 4.2e-3, 0.2
-M2 = M2B + MT
-C2 = (M2B * C2B + MT * L2) / M2
-I2 = I2B + M2B * (C2B - C2) ** 2 + MT * (L2 - C2) ** 2
-G = 9.81
-
-
-def arm_mass(q2):
-    a1 = I1 + M1 * C1 ** 2 + M2 * L1 ** 2
-    a2 = I2 + M2 * C2 ** 2
-    b = M2 * L1 * C2
-    c2 = math.cos(q2)
-    return np.array([[a1 + a2 + 2 * b * c2, a2 + b * c2], [a2 + b * c2, a2]])
+from arm2r_model import arm_energy  # (tests/arm2r_model.py: the textbook M(q) and potential)
 
 
 def _cols(tr, fmt, labels=("A", "B")):
@@ -61,16 +47,12 @@ def test_a_free_arm_behind_elastic_gears_keeps_its_energy(backend):
     q, qd = _cols(tr, "{}:crank_angle_rad"), _cols(tr, "{}:crank_speed_rad_s")
     d, dd = _cols(tr, "gear_deflection_{}_rad"), _cols(tr, "gear_deflection_{}_rate_rad_s")
     Jb, Jmo, Kv = 2e-4, 1e-5 * 100.0, np.array(K)
-    E = np.empty(tr.n)
-    for k in range(tr.n):
-        Ep = G * ((M1 * C1 + M2 * L1) * math.sin(q[k, 0]) + M2 * C2 * math.sin(q[k, 0] + q[k, 1]))
-        E[k] = (0.5 * qd[k] @ (arm_mass(q[k, 1]) + Jb * np.eye(2)) @ qd[k] + Ep
-                + 0.5 * Jmo * np.sum((qd[k] + dd[k]) ** 2) + 0.5 * np.sum(Kv * d[k] ** 2))
-    ke = 0.5 * qd[0] @ (arm_mass(q[0, 1]) + Jb * np.eye(2)) @ qd[0]
+    E = np.array([arm_energy(q[k], qd[k], Jb) + 0.5 * Jmo * np.sum((qd[k] + dd[k]) ** 2) + 0.5 * np.sum(Kv * d[k] ** 2)
+                  for k in range(tr.n)])
+    ke = arm_energy(q[0], qd[0], Jb) - arm_energy(q[0], 0.0 * qd[0])
     drift = np.max(np.abs(E - E[0])) / ke
     # the reduced model solved exactly (RK4 on it: ≈ 1e-12 measured); MuJoCo's RK4 on its own model
     assert drift <= (1e-9 if backend == "reduced" else 2e-6), drift
-    print("energy drift", backend, drift)
     assert np.max(np.abs(d)) > 1e-3 and np.ptp(q[:, 1]) > 0.3  # the meshes and the arm really moved
 
 
@@ -107,7 +89,6 @@ def test_inside_the_play_the_motor_turns_alone_and_the_arm_stays(backend):
     assert np.max(np.abs(tr["gear_deflection_B_rad"][free])) <= 1e-12
     # the co-step holds the torque over 0.1 ms while the current rises (L/R = 1.25 ms): ≈ 1e-4 of the play
     err = np.max(np.abs(delta[free] - ref[free]))
-    print("play", backend, err / (0.5 * math.radians(0.5)))
     assert err <= 2e-3 * 0.5 * math.radians(0.5), err
     # after the contact the arm is driven
     assert np.max(tr["A:crank_speed_rad_s"]) > 0.01
@@ -123,7 +104,6 @@ def test_a_stiff_gear_tends_to_the_rigid_one():
                      record_dt=1e-3, loop="python")
     for a in ("A", "B"):
         w = rigid[f"{a}:crank_speed_rad_s"]
-        print("rigid limit", a, np.max(np.abs(stiff[f"{a}:crank_speed_rad_s"] - w)) / np.max(np.abs(w)))
         assert np.max(np.abs(stiff[f"{a}:crank_speed_rad_s"] - w)) <= 1e-4 * np.max(np.abs(w)), a
         assert np.max(np.abs(stiff[f"gear_deflection_{a}_rad"])) > 0
 
@@ -142,7 +122,6 @@ def test_both_backends_agree_with_compliant_gears(name, sets, mode, tol):
     r, mb = (simulate(S.make_machine(scn, mode), b, 0.2, record_dt=1e-3, loop="python") for b in ("reduced", "multibody"))
     for a in m.axis_labels:
         w = mb[f"{a}:crank_speed_rad_s"]
-        print("backends", name, a, np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - w)) / np.max(np.abs(w)))
         assert np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - w)) <= tol * np.max(np.abs(w)), a
         dm = mb[f"gear_deflection_{a}_rad"]
         assert np.max(np.abs(r[f"gear_deflection_{a}_rad"] - dm)) <= 1e-3 * np.max(np.abs(dm)), a
@@ -151,10 +130,12 @@ def test_both_backends_agree_with_compliant_gears(name, sets, mode, tol):
 
 def test_the_compiled_loops_run_the_gears_as_the_cpython_loop():
     """Both plants' laws (the reduced RK4 with the motors' coordinates, MuJoCo's per-step contact
-    damping and Stribeck friction level) compiled: the same bits as in CPython."""
+    damping and Stribeck friction levels, the joint friction's speed-ratio table) compiled: the same
+    bits as in CPython."""
     pytest.importorskip("numba")
     scn = S.load("arm2r", ['drive.gear={backlash="0.2 deg"}',
-                           "drives.B.friction={coulomb=0.02, breakaway=0.03, stribeck_speed=10.0}"])
+                           "drives.B.friction={coulomb=0.02, breakaway=0.03, stribeck_speed=10.0}",
+                           "drives.B.friction.joints.B={coulomb=0.01, breakaway=0.015, stribeck_speed=1.0, viscous=0.001}"])
     for b in ("reduced", "multibody"):
         c = simulate(S.make_machine(scn, "pid"), b, 0.05, record_dt=1e-3, loop="compiled")
         p = simulate(S.make_machine(scn, "pid"), b, 0.05, record_dt=1e-3, loop="python")

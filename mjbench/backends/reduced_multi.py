@@ -15,6 +15,7 @@ import math
 from .. import compiled as C
 from ..compiled.linalg import lu_factor, lu_solve
 from ..drivetrain.gear import friction_term, mesh_torque_law
+from ..mechanisms.linkage.multi import put_two
 
 #: the n-input reduced plant's parameters: step, number of inputs, the drives' J_eq and viscous
 #: coefficients (arrays n), the model law's parameters, the work space's offset in the state, the
@@ -212,12 +213,7 @@ def two_as_multi(MODEL, S, iy, t, P, W, iw):
     """A two-input model law with the scalar interface (:func:`accel_two`'s MODEL) called with the
     n-input one: M̄ (row-major) and the bias into W[iw:iw+6], its scratch after them."""
     m00, m01, m11, b0, b1 = MODEL(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, iw + 6)
-    W[iw] = m00
-    W[iw + 1] = m01
-    W[iw + 2] = m01
-    W[iw + 3] = m11
-    W[iw + 4] = b0
-    W[iw + 5] = b1
+    put_two(W, iw, m00, m01, m11, b0, b1)
 
 
 @C.law

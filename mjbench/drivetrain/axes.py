@@ -1,5 +1,6 @@
 """The mechanical drive-train elements of a machine with several motors (``[drive.gear]``,
-``[drive.friction]`` per axis, docs/linkages.md §8.2), in both models of the machine.
+``[drive.friction]`` per axis, ``[drive.friction.joints]``; docs/linkages.md §8.2), in both models of
+the machine.
 
 **Compliant gear** (backlash β, mesh stiffness k, contact damping c on an axis; the one-motor law
 of :mod:`.gear`, axis by axis): the axis's motor becomes a coordinate of its own, θ_m = q + δ at
@@ -28,8 +29,15 @@ input's speed and v_ε = 2h·F_S·z²/J_k with J_k the axis's smallest inertia a
 (the one-motor stability bound of the regularisation's slope, per axis); a compliant axis's on its
 motor, v = θ̇_m, J_k = J_mo.
 
-What stays one-axis (one line, naming the axis): friction on the mechanism's joints
-(``[drive.friction.joints]``).
+**Friction on the mechanism's joints** (``[drive.friction.joints]``, a hinge of the linkage's tree; the
+joints of every axis's table together — a joint's friction belongs to the mechanism): MuJoCo
+``frictionloss`` F_S on the joint (its level edited per step with a Stribeck drop; a motor's and a
+joint's law on one dof add up) and ``damping`` += viscous.  Reduced (the tabulated two-input model):
+joint j's rate u = r_j(q)·q̇ with r_j = ∂θ_j/∂q tabulated over the model's grid from the position
+solve (a bicubic table of 2 channels per joint), the generalised force −r_j·(F(|u|)·tanh(u/v_ε) +
+visc·u) (:func:`joint_friction_two`), v_ε = 2h·m·F_S·max|r_j|²/J_min (m joints, J_min the smallest
+eigenvalue of M̄ + diag J over the grid).  Three or more inputs (``reduced_model = 'solve'``), a
+slide or a loop-closing joint: one line.
 """
 from __future__ import annotations
 
@@ -41,11 +49,16 @@ import numpy as np
 
 from .. import compiled as C
 from ..errors import ParameterError
+from ..mechanisms.linkage.multi import GridTable, grid2_eval
 from .gear import TERM_COLUMNS, _law, friction_level, friction_term, no_load
 
 #: the friction of every axis (T: (n, TERM_COLUMNS) — one term, a row, per axis) and the mechanism's
 #: own model law's parameters
 AxesFrictionP = namedtuple("AxesFrictionP", "T inner")
+#: friction on the mechanism's joints: rows (F_C, F_S, v_S, v_ε, viscous) one per joint, the joints'
+#: speed-ratio table (a 2-input grid table's parameters, channels r_j0, r_j1 per joint), the offset of
+#: its channels after the inner model's scratch, the inner model law's parameters
+JointFrictionP = namedtuple("JointFrictionP", "T R o inner")
 #: the axes' compliant gears (arrays n, one entry per axis): whether the axis's gear is compliant
 #: (int), mesh stiffness k [N·m/rad], contact damping c [N·m·s/rad], half the play β/2 [rad] (all at
 #: the output), the crank-side inertia J_b and the motor's J_mo = J_eq − J_b [kg·m²]; the motors'
@@ -54,9 +67,10 @@ AxesFrictionP = namedtuple("AxesFrictionP", "T inner")
 AxesGearP = namedtuple("AxesGearP", "comp k c hb Jb Jm T friction axes")
 #: the per-step model edits of a machine with several motors: the tendon damping switched per step
 #: (arrays over the axes with play and damping: the motor's and the input's qpos, the tendon, c, β/2),
-#: the friction level of each axis with a Stribeck drop (its dof, rows F_C, F_S, v_S, g_F, g_v);
-#: qpos, qvel, tendon_damping and dof_frictionloss live; the inner loads' parameters
-AxesLoadP = namedtuple("AxesLoadP", "qpos qvel qm qc tendon c hb tdamp sdof sterms floss inner")
+#: the friction level of each dof with a Stribeck drop (its dof, its laws sptr[i]..sptr[i+1] as rows
+#: F_C, F_S, v_S, g_F, g_v: every law on that dof); qpos, qvel, tendon_damping and dof_frictionloss
+#: live; the inner loads' parameters
+AxesLoadP = namedtuple("AxesLoadP", "qpos qvel qm qc tendon c hb tdamp sdof sptr sterms floss inner")
 MOTOR_JOINT = "drive_motor_{}"       #: an axis's motor hinge (its input joint's name filled in)
 MESH_TENDON = "gear_mesh_{}"         #: an axis's mesh tendon θ_m − q
 DEFLECTION = "gear_deflection_{}"    #: an axis's internal coordinate δ = θ_m − q (its label filled in)
@@ -85,6 +99,25 @@ def friction_multi(MODEL, S, iy, t, P, W, iw):
 
 
 @C.law
+def joint_friction_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
+    """The two-input model law MODEL with the friction of the mechanism's joints in its bias: joint j's
+    rate u = r_j·q̇ (r_j = ∂θ_j/∂q from the speed-ratio table P.R, its channels at W[ic + P.o:]), its
+    force f = F(|u|)·tanh(u/v_ε) + visc·u, the generalised force −r_j·f (the bias grows by r_j·f)."""
+    m00, m01, m11, b0, b1 = MODEL(q0, q1, v0, v1, t, P.inner, W, ic)
+    o = ic + P.o
+    grid2_eval(q0, q1, P.R, W, o)
+    T = P.T
+    for i in range(T.shape[0]):
+        r0 = W[o + 2 * i]
+        r1 = W[o + 2 * i + 1]
+        u = r0 * v0 + r1 * v1
+        f = friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 3]) + T[i, 4] * u
+        b0 += r0 * f
+        b1 += r1 * f
+    return m00, m01, m11, b0, b1
+
+
+@C.law
 def axes_load(INNER, t, P):
     """The MuJoCo loads of a machine with several motors' drive trains, before each step: the inner
     mechanism's loads, then the per-step model edits from the state at the step's start (the one-motor
@@ -97,7 +130,11 @@ def axes_load(INNER, t, P):
     W = P.sterms
     for i in range(len(P.sdof)):
         dof = P.sdof[i]
-        P.floss[dof] = W[i, 3] * friction_level(abs(W[i, 4] * P.qvel[dof]), W[i, 0], W[i, 1], W[i, 2])
+        v = P.qvel[dof]
+        F = 0.0
+        for r in range(P.sptr[i], P.sptr[i + 1]):
+            F += W[r, 3] * friction_level(abs(W[r, 4] * v), W[r, 0], W[r, 1], W[r, 2])
+        P.floss[dof] = F
 
 
 class AxesTrainMixin:
@@ -107,6 +144,8 @@ class AxesTrainMixin:
 
     #: per axis, its :class:`Axis`
     _axes: tuple = ()
+    #: the mechanism's joints with friction: {name: (F_C, F_S, v_S, viscous)}
+    _joints: dict = {}
     _h = 1e-4
 
     def set_step(self, h):
@@ -209,11 +248,59 @@ class AxesTrainMixin:
 
     # ------------------------------------------------------------------ reduced model
     def model_form(self):
-        inner = super().model_form()
-        if not any(a.fs > 0 and a.gear is None for a in self._axes):
-            return inner
-        law = friction_two if self.n_inputs == 2 else friction_multi
-        return C.Form(law, AxesFrictionP(self._terms(False), inner.P), fn_args=(inner,), flags=dict(inner.flags))
+        out = super().model_form()
+        if any(a.fs > 0 and a.gear is None for a in self._axes):
+            law = friction_two if self.n_inputs == 2 else friction_multi
+            out = C.Form(law, AxesFrictionP(self._terms(False), out.P), fn_args=(out,), flags=dict(out.flags))
+        if self._joints:
+            T, tab = self._joint_terms()
+            flags = dict(out.flags)
+            o = int(flags.get("channels", 0))
+            flags["channels"] = o + tab.scratch
+            out = C.Form(joint_friction_two, JointFrictionP(T, tab.P, o, out.P), fn_args=(out,), flags=flags)
+        return out
+
+    def _joint_terms(self):
+        """(the rows of :class:`JointFrictionP`, the speed-ratio table) of the joints with friction, over
+        the model table's grid: r_j = ∂θ_j/∂q from the position solve, v_ε = 2h·m·F_S·max|r_j|²/J_min (m
+        joints, J_min the smallest eigenvalue of M̄ + diag J over the grid: the one-motor bound, each
+        joint's slope on the stiffest direction)."""
+        key = ("_jf", self._h)
+        got = self.__dict__.get("_jf")
+        if got is not None and got[0] == key:
+            return got[1], got[2]
+        c = self.c
+        tab = c.table_n
+        if tab is None or self.n_inputs != 2:
+            raise ParameterError(f"drive.friction.joints: friction on the mechanism's joints of a machine with several "
+                                 f"motors needs the tabulated two-input model (reduced_model = 'table'); "
+                                 f"{self.name!r} has {self.n_inputs} inputs, reduced_model = {c.model_kind!r}")
+        nodes = [x0 + h * np.arange(nc + (0 if per else 1)) for x0, h, nc, per in
+                 zip(tab.x0, tab.h, tab.ncell, tab.periodic)]
+        Z = c.solve_grid(nodes, c.guess_at)
+        shape = Z.shape[:-1]
+        flat = Z.reshape(-1, Z.shape[-1])
+        V = c.sys.vmatrix(flat)
+        cols = []
+        for name in self._joints:
+            i, j = self.hinge_bodies(name)
+            r = V[:, 3 * j + 2, :] - (V[:, 3 * i + 2, :] if i >= 0 else 0.0)
+            cols += [r[:, 0], r[:, 1]]
+        R = np.stack(cols, axis=1)
+        rtab = GridTable(nodes, tab.periodic, R.reshape(shape + (-1,)))
+        Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, 2)
+        M = self.reduced_n(Q[:: max(1, len(Q) // INERTIA_SAMPLES)])[0] + np.diag(self._side())[None]
+        jmin = float(np.min(np.linalg.eigvalsh(M)))
+        m = len(self._joints)
+        rows = []
+        for k, (name, (fc, fs, vs, visc)) in enumerate(self._joints.items()):
+            rmax = float(np.max(np.abs(R[:, 2 * k]) + np.abs(R[:, 2 * k + 1]))) or 1.0
+            veps = 2.0 * self._h * m * fs * rmax * rmax / jmin if fs > 0 else 1.0
+            rows.append([fc, fs, vs, max(veps, 1e-12), visc])
+        T = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, 5))
+        self._jf = (key, T, rtab)
+        return T, rtab
+
 
     def axes_gear(self):
         comp = self._compliant
@@ -266,6 +353,13 @@ class AxesTrainMixin:
             if a.fs > 0:  # (at rest: the breakaway level; a Stribeck axis's is edited every step, load_form)
                 jf.frictionloss = float(a.z * a.fs)
                 jf.solref_friction = [2.0 * h, 1.0]
+        for name, (fc, fs, vs, visc) in self._joints.items():  # the mechanism's joints (tree hinges)
+            j = spec.joint(name)
+            if fs > 0:
+                j.frictionloss = float(j.frictionloss) + fs
+                j.solref_friction = [2.0 * h, 1.0]
+            if visc > 0:
+                j.damping = [float(j.damping[0]) + visc, 0.0, 0.0]
         return spec
 
     def initial_qpos(self, model, q0, x0=None) -> np.ndarray:
@@ -315,8 +409,31 @@ class AxesTrainMixin:
         """The axes whose motor friction has a Stribeck drop (its level edited per step in MuJoCo)."""
         return [k for k, a in enumerate(self._axes) if a.fs > a.fc]
 
+    def _stribeck_joints(self) -> list:
+        """The mechanism's joints whose friction has a Stribeck drop."""
+        return [nm for nm, (fc, fs, _, _) in self._joints.items() if fs > fc]
+
+    def _stribeck_dofs(self, model):
+        """(dofs, pointers, rows F_C, F_S, v_S, g_F, g_v) of every dof carrying a law with a Stribeck drop:
+        each such dof with all its laws (a motor's and a joint's on one input joint add up)."""
+        laws: dict = {}
+        for a, joint in zip(self._axes, self.drive_joints):
+            if a.fs > 0:
+                laws.setdefault(int(model.joint(joint).dofadr[0]), []).append((a.fc, a.fs, a.vs, a.z, a.z))
+        for name, (fc, fs, vs, _) in self._joints.items():
+            if fs > 0:
+                laws.setdefault(int(model.joint(name).dofadr[0]), []).append((fc, fs, vs, 1.0, 1.0))
+        sdof, sptr, rows = [], [0], []
+        for dof, lw in laws.items():
+            if any(r[1] > r[0] for r in lw):
+                sdof.append(dof)
+                rows += lw
+                sptr.append(len(rows))
+        return (np.array(sdof, dtype=np.int64), np.array(sptr, dtype=np.int64),
+                np.array(rows, dtype=float).reshape(-1, 5))
+
     def has_multibody_load(self) -> bool:
-        return bool(self._toggles() or self._stribeck()) or super().has_multibody_load()
+        return bool(self._toggles() or self._stribeck() or self._stribeck_joints()) or super().has_multibody_load()
 
     def load_form(self, model, data):
         """The per-step model edits (:func:`axes_load`) around the inner mechanism's loads, through live
@@ -327,16 +444,13 @@ class AxesTrainMixin:
         tog = self._toggles()
         rows = dict(zip(self._compliant, self._rows(model)))
         mesh = self._mesh()
-        drive = self.drive_joints
-        st = self._stribeck()
+        sdof, sptr, sterms = self._stribeck_dofs(model)
         P = AxesLoadP(data.qpos, data.qvel, np.array([rows[k][0] for k in tog], dtype=np.int64),
                       np.array([rows[k][1] for k in tog], dtype=np.int64),
                       np.array([rows[k][4] for k in tog], dtype=np.int64),
                       np.array([mesh[k][1] for k in tog], dtype=float),
                       np.array([0.5 * mesh[k][2] for k in tog], dtype=float), model.tendon_damping,
-                      np.array([int(model.joint(drive[k]).dofadr[0]) for k in st], dtype=np.int64),
-                      np.array([[self._axes[k].fc, self._axes[k].fs, self._axes[k].vs, self._axes[k].z,
-                                 self._axes[k].z] for k in st], dtype=float).reshape(-1, 5),
+                      sdof, sptr, sterms,
                       model.dof_frictionloss, inner.P)
         return C.Form(axes_load, P, fn_args=(inner,), flags=dict(inner.flags))
 
@@ -357,6 +471,11 @@ class AxesTrainMixin:
                 e["instance"] = id(self)  # per-step model edits: one compiled model per simulation in a batch
             if e:
                 dt[a.label] = e
+        if self._joints:
+            dt["joints"] = {nm: {"coulomb_Nm": fc, "breakaway_Nm": fs, "stribeck_speed_rad_s": vs if math.isfinite(vs)
+                                 else None, "viscous_Nms_rad": visc} for nm, (fc, fs, vs, visc) in self._joints.items()}
+            if self._stribeck_joints():
+                dt["joints"]["instance"] = id(self)
         d["drivetrain"] = dt
         return d
 
@@ -372,13 +491,16 @@ def with_axes_train(mech, drives, labels):
     """``mech`` (several inputs) with its axes' compliant gears and motor friction, or ``mech`` itself
     when no axis has any; ParameterError naming the axis for what stays one-axis (module docstring)."""
     axes = []
+    joints: dict = {}
     for lab, joint, d in zip(labels, mech.input_joints, drives):
         tr = getattr(d, "train", None)
         fr = tr.friction if tr is not None else None
         gear = tr.gear if (tr is not None and tr.compliant) else None
-        if fr is not None and fr.joints:
-            raise ParameterError(f"drives.{lab}: friction on the mechanism's joints ([drive.friction.joints]) is "
-                                 f"one-axis only so far; the motor's own [drive.friction] works per axis")
+        for name, law in (fr.joints.items() if fr is not None else ()):
+            got = (*_law(law), float(law.get("viscous", 0.0) or 0.0))
+            if joints.setdefault(name, got) != got:
+                raise ParameterError(f"drives.{lab}.friction.joints.{name}: differs from another axis's; a joint's "
+                                     f"friction belongs to the mechanism: give it once ([drive.friction.joints])")
         if gear is not None and not float(d.J_eq) - float(d.J_b) > 0:  # (a DC motor: trains are its own)
             raise ParameterError(f"drives.{lab}: a compliant gear (backlash or stiffness) needs a motor inertia "
                                  f"J_m + J_a > 0 (the motor becomes its own coordinate)")
@@ -386,7 +508,10 @@ def with_axes_train(mech, drives, labels):
             if fr is not None else (0.0, 0.0, math.inf)
         axes.append(Axis(lab, joint, float(d.z), fc, fs, vs, float(d.J_eq),
                          float(d.J_b) if gear is not None else 0.0, gear))
-    if not any(a.fs > 0 or a.gear is not None for a in axes):
+    joints = {nm: law for nm, law in joints.items() if law[1] > 0 or law[3] > 0}
+    for name in joints:
+        mech.check_friction_joint(name)
+    if not joints and not any(a.fs > 0 or a.gear is not None for a in axes):
         return mech
     base = type(mech)
     cls = _CLASSES.get(base)
@@ -395,10 +520,12 @@ def with_axes_train(mech, drives, labels):
     out = copy.copy(mech)
     out.__class__ = cls
     out._axes = tuple(axes)
-    for key in ("_inertia", "_mesh_kc"):
+    out._joints = joints
+    for key in ("_inertia", "_mesh_kc", "_jf"):
         out.__dict__.pop(key, None)
     return out
 
 
-__all__ = ["AxesFrictionP", "AxesGearP", "AxesLoadP", "Axis", "friction_two", "friction_multi", "axes_load",
+__all__ = ["AxesFrictionP", "AxesGearP", "AxesLoadP", "Axis", "JointFrictionP", "friction_two", "friction_multi",
+           "joint_friction_two", "axes_load",
            "with_axes_train", "AxesTrainMixin"]

@@ -12,6 +12,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ...errors import ParameterError
 from .plane import INPUT_JOINT, connect_site_pairs
 
 
@@ -29,6 +30,12 @@ class MultibodyModel(abc.ABC):
         """The driven joints, one per axis, in axis order (one axis: :attr:`input_joint`; a mechanism
         with several inputs sets its own)."""
         return (self.input_joint,)
+
+    def check_friction_joint(self, name: str) -> None:
+        """ParameterError unless friction on joint ``name`` (``[drive.friction.joints]`` of a machine with
+        several motors, :mod:`mjbench.drivetrain.axes`) is modelled for this mechanism (default: not)."""
+        raise ParameterError(f"drive.friction.joints.{name}: friction on the joints of {type(self).__name__} with "
+                             f"several motors is not modelled")
 
     @property
     def drive_joints(self) -> tuple:

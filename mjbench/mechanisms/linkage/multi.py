@@ -612,6 +612,17 @@ MultiModelP = namedtuple("MultiModelP", "n table damped")
 
 
 @C.law
+def put_two(W, iw, m00, m01, m11, b0, b1):
+    """A two-input model's M̄ (row-major, symmetric) and bias into W[iw:iw+6] (the n-input layout)."""
+    W[iw] = m00
+    W[iw + 1] = m01
+    W[iw + 2] = m01
+    W[iw + 3] = m11
+    W[iw + 4] = b0
+    W[iw + 5] = b1
+
+
+@C.law
 def multi_model(S, iy, t, P, W, iw):
     """The reduced model of a linkage with n = P.n inputs at the state (q, q̇) = S[iy:iy+2n]: the mass
     matrix M̄ (n×n, row-major) into W[iw:iw+n²] and the bias c̄(q, q̇) + ḡ(q) + D̄(q)·q̇ into
@@ -620,12 +631,7 @@ def multi_model(S, iy, t, P, W, iw):
     ic = iw + n * n + n
     if n == 2:  # (two_model evaluates the table itself: once)
         m00, m01, m11, b0, b1 = two_model(S[iy], S[iy + 1], S[iy + 2], S[iy + 3], t, P, W, ic)
-        W[iw] = m00
-        W[iw + 1] = m01
-        W[iw + 2] = m01
-        W[iw + 3] = m11
-        W[iw + 4] = b0
-        W[iw + 5] = b1
+        put_two(W, iw, m00, m01, m11, b0, b1)
         return
     if n == 1:
         grid1_eval(S[iy], P.table, W, ic)

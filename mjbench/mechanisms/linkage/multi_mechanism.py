@@ -68,6 +68,27 @@ class MultiLinkage(Linkage):
         self._loads = []
         self._mb = None
 
+    def check_friction_joint(self, name: str) -> None:
+        """ParameterError unless ``name`` is a hinge of the linkage's tree (a joint MuJoCo carries as a
+        joint: friction on it, ``[drive.friction.joints]``, is modelled in both models)."""
+        c = self.c
+        k = c.jindex.get(name)
+        if k is None:
+            raise ParameterError(f"drive.friction.joints.{name}: no joint {name!r} in linkage {self.name!r} (joints: "
+                                 f"{', '.join(j.name for j in self.params.joints)})")
+        if self.params.joints[k].type != "revolute" or k in c.closures:
+            tree = ", ".join(self.params.joints[e.k].name for e in c.edges if e.kind == "R")
+            raise ParameterError(f"drive.friction.joints.{name}: friction is modelled on the hinges of the linkage's "
+                                 f"tree ({tree}); {name!r} is "
+                                 f"{'a slide' if self.params.joints[k].type != 'revolute' else 'a loop closure'}")
+
+    def hinge_bodies(self, name: str) -> tuple:
+        """(body a, body b) of hinge ``name`` in the configuration z (−1: the ground): its angle θ_b − θ_a."""
+        c = self.c
+        jt = self.params.joints[c.jindex[name]]
+        (la, _), (lb, _) = _ref(jt.at[0]), _ref(jt.at[1])
+        return c.index[la], c.index[lb]
+
     @property
     def stated_inputs(self) -> tuple:
         """The inputs' values in the stated pose (``input_angles``)."""
