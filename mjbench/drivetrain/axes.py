@@ -49,7 +49,7 @@ import numpy as np
 
 from .. import compiled as C
 from ..errors import ParameterError
-from ..mechanisms.linkage.multi import GridTable, grid2_eval
+from ..mechanisms.linkage.multi import grid2_eval
 from .gear import TERM_COLUMNS, _law, friction_level, friction_term, no_load
 
 #: the friction of every axis (T: (n, TERM_COLUMNS) — one term, a row, per axis) and the mechanism's
@@ -201,7 +201,7 @@ class AxesTrainMixin:
         else:
             Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, len(nodes))
             Q = Q[:: max(1, len(Q) // INERTIA_SAMPLES)]
-        M = self.reduced_n(Q)[0] + np.diag(self._side())[None]
+        M = self.reduced_table(Q)[0] + np.diag(self._side())[None]  # (what the simulation integrates)
         out = 1.0 / np.max(np.diagonal(np.linalg.inv(M), axis1=1, axis2=2), axis=0)
         self._inertia = out
         return out
@@ -269,33 +269,13 @@ class AxesTrainMixin:
         got = self.__dict__.get("_jf")
         if got is not None and got[0] == key:
             return got[1], got[2]
-        c = self.c
-        tab = c.table_n
-        if tab is None or self.n_inputs != 2:
-            raise ParameterError(f"drive.friction.joints: friction on the mechanism's joints of a machine with several "
-                                 f"motors needs the tabulated two-input model (reduced_model = 'table'); "
-                                 f"{self.name!r} has {self.n_inputs} inputs, reduced_model = {c.model_kind!r}")
-        nodes = [x0 + h * np.arange(nc + (0 if per else 1)) for x0, h, nc, per in
-                 zip(tab.x0, tab.h, tab.ncell, tab.periodic)]
-        Z = c.solve_grid(nodes, c.guess_at)
-        shape = Z.shape[:-1]
-        flat = Z.reshape(-1, Z.shape[-1])
-        V = c.sys.vmatrix(flat)
-        cols = []
-        for name in self._joints:
-            i, j = self.hinge_bodies(name)
-            r = V[:, 3 * j + 2, :] - (V[:, 3 * i + 2, :] if i >= 0 else 0.0)
-            cols += [r[:, 0], r[:, 1]]
-        R = np.stack(cols, axis=1)
-        rtab = GridTable(nodes, tab.periodic, R.reshape(shape + (-1,)))
-        Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, 2)
-        M = self.reduced_n(Q[:: max(1, len(Q) // INERTIA_SAMPLES)])[0] + np.diag(self._side())[None]
+        rtab, rmax, Q = self.hinge_rates(tuple(self._joints))
+        M = self.reduced_table(Q[:: max(1, len(Q) // INERTIA_SAMPLES)])[0] + np.diag(self._side())[None]
         jmin = float(np.min(np.linalg.eigvalsh(M)))
         m = len(self._joints)
         rows = []
         for k, (name, (fc, fs, vs, visc)) in enumerate(self._joints.items()):
-            rmax = float(np.max(np.abs(R[:, 2 * k]) + np.abs(R[:, 2 * k + 1]))) or 1.0
-            veps = 2.0 * self._h * m * fs * rmax * rmax / jmin if fs > 0 else 1.0
+            veps = 2.0 * self._h * m * fs * rmax[k] * rmax[k] / jmin if fs > 0 else 1.0
             rows.append([fc, fs, vs, max(veps, 1e-12), visc])
         T = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, 5))
         self._jf = (key, T, rtab)
