@@ -17,7 +17,7 @@ from mjbench.backends import batch, multibody, reduced
 from mjbench.drive import DCMotorDrive
 from mjbench.drivetrain import Amplifier, CurrentLoop, DriveTrain, Friction, Gear, Sensor
 from mjbench.drivetrain.amplifier import ripple_formula
-from mjbench.errors import ScenarioError
+from mjbench.errors import MjbenchError, ScenarioError
 from mjbench.machine import Machine
 from mjbench.mechanisms.rotor import Rotor
 
@@ -479,3 +479,13 @@ def test_reduced_batch_runs_the_drive_train_like_single_runs(model):
         for i, s in enumerate(scns):
             single = reduced.simulate(S.make_machine(s, "pid"), 0.05, dt=1e-4, options={"model": model})
             np.testing.assert_array_equal(res.trajectory(i).data, single.data)
+
+
+@pytest.mark.parametrize("backend", list(BACKENDS))
+def test_a_mesh_too_stiff_for_the_step_is_one_line_before_simulating(backend):
+    """1e9 N·m/rad on seed 000's gear resonates at ≈ 145 kHz against the motor: RK4 at 0.1 ms cannot
+    follow it (the run would diverge); the largest step that can is named."""
+    m = S.make_machine(S.load("incerti2012", ["drive.gear={stiffness=1e9}"]), "pid")
+    with pytest.raises(MjbenchError, match=r"drive.gear: the gear's mesh .* resonates at 1.45e\+05 Hz .* "
+                                           r"simulation.dt <= 2.7e-06 s"):
+        BACKENDS[backend].simulate(m, 0.01, dt=1e-4)

@@ -50,7 +50,7 @@ import numpy as np
 from .. import compiled as C
 from ..errors import ParameterError
 from ..mechanisms.linkage.multi import grid2_eval
-from .gear import TERM_COLUMNS, _law, friction_level, friction_term, no_load
+from .gear import TERM_COLUMNS, _law, check_mesh, friction_level, friction_term, no_load
 
 #: the friction of every axis (T: (n, TERM_COLUMNS) — one term, a row, per axis) and the mechanism's
 #: own model law's parameters
@@ -76,9 +76,6 @@ MESH_TENDON = "gear_mesh_{}"         #: an axis's mesh tendon θ_m − q
 DEFLECTION = "gear_deflection_{}"    #: an axis's internal coordinate δ = θ_m − q (its label filled in)
 #: configurations sampled for each axis's smallest inertia
 INERTIA_SAMPLES = 1024
-#: the largest ω·h of a compliant gear's mesh mode a run accepts (RK4's stability limit on an undamped
-#: mode is 2√2 ≈ 2.83; the margin covers the estimate of the lightest output side)
-MESH_OMEGA_H = 2.5
 
 
 @C.law
@@ -155,20 +152,13 @@ class AxesTrainMixin:
         self._check_mesh(self._h)
 
     def _check_mesh(self, h: float) -> None:
-        """ParameterError naming the axis when a mesh resonates too fast for RK4 at step h: ω = √(k·(1/J_mo
-        + 1/J_c)) (J_c: the axis's lightest output side) beyond ω·h = :data:`MESH_OMEGA_H` (RK4 is
-        stable up to ω·h ≈ 2.8 on an undamped mode; both backends integrate by RK4 at h)."""
+        """ParameterError naming the axis when a mesh resonates too fast for RK4 at step h
+        (:func:`.gear.check_mesh`; the output side: the axis's lightest, :meth:`_axis_inertia`)."""
         mesh = self._mesh()
         J = self._axis_inertia() if self._compliant else None
         for k in self._compliant:
             ax = self._axes[k]
-            lab = ax.label
-            w = math.sqrt(mesh[k][0] * (1.0 / (ax.J_eq - ax.J_b) + 1.0 / float(J[k])))
-            if w * h > MESH_OMEGA_H:
-                raise ParameterError(f"drives.{lab}: the gear's mesh (stiffness {mesh[k][0]:.4g} N·m/rad) resonates at "
-                                     f"{w / (2 * math.pi):.4g} Hz against the motor; RK4 at dt = {h:g} s follows it up "
-                                     f"to {MESH_OMEGA_H / h / (2 * math.pi):.4g} Hz: lower the stiffness (or "
-                                     f"mesh_frequency) or make simulation.dt <= {MESH_OMEGA_H / w:.2g} s")
+            check_mesh(f"drives.{ax.label}", mesh[k][0], ax.J_eq - ax.J_b, float(J[k]), h)
 
     # ------------------------------------------------------------------ the axes
     @property

@@ -51,6 +51,25 @@ MESH_TENDON = "gear_mesh"         #: the fixed tendon θ_m − α carrying the m
 DEFLECTION = "gear_deflection"    #: the internal coordinate δ = θ_m − α
 
 
+#: the largest ω·h of a compliant gear's mesh mode a run accepts (RK4's stability limit on an undamped
+#: mode is 2√2 ≈ 2.83; the margin covers the estimate of the lighter output side)
+MESH_OMEGA_H = 2.5
+
+
+def check_mesh(where: str, k: float, J_motor: float, J_out: float, h: float) -> None:
+    """ParameterError naming ``where`` when a mesh of stiffness k between the motor (J_motor) and the
+    lighter output side (J_out) resonates too fast for RK4 at step h: ω = √(k·(1/J_motor + 1/J_out))
+    beyond ω·h = :data:`MESH_OMEGA_H` (both backends integrate by RK4 at h; such a run diverges)."""
+    if not (J_motor > 0 and J_out > 0):  # (no inertia on a side: nothing RK4 could follow or miss)
+        return
+    w = math.sqrt(k * (1.0 / J_motor + 1.0 / J_out))
+    if w * h > MESH_OMEGA_H:
+        raise ParameterError(f"{where}: the gear's mesh (stiffness {k:.4g} N·m/rad) resonates at {w / (2 * math.pi):.4g} "
+                             f"Hz against the motor; RK4 at dt = {h:g} s follows it up to "
+                             f"{MESH_OMEGA_H / h / (2 * math.pi):.4g} Hz: lower the stiffness (or mesh_frequency) or "
+                             f"make simulation.dt <= {MESH_OMEGA_H / w:.2g} s")
+
+
 class Gear:
     """Backlash β [rad], stiffness k [N·m/rad] (None: from ``mesh_frequency`` [Hz]), contact
     damping c [N·m·s/rad] (None: from ``damping_ratio``), efficiencies η, η_back."""
@@ -447,6 +466,8 @@ class DrivenMechanism(Mechanism):
         parameters of the friction laws (v_ε = 2·h·n·F_S·g²/J_min, module docstring)."""
         if self._h == h:
             return
+        if self.compliant:
+            check_mesh("drive.gear", self.k, self.J_mo, self.J_b + self._Jmin_mech, float(h))
         self._h = float(h)
         crank_terms, motor_terms, others = [], [], []
         z = self.z
@@ -588,6 +609,7 @@ class DrivenMechanism(Mechanism):
         h = float(o.get("timestep", 1e-4))
         inner = self.inner
         if self.compliant:
+            check_mesh("drive.gear", self.k, self.J_mo, self.J_b + self._Jmin_mech, h)
             spec = inner.build_spec(armature=self.J_b, options=options)
             axis = [float(a) for a in spec.joint(self.input_joint).axis]
             rotor = spec.worldbody.add_body(name="drive_motor_rotor", pos=[0.0, 0.0, 0.0])
