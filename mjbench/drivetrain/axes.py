@@ -32,12 +32,12 @@ motor, v = θ̇_m, J_k = J_mo.
 **Friction on the mechanism's joints** (``[drive.friction.joints]``, a hinge of the linkage's tree; the
 joints of every axis's table together — a joint's friction belongs to the mechanism): MuJoCo
 ``frictionloss`` F_S on the joint (its level edited per step with a Stribeck drop; a motor's and a
-joint's law on one dof add up) and ``damping`` += viscous.  Reduced (the tabulated two-input model):
-joint j's rate u = r_j(q)·q̇ with r_j = ∂θ_j/∂q tabulated over the model's grid from the position
-solve (a bicubic table of 2 channels per joint), the generalised force −r_j·(F(|u|)·tanh(u/v_ε) +
-visc·u) (:func:`joint_friction_two`), v_ε = 2h·m·F_S·max|r_j|²/J_min (m joints, J_min the smallest
-eigenvalue of M̄ + diag J over the grid).  Three or more inputs (``reduced_model = 'solve'``), a
-slide or a loop-closing joint: one line.
+joint's law on one dof add up) and ``damping`` += viscous.  Reduced: joint j's rate u = r_j(q)·q̇,
+r_j = ∂θ_j/∂q — tabulated over the two-input model's grid from the position solve (a bicubic table
+of 2 channels per joint, :func:`joint_friction_two`), or read from each evaluation's solve when the
+model is solved (``reduced_model = 'solve'``, any n: :func:`joint_friction_solved`) —, the
+generalised force −r_j·(F(|u|)·tanh(u/v_ε) + visc·u), v_ε = 2h·m·F_S·max|r_j|²/J_min (m joints, J_min
+the smallest eigenvalue of M̄ + diag J over the grid).  A slide or a loop-closing joint: one line.
 """
 from __future__ import annotations
 
@@ -50,6 +50,7 @@ import numpy as np
 from .. import compiled as C
 from ..errors import ParameterError
 from ..mechanisms.linkage.multi import grid2_eval
+from ..mechanisms.linkage.multi_solve import solve_joint_rate
 from .gear import TERM_COLUMNS, _law, check_mesh, friction_level, friction_term, no_load
 
 #: the friction of every axis (T: (n, TERM_COLUMNS) — one term, a row, per axis) and the mechanism's
@@ -59,6 +60,10 @@ AxesFrictionP = namedtuple("AxesFrictionP", "T inner")
 #: speed-ratio table (a 2-input grid table's parameters, channels r_j0, r_j1 per joint), the offset of
 #: its channels after the inner model's scratch, the inner model law's parameters
 JointFrictionP = namedtuple("JointFrictionP", "T R o inner")
+#: friction on the mechanism's joints of a model solved at every evaluation: rows as
+#: :class:`JointFrictionP`'s, each hinge's bodies (i, j; −1: the ground), the solve's parameters, the
+#: inner model law's parameters
+JointSolvedP = namedtuple("JointSolvedP", "T bi bj solve inner")
 #: the axes' compliant gears (arrays n, one entry per axis): whether the axis's gear is compliant
 #: (int), mesh stiffness k [N·m/rad], contact damping c [N·m·s/rad], half the play β/2 [rad] (all at
 #: the output), the crank-side inertia J_b and the motor's J_mo = J_eq − J_b [kg·m²]; the motors'
@@ -111,6 +116,39 @@ def joint_friction_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
         f = friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 3]) + T[i, 4] * u
         b0 += r0 * f
         b1 += r1 * f
+    return m00, m01, m11, b0, b1
+
+
+@C.law
+def joint_friction_solved(MODEL, S, iy, t, P, W, iw):
+    """:func:`joint_friction_two` for a model solved at every evaluation (n inputs, the n-input
+    interface): the hinges' rates and speed ratios read from the solve's last evaluation
+    (:func:`..mechanisms.linkage.multi_solve.solve_joint_rate`; P.solve its parameters)."""
+    MODEL(S, iy, t, P.inner, W, iw)
+    n = P.solve.n
+    ic = iw + n * n + n
+    T = P.T
+    for m in range(T.shape[0]):
+        i = P.bi[m]
+        j = P.bj[m]
+        u = solve_joint_rate(P.solve, W, ic, i, j, -1)
+        f = friction_level(abs(u), T[m, 0], T[m, 1], T[m, 2]) * math.tanh(u / T[m, 3]) + T[m, 4] * u
+        for a in range(n):
+            W[iw + n * n + a] += f * solve_joint_rate(P.solve, W, ic, i, j, a)
+
+
+@C.law
+def joint_friction_solved_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
+    """:func:`joint_friction_solved` with the two-input interface (its solve's scratch at W[ic:])."""
+    m00, m01, m11, b0, b1 = MODEL(q0, q1, v0, v1, t, P.inner, W, ic)
+    T = P.T
+    for m in range(T.shape[0]):
+        i = P.bi[m]
+        j = P.bj[m]
+        u = solve_joint_rate(P.solve, W, ic, i, j, -1)
+        f = friction_level(abs(u), T[m, 0], T[m, 1], T[m, 2]) * math.tanh(u / T[m, 3]) + T[m, 4] * u
+        b0 += f * solve_joint_rate(P.solve, W, ic, i, j, 0)
+        b1 += f * solve_joint_rate(P.solve, W, ic, i, j, 1)
     return m00, m01, m11, b0, b1
 
 
@@ -245,16 +283,21 @@ class AxesTrainMixin:
         if self._joints:
             T, tab = self._joint_terms()
             flags = dict(out.flags)
+            if tab is None:  # the model solved at every evaluation: V read from its scratch
+                ij = np.array([self.hinge_bodies(nm) for nm in self._joints], dtype=np.int64).reshape(-1, 2)
+                law = joint_friction_solved_two if self.n_inputs == 2 else joint_friction_solved
+                return C.Form(law, JointSolvedP(T, np.ascontiguousarray(ij[:, 0]), np.ascontiguousarray(ij[:, 1]),
+                                                self.c.solve_P, out.P), fn_args=(out,), flags=flags)
             o = int(flags.get("channels", 0))
             flags["channels"] = o + tab.scratch
             out = C.Form(joint_friction_two, JointFrictionP(T, tab.P, o, out.P), fn_args=(out,), flags=flags)
         return out
 
     def _joint_terms(self):
-        """(the rows of :class:`JointFrictionP`, the speed-ratio table) of the joints with friction, over
-        the model table's grid: r_j = ∂θ_j/∂q from the position solve, v_ε = 2h·m·F_S·max|r_j|²/J_min (m
-        joints, J_min the smallest eigenvalue of M̄ + diag J over the grid: the one-motor bound, each
-        joint's slope on the stiffest direction)."""
+        """(the rows of :class:`JointFrictionP`, the speed-ratio table or None) of the joints with friction
+        (:meth:`~mjbench.mechanisms.linkage.MultiLinkage.hinge_rates`: r_j = ∂θ_j/∂q over the model's
+        grid), v_ε = 2h·m·F_S·max(Σ_a|r_ja|)²/J_min (m joints, J_min the smallest eigenvalue of M̄ + diag J
+        over the grid: the one-motor bound, each joint's slope on the stiffest direction)."""
         key = ("_jf", self._h)
         got = self.__dict__.get("_jf")
         if got is not None and got[0] == key:
@@ -496,6 +539,6 @@ def with_axes_train(mech, drives, labels):
     return out
 
 
-__all__ = ["AxesFrictionP", "AxesGearP", "AxesLoadP", "Axis", "JointFrictionP", "friction_two", "friction_multi",
-           "joint_friction_two", "axes_load",
+__all__ = ["AxesFrictionP", "AxesGearP", "AxesLoadP", "Axis", "JointFrictionP", "JointSolvedP", "friction_two",
+           "friction_multi", "joint_friction_two", "joint_friction_solved", "joint_friction_solved_two", "axes_load",
            "with_axes_train", "AxesTrainMixin"]

@@ -83,34 +83,36 @@ class MultiLinkage(Linkage):
                                  f"{'a slide' if self.params.joints[k].type != 'revolute' else 'a loop closure'}")
 
     def hinge_rates(self, names: tuple):
-        """(a grid table of the hinges' speed ratios r_j = ∂θ_j/∂q — channels r_j0, r_j1 per hinge —, max
-        |r_j0| + |r_j1| per hinge, the grid's inputs (B, 2)) over the two-input model table's grid, from
-        the position solve; kept with the compiled description (every machine built from it shares it).
-        ParameterError without a two-input table."""
+        """(a grid table of the hinges' speed ratios r_j = ∂θ_j/∂q — channels r_j0, r_j1 per hinge — over
+        the two-input model table's grid, or None when the model is solved at every evaluation (the
+        law reads V there: :func:`.multi_solve.solve_joint_rate`); max Σ_a |r_ja| per hinge; the grid's
+        inputs (B, n)), from the position solve (the table's grid, or the coarse grid of the input
+        ranges); kept with the compiled description (every machine built from it shares it)."""
         c = self.c
-        tab = c.table_n
-        if tab is None or self.n_inputs != 2:
-            raise ParameterError(f"drive.friction.joints: friction on the mechanism's joints of a machine with several "
-                                 f"motors needs the tabulated two-input model (reduced_model = 'table'); "
-                                 f"{self.name!r} has {self.n_inputs} inputs, reduced_model = {c.model_kind!r}")
         cache = c.__dict__.setdefault("_hinge_rates", {})
         got = cache.get(names)
         if got is not None:
             return got
-        nodes = [x0 + h * np.arange(nc + (0 if per else 1)) for x0, h, nc, per in
-                 zip(tab.x0, tab.h, tab.ncell, tab.periodic)]
-        Z = c.solve_grid(nodes, c.guess_at)
+        tab = c.table_n
+        if tab is not None:
+            nodes = [x0 + h * np.arange(nc + (0 if per else 1)) for x0, h, nc, per in
+                     zip(tab.x0, tab.h, tab.ncell, tab.periodic)]
+            Z = c.solve_grid(nodes, c.guess_at)
+        else:
+            nodes, Z = c.coarse_nodes, c.coarse_z
+        n = self.n_inputs
         flat = Z.reshape(-1, Z.shape[-1])
         V = c.sys.vmatrix(flat)
         cols = []
         for name in names:
             i, j = self.hinge_bodies(name)
             r = V[:, 3 * j + 2, :] - (V[:, 3 * i + 2, :] if i >= 0 else 0.0)
-            cols += [r[:, 0], r[:, 1]]
+            cols += [r[:, a] for a in range(n)]
         R = np.stack(cols, axis=1)
-        rmax = [float(np.max(np.abs(R[:, 2 * k]) + np.abs(R[:, 2 * k + 1]))) or 1.0 for k in range(len(names))]
-        Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, 2)
-        got = cache[names] = (GridTable(nodes, tab.periodic, R.reshape(Z.shape[:-1] + (-1,))), rmax, Q)
+        rmax = [float(np.max(np.sum(np.abs(R[:, n * k:n * (k + 1)]), axis=1))) or 1.0 for k in range(len(names))]
+        Q = np.stack(np.meshgrid(*nodes, indexing="ij"), axis=-1).reshape(-1, n)
+        grid = GridTable(nodes, tab.periodic, R.reshape(Z.shape[:-1] + (-1,))) if tab is not None else None
+        got = cache[names] = (grid, rmax, Q)
         return got
 
     def hinge_bodies(self, name: str) -> tuple:

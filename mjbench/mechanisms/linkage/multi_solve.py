@@ -242,6 +242,20 @@ def solve_core(P, W, ic):
 
 
 @C.law
+def solve_joint_rate(P, W, ic, i, j, a):
+    """From the last evaluation of :func:`solve_core` (scratch at W[ic:]): the rate of the hinge between
+    bodies i and j (−1: the ground), θ̇_j − θ̇_i (a < 0), or its rate per unit rate of input a,
+    ∂(θ_j − θ_i)/∂q_a (a ≥ 0) — V's rows, read where the evaluation left them."""
+    n = P.n
+    nz = P.nz
+    iV = ic + 1 + 2 * n + n * n + n + nz + n + nz * nz + nz
+    if a < 0:
+        iv = iV + nz * n + 2 * nz
+        return W[iv + 3 * j + 2] - (W[iv + 3 * i + 2] if i >= 0 else 0.0)
+    return W[iV + (3 * j + 2) * n + a] - (W[iV + (3 * i + 2) * n + a] if i >= 0 else 0.0)
+
+
+@C.law
 def solve_model(S, iy, t, P, W, iw):
     """:func:`.multi.multi_model`'s interface: the model at (q, q̇) = S[iy:iy+2n] — M̄ into
     W[iw:iw+n²], the bias into W[iw+n²:iw+n²+n] — its scratch at W[iw+n²+n:] (:func:`solve_core`)."""
@@ -300,5 +314,6 @@ def solve_params(c) -> SolveP:
                   np.array(c.q_ref, dtype=float))
 
 
-__all__ = ["SolveP", "solve_model", "solve_two", "solve_core", "solve_params", "scratch_size", "NEWTON_TOL",
+__all__ = ["SolveP", "solve_model", "solve_two", "solve_core", "solve_joint_rate", "solve_params", "scratch_size",
+           "NEWTON_TOL",
            "START_STEPS"]
