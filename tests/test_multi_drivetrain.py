@@ -151,25 +151,33 @@ def test_a_stribeck_axis_sticks_below_its_breakaway_and_slides_at_the_closed_for
 
 
 # ---------------------------------------------------------------- friction on the mechanism's joints
+def _free_drives(n, joint, F):
+    """n DC motors without back-EMF or viscous friction (nothing leaves through them), Coulomb friction
+    F on the mechanism's ``joint`` in their drive trains."""
+    from mjbench.drive import DCMotorDrive
+    from mjbench.drivetrain import DriveTrain
+    from mjbench.drivetrain.gear import Friction
+
+    drives = []
+    for _ in range(n):
+        d = DCMotorDrive(R=1.0, L=1e-3, k_m=0.05, J_m=1e-5, J_a=0.0, J_b=0.0, z=10.0, lam=0.0, T_0=0.0)
+        d.train = DriveTrain(friction=Friction(joints={joint: {"coulomb": F}}))
+        d.k_m = 1e-12
+        drives.append(d)
+    return drives
+
+
 @pytest.mark.parametrize("backend", ["reduced", "multibody"])
 def test_friction_on_a_passive_joint_takes_the_energy_it_dissipates(backend):
     """A free five-bar (no back-EMF, no viscous friction) with Coulomb friction F on the passive joint
     B (proximal → distal link): E = ½q̇ᵀ(M̄ + J_eq)q̇ + E_p falls by ∫F·|ω_B|dt, ω_B = θ̇_dist1 − θ̇_prox1
     from the position solve's V = ∂z/∂q (the reduced model's regularised law: ∫ω_B·F·tanh(ω_B/v_ε)dt)."""
     from controllers.constant import ConstantCommand
-    from mjbench.drive import DCMotorDrive
-    from mjbench.drivetrain import DriveTrain
-    from mjbench.drivetrain.gear import Friction
     from mjbench.machine import Machine
 
     F = 0.02
     mech = S.make_mechanism(S.load("fivebar"))
-    drives = []
-    for k in range(2):
-        d = DCMotorDrive(R=1.0, L=1e-3, k_m=0.05, J_m=1e-5, J_a=0.0, J_b=0.0, z=10.0, lam=0.0, T_0=0.0)
-        d.train = DriveTrain(friction=Friction(joints={"B": {"coulomb": F}}))
-        d.k_m = 1e-12
-        drives.append(d)
+    drives = _free_drives(2, "B", F)
     q0 = tuple(mech.stated_inputs)
     m = Machine(mech, drives, [ConstantCommand(0.0), ConstantCommand(0.0)], q0=q0, qd0=(3.0, -2.0))
     tr = simulate(m, backend, 0.1, record_dt=1e-4, loop="python")
@@ -266,19 +274,11 @@ def test_joint_friction_on_three_motors_takes_the_energy_it_dissipates():
     from pathlib import Path
 
     from controllers.constant import ConstantCommand
-    from mjbench.drive import DCMotorDrive
-    from mjbench.drivetrain import DriveTrain
-    from mjbench.drivetrain.gear import Friction
     from mjbench.machine import Machine
 
     F = 0.05
     mech = S.make_mechanism(S.load(str(Path(__file__).parent / "data" / "multi" / "arm3r.toml")))
-    drives = []
-    for _ in range(3):
-        d = DCMotorDrive(R=1.0, L=1e-3, k_m=0.05, J_m=1e-5, J_a=0.0, J_b=0.0, z=10.0, lam=0.0, T_0=0.0)
-        d.train = DriveTrain(friction=Friction(joints={"B": {"coulomb": F}}))
-        d.k_m = 1e-12
-        drives.append(d)
+    drives = _free_drives(3, "B", F)
 
     def machine():
         return Machine(mech, drives, [ConstantCommand(0.0)] * 3, q0=(0.3, 1.0, -0.5), qd0=(2.0, -1.0, 3.0))

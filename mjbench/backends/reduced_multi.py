@@ -91,27 +91,41 @@ def rk4_multi(MODEL, TAU, t, P, S, QO):
     u3 = u2 + n
     u4 = u3 + n
     multi_accel(MODEL, t, S, 0, a1, TAU, P)
-    for j in range(n):
-        S[u2 + j] = S[n + j] + h2 * S[a1 + j]
-        S[ys + j] = S[j] + h2 * S[n + j]
-        S[ys + n + j] = S[u2 + j]
+    rk4_stage(S, n, n, ys, h2, a1, u2, -1)
     multi_accel(MODEL, t + h2, S, ys, a2, TAU, P)
-    for j in range(n):
-        S[u3 + j] = S[n + j] + h2 * S[a2 + j]
-        S[ys + j] = S[j] + h2 * S[u2 + j]
-        S[ys + n + j] = S[u3 + j]
+    rk4_stage(S, n, n, ys, h2, a2, u3, u2)
     multi_accel(MODEL, t + h2, S, ys, a3, TAU, P)
-    for j in range(n):
-        S[u4 + j] = S[n + j] + h * S[a3 + j]
-        S[ys + j] = S[j] + h * S[u3 + j]
-        S[ys + n + j] = S[u4 + j]
+    rk4_stage(S, n, n, ys, h, a3, u4, u3)
     multi_accel(MODEL, t + h, S, ys, a4, TAU, P)
-    for j in range(n):
-        p = S[j]
-        v = S[n + j]
-        S[j] = p + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
-        S[n + j] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    rk4_finish(S, n, n, h6, a1, u2)
     multi_read(P, S, QO)
+
+
+@C.law
+def rk4_stage(S, m, n, ys, hs, ia, iu, iv):
+    """One RK4 stage's state at S[ys:] from the state y at S[0:] — m coordinates, coordinate j at
+    p = j + ⌊j/n⌋·n and its rate at p + n (n = m: (q, q̇); m = 2n: (q, q̇, δ, δ̇)) —: the stage rates
+    u_j = ẏ_j + hs·a_j (a at S[ia:], u into S[iu:]) and positions y_p + hs·v_j (v: the state's rates
+    when iv < 0, else the previous stage's, S[iv:])."""
+    for j in range(m):
+        p = j + (j // n) * n
+        S[iu + j] = S[p + n] + hs * S[ia + j]
+        v = S[p + n] if iv < 0 else S[iv + j]
+        S[ys + p] = S[p] + hs * v
+        S[ys + p + n] = S[iu + j]
+
+
+@C.law
+def rk4_finish(S, m, n, h6, a1, u2):
+    """The RK4 step's end: y_p += h/6·(v + 2u₂ + 2u₃ + u₄), ẏ_p += h/6·(a₁ + 2a₂ + 2a₃ + a₄) over the m
+    coordinates of :func:`rk4_stage` (the four accelerations from S[a1:], the three stage rates from
+    S[u2:], m apart)."""
+    for j in range(m):
+        p = j + (j // n) * n
+        x = S[p]
+        v = S[p + n]
+        S[p] = x + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u2 + m + j] + S[u2 + 2 * m + j])
+        S[p + n] = v + h6 * (S[a1 + j] + 2.0 * S[a1 + m + j] + 2.0 * S[a1 + 2 * m + j] + S[a1 + 3 * m + j])
 
 
 @C.law
@@ -284,31 +298,14 @@ def rk4_axes_gear(MODEL, TAU, t, P, S, QO):
     u2 = a4 + n2
     u3 = u2 + n2
     u4 = u3 + n2
-    axes_gear_accel(MODEL, t, S, 0, a1, TAU, P)
-    for j in range(n2):
-        p = j + (j // n) * n  # the position coordinates q (j < n) and δ (j ≥ n); their rates n further
-        S[u2 + j] = S[p + n] + h2 * S[a1 + j]
-        S[ys + p] = S[p] + h2 * S[p + n]
-        S[ys + p + n] = S[u2 + j]
+    axes_gear_accel(MODEL, t, S, 0, a1, TAU, P)  # (coordinates q, δ; their rates n further: rk4_stage)
+    rk4_stage(S, n2, n, ys, h2, a1, u2, -1)
     axes_gear_accel(MODEL, t + h2, S, ys, a2, TAU, P)
-    for j in range(n2):
-        p = j + (j // n) * n
-        S[u3 + j] = S[p + n] + h2 * S[a2 + j]
-        S[ys + p] = S[p] + h2 * S[u2 + j]
-        S[ys + p + n] = S[u3 + j]
+    rk4_stage(S, n2, n, ys, h2, a2, u3, u2)
     axes_gear_accel(MODEL, t + h2, S, ys, a3, TAU, P)
-    for j in range(n2):
-        p = j + (j // n) * n
-        S[u4 + j] = S[p + n] + h * S[a3 + j]
-        S[ys + p] = S[p] + h * S[u3 + j]
-        S[ys + p + n] = S[u4 + j]
+    rk4_stage(S, n2, n, ys, h, a3, u4, u3)
     axes_gear_accel(MODEL, t + h, S, ys, a4, TAU, P)
-    for j in range(n2):
-        p = j + (j // n) * n
-        x = S[p]
-        v = S[p + n]
-        S[p] = x + h6 * (v + 2.0 * S[u2 + j] + 2.0 * S[u3 + j] + S[u4 + j])
-        S[p + n] = v + h6 * (S[a1 + j] + 2.0 * S[a2 + j] + 2.0 * S[a3 + j] + S[a4 + j])
+    rk4_finish(S, n2, n, h6, a1, u2)
     axes_gear_read(P, S, QO)
 
 

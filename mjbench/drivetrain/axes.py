@@ -101,6 +101,13 @@ def friction_multi(MODEL, S, iy, t, P, W, iw):
 
 
 @C.law
+def joint_force(u, T, m):
+    """The friction force of joint m (row m of T: F_C, F_S, v_S, v_ε, viscous) at its rate u: the
+    regularised dry friction F(|u|)·tanh(u/v_ε) plus the viscous visc·u (opposing u)."""
+    return friction_level(abs(u), T[m, 0], T[m, 1], T[m, 2]) * math.tanh(u / T[m, 3]) + T[m, 4] * u
+
+
+@C.law
 def joint_friction_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
     """The two-input model law MODEL with the friction of the mechanism's joints in its bias: joint j's
     rate u = r_j·q̇ (r_j = ∂θ_j/∂q from the speed-ratio table P.R, its channels at W[ic + P.o:]), its
@@ -113,10 +120,19 @@ def joint_friction_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
         r0 = W[o + 2 * i]
         r1 = W[o + 2 * i + 1]
         u = r0 * v0 + r1 * v1
-        f = friction_level(abs(u), T[i, 0], T[i, 1], T[i, 2]) * math.tanh(u / T[i, 3]) + T[i, 4] * u
+        f = joint_force(u, T, i)
         b0 += r0 * f
         b1 += r1 * f
     return m00, m01, m11, b0, b1
+
+
+@C.law
+def solved_joint_force(P, W, ic, m):
+    """Joint m's friction force (:func:`joint_force`) at the rate the solve's last evaluation (scratch at
+    W[ic:]) gives it, and its bodies (f, i, j)."""
+    i = P.bi[m]
+    j = P.bj[m]
+    return joint_force(solve_joint_rate(P.solve, W, ic, i, j, -1), P.T, m), i, j
 
 
 @C.law
@@ -127,12 +143,8 @@ def joint_friction_solved(MODEL, S, iy, t, P, W, iw):
     MODEL(S, iy, t, P.inner, W, iw)
     n = P.solve.n
     ic = iw + n * n + n
-    T = P.T
-    for m in range(T.shape[0]):
-        i = P.bi[m]
-        j = P.bj[m]
-        u = solve_joint_rate(P.solve, W, ic, i, j, -1)
-        f = friction_level(abs(u), T[m, 0], T[m, 1], T[m, 2]) * math.tanh(u / T[m, 3]) + T[m, 4] * u
+    for m in range(P.T.shape[0]):
+        f, i, j = solved_joint_force(P, W, ic, m)
         for a in range(n):
             W[iw + n * n + a] += f * solve_joint_rate(P.solve, W, ic, i, j, a)
 
@@ -141,12 +153,8 @@ def joint_friction_solved(MODEL, S, iy, t, P, W, iw):
 def joint_friction_solved_two(MODEL, q0, q1, v0, v1, t, P, W, ic):
     """:func:`joint_friction_solved` with the two-input interface (its solve's scratch at W[ic:])."""
     m00, m01, m11, b0, b1 = MODEL(q0, q1, v0, v1, t, P.inner, W, ic)
-    T = P.T
-    for m in range(T.shape[0]):
-        i = P.bi[m]
-        j = P.bj[m]
-        u = solve_joint_rate(P.solve, W, ic, i, j, -1)
-        f = friction_level(abs(u), T[m, 0], T[m, 1], T[m, 2]) * math.tanh(u / T[m, 3]) + T[m, 4] * u
+    for m in range(P.T.shape[0]):
+        f, i, j = solved_joint_force(P, W, ic, m)
         b0 += f * solve_joint_rate(P.solve, W, ic, i, j, 0)
         b1 += f * solve_joint_rate(P.solve, W, ic, i, j, 1)
     return m00, m01, m11, b0, b1
