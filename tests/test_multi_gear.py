@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -115,7 +116,9 @@ def test_a_stiff_gear_tends_to_the_rigid_one():
                'modes.open={type="open", voltage=2.0}', "modes.open.axes.B.voltage=1.0"], "open", 5e-4),
     # a damped stiff mesh on both motors of the five-bar under PID along its path
     ("fivebar", ["drive.gear={stiffness=2e4}"], "pid", 1e-5),
-])
+    # three motors (the model solved at every evaluation), each behind a damped mesh (measured 1.8e-9)
+    (str(Path(__file__).parent / "data" / "multi" / "arm3r.toml"), ["drive.gear={stiffness=5e4}"], "pid", 1e-6),
+], ids=["arm2r-play", "fivebar-mesh", "arm3r-mesh"])
 def test_both_backends_agree_with_compliant_gears(name, sets, mode, tol):
     scn = S.load(name, sets)
     m = S.make_machine(scn, mode)
