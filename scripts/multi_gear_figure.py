@@ -38,7 +38,7 @@ def play_panel(ax):
     for b in ("reduced", "multibody"):
         m = S.make_machine(scn, "open")
         tr = simulate(m, b, 0.03, record_dt=1e-4, loop="python")
-        ax.plot(1e3 * tr["t_s"], np.degrees(tr["gear_deflection_A_rad"]),
+        ax.plot(1e3 * tr["t_s"], np.degrees(tr["A:gear_deflection_rad"]),
                 **ps.backend_style(b, label=f"shoulder's mesh deflection δ_A ({b})"))
     d = m.drives[0]
     z, jmo = float(d.z), float((d.J_m + d.J_a) * d.z ** 2)
@@ -46,8 +46,8 @@ def play_panel(ax):
     t = tr["t_s"]
     ref = solve_ivp(lambda _, y: [(2.0 - R * y[0] - km * z * y[1]) / L, z * (km * y[0] - lam * z * y[1]) / jmo, y[1]],
                     (0.0, t[-1]), [0.0, 0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14, t_eval=t).y[2]
-    free = np.cumprod(tr["gear_deflection_A_rad"] < 0.5 * math.radians(PLAY)).astype(bool)
-    err = np.max(np.abs(tr["gear_deflection_A_rad"][free] - ref[free])) / (0.5 * math.radians(PLAY))
+    free = np.cumprod(tr["A:gear_deflection_rad"] < 0.5 * math.radians(PLAY)).astype(bool)
+    err = np.max(np.abs(tr["A:gear_deflection_rad"][free] - ref[free])) / (0.5 * math.radians(PLAY))
     print(f"play: the motor alone along solve_ivp to {err:.2g} of the half-play until t = {1e3 * t[free][-1]:.1f} ms; "
           f"arm speed meanwhile ≤ {np.max(np.abs(tr['A:crank_speed_rad_s'][free])):.1g} rad/s")
     ax.plot(1e3 * t[free][::10], np.degrees(ref[free][::10]), "k.", ms=3, label="the motor alone: solve_ivp of its ODE")
@@ -68,12 +68,12 @@ def mesh_panel(ax):
         for a, c in (("A", "C0"), ("E", "C1")):
             st = ps.backend_style(b, label=f"δ_{a} ({b})")
             st["color"] = c
-            ax.plot(tr["t_s"], 1e3 * np.degrees(tr[f"gear_deflection_{a}_rad"]), **st)
+            ax.plot(tr["t_s"], 1e3 * np.degrees(tr[f"{a}:gear_deflection_rad"]), **st)
     r, m = trs["reduced"], trs["multibody"]
     diff = max(np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - m[f"{a}:crank_speed_rad_s"]))
                / np.max(np.abs(m[f"{a}:crank_speed_rad_s"])) for a in ("A", "E"))
     print(f"fivebar: backends' joint speeds agree to {diff:.2g} of the peak; largest |δ| "
-          f"{1e3 * np.degrees(max(np.max(np.abs(m[f'gear_deflection_{a}_rad'])) for a in 'AE')):.3g} mdeg")
+          f"{1e3 * np.degrees(max(np.max(np.abs(m[f'{a}:gear_deflection_rad'])) for a in 'AE')):.3g} mdeg")
     ax.set_xlabel(ps.label("time t", "s"))
     ax.set_ylabel(ps.label("mesh deflection δ", "mdeg"))
     ax.set_title(f"fivebar on its path (PID), 2e4 N·m/rad meshes: δ = torque / k; backends agree to {diff:.1g}",

@@ -46,7 +46,7 @@ def test_a_free_arm_behind_elastic_gears_keeps_its_energy(backend):
     m = Machine(arm, drives, [ConstantCommand(0.0), ConstantCommand(0.0)], q0=(0.3, 1.0), qd0=(2.0, -1.0))
     tr = simulate(m, backend, 0.3, record_dt=1e-3, loop="python")
     q, qd = _cols(tr, "{}:crank_angle_rad"), _cols(tr, "{}:crank_speed_rad_s")
-    d, dd = _cols(tr, "gear_deflection_{}_rad"), _cols(tr, "gear_deflection_{}_rate_rad_s")
+    d, dd = _cols(tr, "{}:gear_deflection_rad"), _cols(tr, "{}:gear_deflection_rate_rad_s")
     Jb, Jmo, Kv = 2e-4, 1e-5 * 100.0, np.array(K)
     E = np.array([arm_energy(q[k], qd[k], Jb) + 0.5 * Jmo * np.sum((qd[k] + dd[k]) ** 2) + 0.5 * np.sum(Kv * d[k] ** 2)
                   for k in range(tr.n)])
@@ -82,12 +82,12 @@ def test_inside_the_play_the_motor_turns_alone_and_the_arm_stays(backend):
 
     t = tr["t_s"]
     ref = solve_ivp(f, (0.0, t[-1]), [0.0, 0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14, t_eval=t).y[2]
-    delta = tr["gear_deflection_A_rad"]
+    delta = tr["A:gear_deflection_rad"]
     free = np.cumprod(delta < 0.5 * math.radians(0.5)).astype(bool)  # until the first contact
     assert 50 < free.sum() < len(t) - 20  # the play is crossed within the run
     for a in ("A", "B"):
         assert np.max(np.abs(tr[f"{a}:crank_speed_rad_s"][free])) <= 1e-12, a
-    assert np.max(np.abs(tr["gear_deflection_B_rad"][free])) <= 1e-12
+    assert np.max(np.abs(tr["B:gear_deflection_rad"][free])) <= 1e-12
     # the co-step holds the torque over 0.1 ms while the current rises (L/R = 1.25 ms): ≈ 1e-4 of the play
     err = np.max(np.abs(delta[free] - ref[free]))
     assert err <= 2e-3 * 0.5 * math.radians(0.5), err
@@ -106,7 +106,13 @@ def test_a_stiff_gear_tends_to_the_rigid_one():
     for a in ("A", "B"):
         w = rigid[f"{a}:crank_speed_rad_s"]
         assert np.max(np.abs(stiff[f"{a}:crank_speed_rad_s"] - w)) <= 1e-4 * np.max(np.abs(w)), a
-        assert np.max(np.abs(stiff[f"gear_deflection_{a}_rad"])) > 0
+        assert np.max(np.abs(stiff[f"{a}:gear_deflection_rad"])) > 0
+        # each motor's recorded speed is its own shaft's, z·(q̇ + δ̇); the axis's view names δ as one axis does
+        z = stiff.axis(a).meta["z"]
+        np.testing.assert_allclose(stiff[f"{a}:motor_speed_rad_s"],
+                                   z * (stiff[f"{a}:crank_speed_rad_s"] + stiff[f"{a}:gear_deflection_rate_rad_s"]),
+                                   rtol=1e-12, atol=1e-12)
+        assert np.array_equal(stiff.axis(a)["gear_deflection_rad"], stiff[f"{a}:gear_deflection_rad"])
 
 
 @pytest.mark.parametrize("name,sets,mode,tol", [
@@ -126,8 +132,8 @@ def test_both_backends_agree_with_compliant_gears(name, sets, mode, tol):
     for a in m.axis_labels:
         w = mb[f"{a}:crank_speed_rad_s"]
         assert np.max(np.abs(r[f"{a}:crank_speed_rad_s"] - w)) <= tol * np.max(np.abs(w)), a
-        dm = mb[f"gear_deflection_{a}_rad"]
-        assert np.max(np.abs(r[f"gear_deflection_{a}_rad"] - dm)) <= 1e-3 * np.max(np.abs(dm)), a
+        dm = mb[f"{a}:gear_deflection_rad"]
+        assert np.max(np.abs(r[f"{a}:gear_deflection_rad"] - dm)) <= 1e-3 * np.max(np.abs(dm)), a
     assert set(m.mechanism.describe()["drivetrain"]) == set(m.axis_labels)
 
 
@@ -155,7 +161,7 @@ def test_a_run_records_each_axis_gear_and_checks_the_mechanism_model(tmp_path):
     assert model["models_agree"] and model["M_rel_err"] < 1e-9
     assert res["plausibility"]["max_rel_diff"] < 1e-5  # (measured 1.2e-7)
     cols = (tmp_path / "trajectory_multibody.csv").read_text().splitlines()[0]
-    assert "gear_deflection_A_rad" in cols and "gear_deflection_B_rate_rad_s" in cols
+    assert "A:gear_deflection_rad" in cols and "B:gear_deflection_rate_rad_s" in cols
     man = json.loads((tmp_path / "manifest.json").read_text())
     assert "drivetrain" in json.dumps(man)
 

@@ -323,7 +323,7 @@ def axes_gear_read(P, S, QO):
 @C.law
 def axes_gear_write(out, b, P, S):
     """The compliant axes' deflections δ, then their rates δ̇ into ``out[b:]`` (the mechanism's
-    internal coordinates ``gear_deflection_<axis>``)."""
+    internal coordinates ``<axis>:gear_deflection``)."""
     n = P.n
     idx = P.gear.axes
     m = len(idx)

@@ -78,7 +78,8 @@ AxesGearP = namedtuple("AxesGearP", "comp k c hb Jb Jm T friction axes")
 AxesLoadP = namedtuple("AxesLoadP", "qpos qvel qm qc tendon c hb tdamp sdof sptr sterms floss inner")
 MOTOR_JOINT = "drive_motor_{}"       #: an axis's motor hinge (its input joint's name filled in)
 MESH_TENDON = "gear_mesh_{}"         #: an axis's mesh tendon θ_m − q
-DEFLECTION = "gear_deflection_{}"    #: an axis's internal coordinate δ = θ_m − q (its label filled in)
+DEFLECTION = "{}:gear_deflection"    #: an axis's internal coordinate δ = θ_m − q (its label filled in: the
+#: recorded column ``A:gear_deflection_rad`` is the one-axis ``gear_deflection_rad`` of ``Trajectory.axis("A")``)
 #: configurations sampled for each axis's smallest inertia
 INERTIA_SAMPLES = 1024
 
@@ -213,7 +214,7 @@ class AxesTrainMixin:
 
     @property
     def internal(self) -> tuple:
-        """The compliant axes' deflections δ = θ_m − q (recorded as ``gear_deflection_<axis>_rad``)."""
+        """The compliant axes' deflections δ = θ_m − q (recorded as ``<axis>:gear_deflection_rad``)."""
         return tuple(DEFLECTION.format(self._axes[k].label) for k in self._compliant)
 
     @property
