@@ -73,7 +73,7 @@ def build_model(machine, options=None, native_dcmotor=False, rigid_gears=False):
             j.damping = [float(j.damping[0]) + float(d.crank_damping), 0.0, 0.0]
     else:
         spec = mech.build_spec(armature=float(drive.J_eq), options=o)
-        j = spec.joint(drive_joint(mech))
+        j = spec.joint(mech.drive_joints[0])  # (the input joint, or a compliant gear's motor hinge)
         # the drive's reflected viscous friction adds to whatever the mechanism put on the joint
         j.damping = [float(j.damping[0]) + float(drive.crank_damping), 0.0, 0.0]
     return spec, spec.compile()
@@ -97,12 +97,6 @@ def _add_dcmotor(spec, drive, joint):
     act.armature = float(drive.J_m + drive.J_a)
     act.damping = [float(drive.lam), 0.0, 0.0]
     return act
-
-
-def drive_joint(mech) -> str:
-    """The joint the drive torque acts on: the input joint, or the motor's own hinge when the
-    drive train has a compliant gear (:mod:`mjbench.drivetrain.gear`)."""
-    return getattr(mech, "drive_joint", mech.input_joint)
 
 
 def integrator_name(i):
